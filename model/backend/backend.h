@@ -1,0 +1,127 @@
+// The interface both backends implement, and what they return.
+//
+// Contract: the runner (tools/rosguard/runner.h) calls isolation() once per distinct
+// (workload, core) of a run, then run_point() for every point and repetition. A backend whose
+// process_per_task() is true gets each call in a fresh worker process (SystemC can elaborate
+// only once per process); otherwise calls come one at a time from the runner's main thread.
+// Times are microseconds as doubles; bandwidths are Eq. 1 MB/s.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "backend/trace.h"
+#include "scenario/scenario.h"
+
+namespace rosguard {
+
+// One unregulated isolation run of a workload on a core (the paper's Table 1 quantities).
+struct IsolationResult {
+  double time_us = 0.0;
+  double ipc = 0.0;
+  double mbps = 0.0;
+};
+
+// Isolation results of a run, keyed by workload identity and core.
+class Baselines {
+ public:
+  // Identity of an isolation run: the workload, the core, and everything else that can change
+  // its result (platform, backend and backend settings).
+  static std::string key(const Scenario& scenario, const WorkloadInfo& workload, int core);
+  void put(const std::string& key, IsolationResult result) { by_key_[key] = result; }
+  // Throws std::out_of_range naming the missing key.
+  const IsolationResult& at(const Scenario& scenario, const WorkloadInfo& workload, int core) const;
+  const std::map<std::string, IsolationResult>& all() const { return by_key_; }
+
+ private:
+  std::map<std::string, IsolationResult> by_key_;
+};
+
+struct RtOutcome {
+  std::string name;
+  double time_us = 0.0;  // mean job time (start to finish) over the node's iterations
+  int jobs = 0;
+};
+
+struct NrtOutcome {
+  std::string name;
+  // Time one run of the workload took: measured for `once`; for `loop`, the regulation window
+  // divided by the runs completed in it (fractions counted from retired work).
+  double time_us = 0.0;
+  double bandwidth_mbps = 0.0;  // Eq. 1 while regulation was active (whole run when never active)
+  std::uint64_t throttle_count = 0;
+  double throttled_us = 0.0;
+  double runs = 0.0;  // runs completed in the window (fractional)
+};
+
+// One observation for samples.csv. kind: activation_delay | pmc_callback | sampling_overhead,
+// or another name a backend documents.
+struct Observation {
+  std::string kind;
+  double value_us = 0.0;
+};
+
+struct PointOutcome {
+  std::vector<RtOutcome> rt;    // in scenario order
+  std::vector<NrtOutcome> nrt;  // in scenario order
+  std::vector<Observation> samples;
+};
+
+// What a backend tells the runner besides results: fallbacks taken (these go to the manifest
+// and to stderr, never silently) and facts about how it ran.
+class RunContext {
+ public:
+  virtual ~RunContext() = default;
+  // A fallback was taken: `what` is a short stable key ("sched_fifo"), `detail` the reason.
+  virtual void fallback(const std::string& what, const std::string& detail) = 0;
+  // A fact for the manifest ("pmc_source" -> "instrumented").
+  virtual void fact(const std::string& key, const std::string& value) = 0;
+  // Where to send trace events; null when --trace is off.
+  virtual TraceSink* trace() = 0;
+  // True once the user asked the run to stop (SIGINT / SIGTERM). A long task polls it, returns
+  // its nodes to nominal and throws Interrupted.
+  virtual bool stop_requested() const = 0;
+};
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual std::string_view name() const = 0;
+  virtual bool process_per_task() const = 0;
+  // Called for every point before anything is written: throws InputError (file + JSON path)
+  // for what this backend cannot run (e.g. a platform without a memory model).
+  virtual void validate(const Scenario& point) const = 0;
+  // Throws InputError for a scenario this backend cannot run, RunError for failures.
+  virtual IsolationResult isolation(const Scenario& scenario, const WorkloadInfo& workload,
+                                    int core, std::uint64_t seed, RunContext& ctx) = 0;
+  virtual PointOutcome run_point(const Scenario& point, const Baselines& baselines, int rep,
+                                 std::uint64_t seed, RunContext& ctx) = 0;
+};
+
+struct BackendInfo {
+  std::string name;
+  std::string description;
+  std::function<std::unique_ptr<Backend>()> make;
+};
+
+class BackendRegistry {
+ public:
+  void add(BackendInfo info);
+  const BackendInfo* find(std::string_view name) const;
+  const std::vector<BackendInfo>& all() const { return backends_; }
+
+ private:
+  std::vector<BackendInfo> backends_;
+};
+
+// Seed of one task, independent of the order tasks run in: mixes the scenario seed with the
+// point id (or isolation key) and the repetition.
+std::uint64_t task_seed(std::uint64_t scenario_seed, std::string_view id, int rep);
+
+}  // namespace rosguard

@@ -1,0 +1,49 @@
+// Typed errors. Libraries throw these with their context; only main() maps them to an exit code:
+// InputError -> 2 (the user can fix the input), everything else -> 1.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace rosguard {
+
+// Invalid input: a scenario, platform or workload file, or a command-line argument.
+class InputError : public std::runtime_error {
+ public:
+  // `file` may be empty (command-line input); `json_path` is a JSON pointer ("/regulation/x")
+  // or empty when the whole document is at fault.
+  InputError(std::string file, std::string json_path, std::string message)
+      : std::runtime_error(format(file, json_path, message)),
+        file_(std::move(file)),
+        json_path_(std::move(json_path)),
+        message_(std::move(message)) {}
+
+  const std::string& file() const { return file_; }
+  const std::string& json_path() const { return json_path_; }
+  const std::string& message() const { return message_; }
+
+ private:
+  static std::string format(const std::string& file, const std::string& path,
+                            const std::string& message) {
+    std::string out;
+    if (!file.empty()) out += file + ": ";
+    if (!path.empty()) out += path + ": ";
+    return out + message;
+  }
+
+  std::string file_, json_path_, message_;
+};
+
+// A failure while running (a backend, a counter, a worker). Exit code 1.
+class RunError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// A task stopped early because the user asked (SIGINT / SIGTERM); its partial result is dropped.
+class Interrupted : public std::runtime_error {
+ public:
+  Interrupted() : std::runtime_error("interrupted") {}
+};
+
+}  // namespace rosguard

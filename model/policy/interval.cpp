@@ -1,0 +1,36 @@
+// Interval policy: the ROSGuard default. The budget of each regulation period is the threshold
+// scaled to the period; it is replenished at every period boundary.
+#include "metric/metric.h"
+#include "policy/policy.h"
+
+namespace rosguard {
+namespace {
+
+class IntervalPolicy : public Policy {
+ public:
+  explicit IntervalPolicy(const PolicyParams& p)
+      : period_ns_(p.regulation_period_ns),
+        budget_(budget_bytes(p.threshold_pct, p.reference_mbps, p.regulation_period_ns)) {}
+
+  std::string_view name() const override { return "interval"; }
+
+  void open_window(TimeNs start, std::span<Account> accounts) const override {
+    open_accounts(accounts, start, budget_);
+  }
+
+  bool over_budget(const Account& a) const override { return a.used_bytes > a.budget_bytes; }
+
+  std::optional<TimeNs> window_end(TimeNs start) const override { return start + period_ns_; }
+
+ private:
+  TimeNs period_ns_;
+  double budget_;
+};
+
+}  // namespace
+
+std::unique_ptr<Policy> make_interval_policy(const PolicyParams& params) {
+  return std::make_unique<IntervalPolicy>(params);
+}
+
+}  // namespace rosguard

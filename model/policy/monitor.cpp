@@ -1,0 +1,37 @@
+// Monitor policy: entities are switched ON (so self-sampling runs and costs what it costs) and
+// usage is accounted per regulation period, but nothing is ever throttled. Used to measure the
+// sampling overhead (experiment 2 of the paper).
+#include "metric/metric.h"
+#include "policy/policy.h"
+
+namespace rosguard {
+namespace {
+
+class MonitorPolicy : public Policy {
+ public:
+  explicit MonitorPolicy(const PolicyParams& p)
+      : period_ns_(p.regulation_period_ns),
+        budget_(budget_bytes(p.threshold_pct, p.reference_mbps, p.regulation_period_ns)) {}
+
+  std::string_view name() const override { return "monitor"; }
+
+  void open_window(TimeNs start, std::span<Account> accounts) const override {
+    open_accounts(accounts, start, budget_);
+  }
+
+  bool over_budget(const Account&) const override { return false; }
+
+  std::optional<TimeNs> window_end(TimeNs start) const override { return start + period_ns_; }
+
+ private:
+  TimeNs period_ns_;
+  double budget_;
+};
+
+}  // namespace
+
+std::unique_ptr<Policy> make_monitor_policy(const PolicyParams& params) {
+  return std::make_unique<MonitorPolicy>(params);
+}
+
+}  // namespace rosguard

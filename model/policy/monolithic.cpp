@@ -1,0 +1,35 @@
+// Monolithic policy: one budget for the whole RT execution window (the threshold times the
+// reference bandwidth times the RT node's isolation time). Once exceeded, the entity stays
+// throttled until the last RT node finishes (OFF).
+#include "metric/metric.h"
+#include "policy/policy.h"
+
+namespace rosguard {
+namespace {
+
+class MonolithicPolicy : public Policy {
+ public:
+  explicit MonolithicPolicy(const PolicyParams& p)
+      : budget_(budget_bytes(p.threshold_pct, p.reference_mbps, p.monolithic_window_ns)) {}
+
+  std::string_view name() const override { return "monolithic"; }
+
+  void open_window(TimeNs start, std::span<Account> accounts) const override {
+    open_accounts(accounts, start, budget_);
+  }
+
+  bool over_budget(const Account& a) const override { return a.used_bytes > a.budget_bytes; }
+
+  std::optional<TimeNs> window_end(TimeNs) const override { return std::nullopt; }
+
+ private:
+  double budget_;
+};
+
+}  // namespace
+
+std::unique_ptr<Policy> make_monolithic_policy(const PolicyParams& params) {
+  return std::make_unique<MonolithicPolicy>(params);
+}
+
+}  // namespace rosguard

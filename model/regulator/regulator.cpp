@@ -1,0 +1,153 @@
+#include "regulator/regulator.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace rosguard {
+
+std::vector<std::size_t> accounts_for_scope(Scope scope, std::size_t entities) {
+  std::vector<std::size_t> accounts(entities, 0);
+  if (scope != Scope::Group)
+    for (std::size_t e = 0; e < entities; ++e)
+      accounts[e] = e;
+  return accounts;
+}
+
+Regulator::Regulator(RegulatorConfig config, std::unique_ptr<Policy> policy)
+    : metric_(std::move(config.metric)),
+      policy_(std::move(policy)),
+      rt_running_(config.rt_count, false) {
+  if (!policy_) throw std::invalid_argument("regulator needs a policy");
+  std::size_t account_count = 0;
+  for (std::size_t a : config.account_of_entity)
+    account_count = std::max(account_count, a + 1);
+  accounts_.resize(account_count);
+  members_.resize(account_count);
+  entities_.resize(config.account_of_entity.size());
+  for (std::size_t e = 0; e < entities_.size(); ++e) {
+    const std::size_t a = config.account_of_entity[e];
+    entities_[e].view.account = a;
+    entities_[e].last.resize(metric_.event_count());
+    members_[a].push_back(e);
+  }
+  for (std::size_t a = 0; a < account_count; ++a)
+    if (members_[a].empty())
+      throw std::invalid_argument("account " + std::to_string(a) + " has no entity");
+}
+
+void Regulator::check_time(TimeNs t) {
+  if (t < now_)
+    throw std::invalid_argument("regulator input at t=" + std::to_string(t) +
+                                " ns is earlier than the previous one at " + std::to_string(now_));
+  now_ = t;
+}
+
+void Regulator::send(TimeNs t, std::size_t entity, Command c, Commands& out) {
+  EntityView& v = entities_[entity].view;
+  switch (c) {
+    case Command::On:
+    case Command::Replenish:
+      v.state = NodeState::On;
+      break;
+    case Command::Off:
+      v.state = NodeState::Off;
+      break;
+    case Command::Thr:
+      v.state = NodeState::Thr;
+      ++v.throttles;
+      break;
+  }
+  out.push_back({t, entity, c});
+}
+
+void Regulator::rt_started(TimeNs t, std::size_t rt, Commands& out) {
+  check_time(t);
+  if (rt >= rt_running_.size()) throw std::out_of_range("no RT node " + std::to_string(rt));
+  if (rt_running_[rt]) throw std::logic_error("RT node " + std::to_string(rt) + " started twice");
+  advance(t, out);
+  rt_running_[rt] = true;
+  if (++running_rt_ > 1 || !policy_->regulates()) return;
+
+  policy_->open_window(t, accounts_);
+  for (Account& a : accounts_)
+    a.window = 0;
+  next_boundary_ = policy_->window_end(t);
+  for (std::size_t e = 0; e < entities_.size(); ++e) {
+    entities_[e].has_baseline = false;
+    entities_[e].view.bytes_active = 0.0;
+    send(t, e, Command::On, out);
+  }
+}
+
+void Regulator::rt_finished(TimeNs t, std::size_t rt, Commands& out) {
+  check_time(t);
+  if (rt >= rt_running_.size()) throw std::out_of_range("no RT node " + std::to_string(rt));
+  if (!rt_running_[rt]) throw std::logic_error("RT node " + std::to_string(rt) + " not running");
+  advance(t, out);
+  rt_running_[rt] = false;
+  if (--running_rt_ > 0 || !policy_->regulates()) return;
+
+  next_boundary_.reset();
+  for (std::size_t e = 0; e < entities_.size(); ++e)
+    send(t, e, Command::Off, out);
+}
+
+void Regulator::tick(TimeNs t, Commands& out) {
+  check_time(t);
+  advance(t, out);
+}
+
+std::optional<TimeNs> Regulator::next_tick() const {
+  return next_boundary_;
+}
+
+void Regulator::advance(TimeNs t, Commands& out) {
+  if (!next_boundary_ || t < *next_boundary_) return;
+  // Catch up on every boundary passed: the window that holds t is the one that counts.
+  TimeNs start = *next_boundary_;
+  std::uint64_t windows = 1;
+  for (auto end = policy_->window_end(start); end && *end <= t; end = policy_->window_end(start)) {
+    start = *end;
+    ++windows;
+  }
+  const std::uint64_t index = accounts_.empty() ? 0 : accounts_.front().window + windows;
+  policy_->open_window(start, accounts_);
+  for (Account& a : accounts_)
+    a.window = index;
+  next_boundary_ = policy_->window_end(start);
+  for (std::size_t e = 0; e < entities_.size(); ++e)
+    if (entities_[e].view.state == NodeState::Thr) send(t, e, Command::Replenish, out);
+}
+
+void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValue> counters,
+                       Commands& out) {
+  check_time(t);
+  Entity& ent = entities_.at(entity);
+  if (counters.size() != ent.last.size())
+    throw std::invalid_argument("sample has " + std::to_string(counters.size()) +
+                                " counters, the metric has " + std::to_string(ent.last.size()));
+  if (!active() || !policy_->regulates()) return;
+  advance(t, out);
+
+  if (ent.has_baseline) {
+    double bytes = metric_.delta_bytes(ent.last, counters);
+    ent.view.bytes_active += bytes;
+    Account& acc = accounts_[ent.view.account];
+    // Usage is spread evenly over the time the sample covers; only the part after the window
+    // opened counts against this window.
+    if (ent.last_t < acc.window_start && t > ent.last_t)
+      bytes *= static_cast<double>(t - acc.window_start) / static_cast<double>(t - ent.last_t);
+    acc.used_bytes += bytes;
+    if (!acc.throttled && policy_->over_budget(acc)) {
+      acc.throttled = true;
+      for (std::size_t member : members_[ent.view.account])
+        if (entities_[member].view.state == NodeState::On) send(t, member, Command::Thr, out);
+    }
+  }
+  std::copy(counters.begin(), counters.end(), ent.last.begin());
+  ent.last_t = t;
+  ent.has_baseline = true;
+}
+
+}  // namespace rosguard

@@ -1,0 +1,105 @@
+// The ROSGuard regulator core: a deterministic state machine driven by the host.
+//
+// Contract:
+// - The host (a SystemC process, or the controller thread of the hw backend) calls every method
+//   from one thread, with non-decreasing timestamps `t` (integer ns). The regulator never reads
+//   a clock or a counter itself.
+// - Commands are appended to the caller's `out` vector (never cleared here); reusing one vector
+//   keeps sample() free of allocation.
+// - Entities are the regulated nRT nodes, numbered 0..n-1. Each maps to a budget account (the
+//   scope): one account per entity for scope core / node, one shared account for scope group.
+// - The first sample of an entity after an activation starts is its baseline (no usage); the
+//   host takes it as soon as the entity is switched ON. Later samples are cumulative readings of
+//   the same counter group; their increase is the entity's usage.
+// - Boundaries are processed before any input at or after them, so the order in which the host
+//   calls tick() and sample() for the same t does not matter.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "core/types.h"
+#include "metric/metric.h"
+#include "node/nrt_node.h"
+#include "policy/policy.h"
+
+namespace rosguard {
+
+struct CommandOut {
+  TimeNs t;
+  std::size_t entity;
+  Command command;
+  bool operator==(const CommandOut&) const = default;
+};
+
+using Commands = std::vector<CommandOut>;
+
+struct RegulatorConfig {
+  std::size_t rt_count = 1;
+  // account_of_entity[e] is the budget account of entity e; its size is the number of entities.
+  std::vector<std::size_t> account_of_entity;
+  MetricSpec metric;
+};
+
+// Entity -> account mapping for a scope: one account each for core and node scope (at most one
+// application node per core), one shared account for group scope.
+std::vector<std::size_t> accounts_for_scope(Scope scope, std::size_t entities);
+
+// What the regulator knows of one entity, for tracing and tests.
+struct EntityView {
+  NodeState state = NodeState::Off;  // as last commanded
+  std::size_t account = 0;
+  std::uint64_t throttles = 0;  // THR commands sent since construction
+  double bytes_active = 0.0;    // usage accounted since the activation began
+};
+
+class Regulator {
+ public:
+  Regulator(RegulatorConfig config, std::unique_ptr<Policy> policy);
+
+  // An RT node's enable signal. The first running RT node starts an activation: windows open
+  // and every entity gets ON.
+  void rt_started(TimeNs t, std::size_t rt, Commands& out);
+  // An RT node's disable signal. When the last running RT node finishes, every entity gets OFF.
+  void rt_finished(TimeNs t, std::size_t rt, Commands& out);
+  // Cumulative counter values of one entity, in the metric's event order.
+  void sample(TimeNs t, std::size_t entity, std::span<const CounterValue> counters, Commands& out);
+  // Timer expiry the regulator asked for through next_tick().
+  void tick(TimeNs t, Commands& out);
+
+  // When the host must call tick() next: the next window boundary while active, else nullopt.
+  std::optional<TimeNs> next_tick() const;
+
+  bool active() const { return running_rt_ > 0; }
+  const Policy& policy() const { return *policy_; }
+  const Metric& metric() const { return metric_; }
+  std::span<const Account> accounts() const { return accounts_; }
+  const EntityView& entity(std::size_t e) const { return entities_.at(e).view; }
+  std::size_t entity_count() const { return entities_.size(); }
+
+ private:
+  struct Entity {
+    EntityView view;
+    bool has_baseline = false;
+    TimeNs last_t = 0;
+    std::vector<CounterValue> last;
+  };
+
+  void advance(TimeNs t, Commands& out);  // processes every boundary <= t
+  void send(TimeNs t, std::size_t entity, Command c, Commands& out);
+  void check_time(TimeNs t);
+
+  Metric metric_;
+  std::unique_ptr<Policy> policy_;
+  std::vector<Entity> entities_;
+  std::vector<Account> accounts_;
+  std::vector<std::vector<std::size_t>> members_;  // account -> entities
+  std::vector<bool> rt_running_;
+  std::size_t running_rt_ = 0;
+  std::optional<TimeNs> next_boundary_;
+  TimeNs now_ = 0;
+};
+
+}  // namespace rosguard

@@ -1,0 +1,44 @@
+// Rows of points.csv and samples.csv (DESIGN section 7), built from a point's outcome.
+//
+// Contract: pure formatting. The header of points.csv is fixed for a run: computed once from
+// every point (node counts and sweep keys), then every row has exactly its columns. Numbers
+// are written with fixed decimals, so identical outcomes give byte-identical rows.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "backend/backend.h"
+#include "scenario/scenario.h"
+#include "scenario/sweep.h"
+
+namespace rosguard {
+
+// The columns DESIGN.md fixes, in order; other columns follow them.
+const std::vector<std::string>& fixed_point_columns();
+
+// Header of points.csv for a run: the fixed columns, then platform / counts, then per-node
+// columns for the second and later RT / nRT nodes, then one "param:<path>" column per sweep key.
+std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
+                                       const std::vector<std::string>& sweep_keys);
+
+// One CSV line (with '\n') of points.csv for `header`.
+std::string points_row(const std::vector<std::string>& header, const SweepPoint& point,
+                       const Scenario& scenario, int rep, const PointOutcome& outcome,
+                       const Baselines& baselines);
+
+inline constexpr const char* kSamplesHeader = "point,rep,kind,value_us";
+
+// The samples.csv lines of one point and repetition.
+std::string samples_rows(const std::string& point_id, int rep, const PointOutcome& outcome);
+
+// Median (mean of the two middle values for an even count) and maximum; NaN when empty.
+double median(std::vector<double> values);
+double maximum(const std::vector<double>& values);
+
+// RFC 4180 quoting when needed.
+std::string csv_escape(const std::string& field);
+// Splits one CSV line (no trailing newline), honouring quotes.
+std::vector<std::string> csv_split(const std::string& line);
+
+}  // namespace rosguard

@@ -1,0 +1,212 @@
+#include "scenario/scenario.h"
+
+#include <algorithm>
+#include <map>
+
+#include "core/error.h"
+
+namespace rosguard {
+namespace {
+
+Sampling parse_sampling(const std::string& s) {
+  return s == "external" ? Sampling::External : Sampling::Self;
+}
+
+Scope parse_scope(const std::string& s) {
+  if (s == "node") return Scope::Node;
+  if (s == "group") return Scope::Group;
+  return Scope::Core;
+}
+
+PmcSourceKind parse_pmc_source(const std::string& s) {
+  if (s == "perf") return PmcSourceKind::Perf;
+  if (s == "software") return PmcSourceKind::Software;
+  if (s == "instrumented") return PmcSourceKind::Instrumented;
+  return PmcSourceKind::Auto;
+}
+
+std::string core_range(const PlatformInfo& p) {
+  return p.cores() == 1 ? "core 0" : "cores 0-" + std::to_string(p.cores() - 1);
+}
+
+}  // namespace
+
+std::string_view to_string(NrtMode m) {
+  return m == NrtMode::Loop ? "loop" : "once";
+}
+
+std::string_view to_string(PmcSourceKind k) {
+  switch (k) {
+    case PmcSourceKind::Auto:
+      return "auto";
+    case PmcSourceKind::Perf:
+      return "perf";
+    case PmcSourceKind::Software:
+      return "software";
+    case PmcSourceKind::Instrumented:
+      return "instrumented";
+  }
+  return "?";
+}
+
+std::string_view to_string(SchedulerKind k) {
+  return k == SchedulerKind::Fifo ? "fifo" : "other";
+}
+
+PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file) {
+  PlatformInfo p;
+  p.name = doc.at("name").get<std::string>();
+  p.origin = file;
+  const auto& cpu = doc.at("cpu");
+  p.clusters = cpu.at("clusters").get<int>();
+  p.cores_per_cluster = cpu.at("cores_per_cluster").get<int>();
+  p.freq_mhz = cpu.at("freq_mhz").get<double>();
+  p.line_bytes = doc.at("caches").at("line_bytes").get<std::uint32_t>();
+  p.reference_mbps = doc.at("reference").at("mbps").get<double>();
+  p.pmu_events = doc.at("pmu").at("events").get<std::vector<std::string>>();
+  p.counter_bits = doc.at("pmu").at("counter_bits").get<unsigned>();
+  p.doc = doc;
+  return p;
+}
+
+Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std::string& file) {
+  const auto fail = [&file](const std::string& path, const std::string& msg) {
+    throw InputError(file, path, msg);
+  };
+
+  Scenario s;
+  s.file = file;
+  s.document = doc;
+  s.name = doc.at("name").get<std::string>();
+  s.description = doc.value("description", "");
+  s.backend = doc.at("backend").get<std::string>();
+  s.seed = doc.at("seed").get<std::uint64_t>();
+  s.repetitions = doc.at("repetitions").get<int>();
+  s.platform = std::move(refs.platform);
+  const PlatformInfo& plat = s.platform;
+
+  // Nodes: cores exist, names unique, one application node per core.
+  const auto& nodes = doc.at("nodes");
+  s.nodes.controller_core = nodes.at("controller").at("core").get<int>();
+  if (s.nodes.controller_core >= plat.cores())
+    fail("/nodes/controller/core", "core " + std::to_string(s.nodes.controller_core) +
+                                       " does not exist on platform " + plat.name + " (" +
+                                       core_range(plat) + ")");
+
+  std::map<int, std::string> core_owner;
+  std::map<std::string, std::string> name_owner;
+  const auto place = [&](const std::string& base, const std::string& name, int core) {
+    if (core >= plat.cores())
+      fail(base + "/core", "core " + std::to_string(core) + " does not exist on platform " +
+                               plat.name + " (" + core_range(plat) + ")");
+    if (auto it = core_owner.find(core); it != core_owner.end())
+      fail(base + "/core", "core " + std::to_string(core) + " already runs node '" + it->second +
+                               "' (one RT or nRT node per core: a throttled node's idle loop " +
+                               "would starve the other)");
+    if (auto it = name_owner.find(name); it != name_owner.end())
+      fail(base + "/name", "node name '" + name + "' is already used at " + it->second);
+    core_owner[core] = name;
+    name_owner[name] = base;
+  };
+
+  const auto& rt = nodes.at("rt");
+  if (refs.rt_workloads.size() != rt.size()) fail("/nodes/rt", "unresolved workloads");
+  for (std::size_t i = 0; i < rt.size(); ++i) {
+    const std::string base = "/nodes/rt/" + std::to_string(i);
+    RtNodeSpec n;
+    n.name = rt[i].at("name").get<std::string>();
+    n.core = rt[i].at("core").get<int>();
+    n.workload = std::move(refs.rt_workloads[i]);
+    n.iterations = rt[i].at("iterations").get<int>();
+    if (rt[i].contains("period_us")) n.period_us = rt[i].at("period_us").get<std::int64_t>();
+    place(base, n.name, n.core);
+    s.nodes.rt.push_back(std::move(n));
+  }
+
+  const auto& nrt = nodes.at("nrt");
+  if (refs.nrt_workloads.size() != nrt.size()) fail("/nodes/nrt", "unresolved workloads");
+  for (std::size_t i = 0; i < nrt.size(); ++i) {
+    const std::string base = "/nodes/nrt/" + std::to_string(i);
+    NrtNodeSpec n;
+    n.name = nrt[i].at("name").get<std::string>();
+    n.core = nrt[i].at("core").get<int>();
+    n.workload = std::move(refs.nrt_workloads[i]);
+    // Without an RT node nothing would end a loop: nRT nodes then run once.
+    const std::string mode = nrt[i].value("mode", rt.empty() ? "once" : "loop");
+    if (mode == "loop" && rt.empty())
+      fail(base + "/mode",
+           "'loop' restarts the workload until the RT nodes finish, and there is "
+           "no RT node; use \"once\"");
+    n.mode = mode == "loop" ? NrtMode::Loop : NrtMode::Once;
+    place(base, n.name, n.core);
+    s.nodes.nrt.push_back(std::move(n));
+  }
+  if (s.nodes.rt.empty() && s.nodes.nrt.empty())
+    fail("/nodes", "no RT and no nRT node: nothing to run");
+
+  const auto check_backend = [&](const std::string& base, const WorkloadInfo& w) {
+    if (w.is_command() && s.backend == "sim")
+      fail(base + "/workload",
+           "an external command runs only on the hw backend (run with --backend hw)");
+    if (!w.is_command() && s.backend == "sim" && !w.doc.contains("sim"))
+      fail(base + "/workload", "workload '" + w.name + "' (" + w.origin +
+                                   ") has no \"sim\" profile, so the sim backend cannot run it");
+    if (!w.is_command() && s.backend == "hw" && !w.doc.contains("hw"))
+      fail(base + "/workload",
+           "workload '" + w.name + "' (" + w.origin +
+               ") has no \"hw\" implementation, so the hw backend cannot run it");
+  };
+  for (std::size_t i = 0; i < s.nodes.rt.size(); ++i)
+    check_backend("/nodes/rt/" + std::to_string(i), s.nodes.rt[i].workload);
+  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
+    check_backend("/nodes/nrt/" + std::to_string(i), s.nodes.nrt[i].workload);
+
+  // Regulation.
+  const auto& reg = doc.at("regulation");
+  RegulationSpec& r = s.regulation;
+  r.policy = reg.at("policy").get<std::string>();
+  r.sampling = parse_sampling(reg.at("sampling").get<std::string>());
+  r.sampling_period_us = reg.at("sampling_period_us").get<std::int64_t>();
+  r.regulation_period_us = reg.at("regulation_period_us").get<std::int64_t>();
+  r.threshold_pct = reg.at("threshold_pct").get<double>();
+  r.reference_from_platform = !reg.contains("reference_mbps");
+  r.reference_mbps =
+      r.reference_from_platform ? plat.reference_mbps : reg.at("reference_mbps").get<double>();
+  r.scope = parse_scope(reg.at("scope").get<std::string>());
+  const auto& metric = reg.at("metric");
+  r.metric.line_bytes = metric.at("line_bytes").get<std::uint32_t>();
+  r.metric.counter_bits = plat.counter_bits;
+  r.metric.events.clear();
+  for (const auto& [event, weight] : metric.at("events").items()) {
+    if (std::find(plat.pmu_events.begin(), plat.pmu_events.end(), event) == plat.pmu_events.end()) {
+      std::string known;
+      for (const auto& e : plat.pmu_events)
+        known += (known.empty() ? "" : ", ") + e;
+      fail("/regulation/metric/events/" + event, "event '" + event +
+                                                     "' is not provided by platform " + plat.name +
+                                                     " (it has: " + known + ")");
+    }
+    r.metric.events.push_back({event, weight.get<double>()});
+  }
+
+  const bool periodic = r.policy == "interval" || r.policy == "monitor";
+  if (periodic && r.sampling_period_us > r.regulation_period_us)
+    fail("/regulation/sampling_period_us",
+         "sampling period " + std::to_string(r.sampling_period_us) +
+             " us is longer than the regulation period " + std::to_string(r.regulation_period_us) +
+             " us: a budget would be replenished " + "before it could be checked");
+  if (r.policy == "monolithic" && s.nodes.rt.empty())
+    fail("/regulation/policy",
+         "monolithic regulation budgets the RT node's execution, and there is no RT node");
+
+  // Backend settings.
+  s.sim.quantum_us = doc.at("sim").at("quantum_us").get<double>();
+  const auto& hw = doc.at("hw");
+  s.hw.pmc_source = parse_pmc_source(hw.at("pmc_source").get<std::string>());
+  s.hw.scheduler =
+      hw.at("scheduler").get<std::string>() == "fifo" ? SchedulerKind::Fifo : SchedulerKind::Other;
+  s.hw.watchdog_ms = hw.at("watchdog_ms").get<std::int64_t>();
+  return s;
+}
+
+}  // namespace rosguard

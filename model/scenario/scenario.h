@@ -1,0 +1,126 @@
+// Typed, validated scenarios: what both backends run.
+//
+// Contract: Scenario objects are built by the loader (tools/rosguard/loader.h) from documents
+// that already passed their JSON Schema and carry every default; build_scenario() adds the
+// checks a schema cannot express (cores that exist, one application node per core, sampling
+// period <= regulation period, ...). Immutable once built; safe to share between threads.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+#include "metric/metric.h"
+
+namespace rosguard {
+
+// The common part of a platform document; backends read their own sections from `doc`.
+struct PlatformInfo {
+  std::string name;
+  std::string origin;  // file it was loaded from
+  int clusters = 1;
+  int cores_per_cluster = 1;
+  double freq_mhz = 0.0;
+  std::uint32_t line_bytes = 64;
+  double reference_mbps = 0.0;
+  std::vector<std::string> pmu_events;
+  unsigned counter_bits = 64;
+  nlohmann::json doc;
+
+  int cores() const { return clusters * cores_per_cluster; }
+  int cluster_of(int core) const { return core / cores_per_cluster; }
+};
+
+struct WorkloadInfo {
+  std::string name;
+  std::string origin;  // file it was loaded from, or "inline"
+  nlohmann::json doc;  // the workload document, or {"command": [...]} for an external program
+
+  bool is_command() const { return doc.contains("command"); }
+};
+
+enum class NrtMode : std::uint8_t { Loop, Once };
+enum class PmcSourceKind : std::uint8_t { Auto, Perf, Software, Instrumented };
+enum class SchedulerKind : std::uint8_t { Fifo, Other };
+
+struct RtNodeSpec {
+  std::string name;
+  int core = 0;
+  WorkloadInfo workload;
+  int iterations = 1;
+  std::optional<std::int64_t> period_us;  // absent: jobs back to back
+};
+
+struct NrtNodeSpec {
+  std::string name;
+  int core = 0;
+  WorkloadInfo workload;
+  NrtMode mode = NrtMode::Loop;
+};
+
+struct NodesSpec {
+  int controller_core = 0;
+  std::vector<RtNodeSpec> rt;
+  std::vector<NrtNodeSpec> nrt;
+};
+
+struct RegulationSpec {
+  std::string policy = "interval";
+  Sampling sampling = Sampling::Self;
+  std::int64_t sampling_period_us = 1000;
+  std::int64_t regulation_period_us = 5000;
+  double threshold_pct = 20.0;
+  double reference_mbps = 0.0;  // explicit, or the platform's
+  bool reference_from_platform = true;
+  Scope scope = Scope::Core;
+  MetricSpec metric;
+};
+
+struct SimSettings {
+  double quantum_us = 10.0;
+};
+
+struct HwSettings {
+  PmcSourceKind pmc_source = PmcSourceKind::Auto;
+  SchedulerKind scheduler = SchedulerKind::Fifo;
+  std::int64_t watchdog_ms = 100;
+};
+
+struct Scenario {
+  std::string name;
+  std::string description;
+  std::string file;  // scenario file, for messages
+  std::string backend = "sim";
+  std::uint64_t seed = 1;
+  int repetitions = 1;
+  PlatformInfo platform;
+  NodesSpec nodes;
+  RegulationSpec regulation;
+  SimSettings sim;
+  HwSettings hw;
+  nlohmann::json document;  // this point's document: defaults applied, sweep values substituted
+};
+
+// References a scenario document makes, resolved by the loader: the platform and the workload of
+// every node, in document order (rt nodes first, then nrt nodes).
+struct ResolvedRefs {
+  PlatformInfo platform;
+  std::vector<WorkloadInfo> rt_workloads;
+  std::vector<WorkloadInfo> nrt_workloads;
+};
+
+// Typed view of a validated platform document. Throws InputError naming `file` and the path.
+PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file);
+
+// Typed view of a validated scenario document with its references resolved. Throws InputError
+// (file + JSON path) when the combination is inconsistent.
+Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std::string& file);
+
+std::string_view to_string(NrtMode m);
+std::string_view to_string(PmcSourceKind k);
+std::string_view to_string(SchedulerKind k);
+
+}  // namespace rosguard

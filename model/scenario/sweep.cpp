@@ -1,0 +1,137 @@
+#include "scenario/sweep.h"
+
+#include <cctype>
+#include <cstdio>
+#include <stdexcept>
+
+#include "core/hash.h"
+
+namespace rosguard {
+
+std::vector<PathSegment> parse_sweep_path(const std::string& path) {
+  std::vector<PathSegment> out;
+  std::size_t i = 0;
+  const auto fail = [&](const std::string& why) {
+    throw std::invalid_argument("malformed sweep path '" + path + "': " + why);
+  };
+  while (true) {
+    PathSegment seg;
+    while (i < path.size() && path[i] != '.' && path[i] != '[')
+      seg.key += path[i++];
+    if (seg.key.empty()) fail("empty key at character " + std::to_string(i + 1));
+    while (i < path.size() && path[i] == '[') {
+      const std::size_t close = path.find(']', i);
+      if (close == std::string::npos || close == i + 1) fail("bad array index");
+      std::size_t index = 0;
+      for (std::size_t k = i + 1; k < close; ++k) {
+        if (!std::isdigit(static_cast<unsigned char>(path[k]))) fail("bad array index");
+        index = index * 10 + static_cast<std::size_t>(path[k] - '0');
+      }
+      seg.indexes.push_back(index);
+      i = close + 1;
+    }
+    out.push_back(std::move(seg));
+    if (i == path.size()) break;
+    if (path[i] != '.') fail("expected '.' at character " + std::to_string(i + 1));
+    ++i;
+  }
+  return out;
+}
+
+std::string to_json_pointer(const std::vector<PathSegment>& path) {
+  std::string out;
+  for (const auto& seg : path) {
+    std::string key = "/";  // JSON pointer escaping: ~ -> ~0, / -> ~1
+    for (char c : seg.key)
+      key += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
+    out += key;
+    for (std::size_t index : seg.indexes) {
+      out += '/';
+      out += std::to_string(index);
+    }
+  }
+  return out;
+}
+
+void set_at_path(nlohmann::json& doc, const std::vector<PathSegment>& path,
+                 const nlohmann::json& value) {
+  nlohmann::json* node = &doc;
+  std::string walked;
+  for (std::size_t s = 0; s < path.size(); ++s) {
+    const PathSegment& seg = path[s];
+    if (!node->is_object())
+      throw std::out_of_range("'" + walked + "' is not an object, it has no key '" + seg.key + "'");
+    walked += (walked.empty() ? "" : ".") + seg.key;
+    const bool last_key = s + 1 == path.size();
+    if (!node->contains(seg.key)) {
+      if (!seg.indexes.empty())
+        throw std::out_of_range("'" + walked + "' does not exist, so it cannot be indexed");
+      if (!last_key) (*node)[seg.key] = nlohmann::json::object();
+    }
+    node = &(*node)[seg.key];
+    for (std::size_t index : seg.indexes) {
+      if (!node->is_array()) throw std::out_of_range("'" + walked + "' is not an array");
+      if (index >= node->size())
+        throw std::out_of_range("'" + walked + "' has " + std::to_string(node->size()) +
+                                " element(s), no index " + std::to_string(index));
+      walked += '[';
+      walked += std::to_string(index);
+      walked += ']';
+      node = &(*node)[index];
+    }
+  }
+  *node = value;
+}
+
+std::string point_id(const std::vector<SweepParam>& params) {
+  // FNV-1a over "path=value;" in sweep key order (values in nlohmann's canonical dump).
+  std::uint64_t h = fnv1a("");
+  for (const auto& p : params)
+    h = fnv1a(p.path + "=" + p.value.dump() + ";", h);
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "p%010llx", static_cast<unsigned long long>(h & 0xffffffffffULL));
+  return buf;
+}
+
+std::vector<SweepPoint> expand_sweep(const nlohmann::json& doc,
+                                     const std::vector<std::string>& key_order) {
+  nlohmann::json base = doc;
+  const nlohmann::json sweep = base.contains("sweep") ? base["sweep"] : nlohmann::json::object();
+  base.erase("sweep");
+  if (key_order.size() != sweep.size())
+    throw std::invalid_argument("sweep key order does not match the sweep object");
+
+  std::vector<std::vector<PathSegment>> paths;
+  std::size_t total = 1;
+  for (const auto& key : key_order) {
+    paths.push_back(parse_sweep_path(key));
+    const auto& values = sweep.at(key);
+    if (!values.is_array() || values.empty())
+      throw std::invalid_argument("sweep '" + key + "' must be a non-empty list");
+    total *= values.size();
+  }
+
+  std::vector<SweepPoint> points;
+  points.reserve(total);
+  std::vector<std::size_t> digit(key_order.size(), 0);
+  for (std::size_t n = 0; n < total; ++n) {
+    SweepPoint p;
+    p.index = n;
+    p.document = base;
+    for (std::size_t k = 0; k < key_order.size(); ++k) {
+      const auto& value = sweep.at(key_order[k])[digit[k]];
+      set_at_path(p.document, paths[k], value);
+      p.params.push_back({key_order[k], value, digit[k]});
+    }
+    p.id = point_id(p.params);
+    points.push_back(std::move(p));
+    // Odometer: the last key varies fastest.
+    for (std::size_t k = key_order.size(); k-- > 0;) {
+      if (++digit[k] < sweep.at(key_order[k]).size()) break;
+      digit[k] = 0;
+    }
+  }
+  return points;
+}
+
+}  // namespace rosguard

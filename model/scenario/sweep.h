@@ -1,0 +1,55 @@
+// Sweep expansion over dotted paths ("regulation.threshold_pct", "nodes.rt[0].workload").
+//
+// Contract: pure functions on JSON documents. Points are the cartesian product of the sweep
+// lists; the first key written varies slowest. A point's id depends only on its parameter
+// values (not on the backend, platform or order), so resumed, sharded and cross-backend result
+// folders can be matched point by point.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace rosguard {
+
+struct SweepParam {
+  std::string path;  // dotted, as written in the sweep
+  nlohmann::json value;
+  std::size_t value_index = 0;  // position of `value` in the sweep list
+};
+
+struct SweepPoint {
+  std::size_t index = 0;           // position in the stable order
+  std::string id;                  // stable id of the parameters, e.g. "p3fa0c2e19b"
+  std::vector<SweepParam> params;  // in sweep key order
+  nlohmann::json document;         // the base document with the values substituted, no sweep
+};
+
+// One segment of a dotted path: an object key, then zero or more array indexes.
+struct PathSegment {
+  std::string key;
+  std::vector<std::size_t> indexes;
+};
+
+// Parses "nodes.rt[0].workload". Throws std::invalid_argument on a malformed path.
+std::vector<PathSegment> parse_sweep_path(const std::string& path);
+
+// JSON pointer ("/nodes/rt/0/workload") of a dotted path.
+std::string to_json_pointer(const std::vector<PathSegment>& path);
+
+// Writes `value` at `path` in `doc`. Missing object keys are created; arrays must already hold
+// the index. Throws std::out_of_range saying which segment does not exist.
+void set_at_path(nlohmann::json& doc, const std::vector<PathSegment>& path,
+                 const nlohmann::json& value);
+
+// Stable id of a parameter assignment ("p" + 10 hex digits of FNV-1a over the canonical form).
+std::string point_id(const std::vector<SweepParam>& params);
+
+// Expands `doc` (which holds a "sweep" object, possibly empty) into points. `key_order` is the
+// order the sweep keys were written in (JSON objects here are sorted, so the loader passes it).
+// Throws std::out_of_range / std::invalid_argument with the offending key; the loader turns
+// those into InputError with the JSON path.
+std::vector<SweepPoint> expand_sweep(const nlohmann::json& doc,
+                                     const std::vector<std::string>& key_order);
+
+}  // namespace rosguard

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs the Debian packages rosguard needs, and only those that are missing.
+# Called by `make deps` (and so by `make run` / `make test`). One `apt-get update`, then one
+# `apt-get install -y`; nothing when everything is present. Needs root or sudo to install.
+set -euo pipefail
+
+packages=(
+  cmake g++ make pkg-config
+  libsystemc-dev libeigen3-dev catch2 nlohmann-json3-dev libvalijson-dev libcli11-dev
+  libbenchmark-dev
+  python3 python3-matplotlib python3-numpy python3-pytest
+  linux-perf stress-ng
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
+  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "deps: all ${#packages[@]} Debian packages present"
+  exit 0
+fi
+
+echo "deps: installing missing Debian packages: ${missing[*]}"
+if [[ $(id -u) -eq 0 ]]; then
+  sudo=()
+elif command -v sudo >/dev/null 2>&1; then
+  sudo=(sudo)
+else
+  echo "deps: not root and no sudo; install them yourself:" >&2
+  echo "  apt-get update && apt-get install -y ${missing[*]}" >&2
+  exit 1
+fi
+export DEBIAN_FRONTEND=noninteractive
+"${sudo[@]}" apt-get update
+"${sudo[@]}" apt-get install -y --no-install-recommends "${missing[@]}"

@@ -1,0 +1,121 @@
+#include "commands.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <iomanip>
+#include <iostream>
+#include <map>
+
+#include "core/error.h"
+
+namespace rosguard {
+namespace fs = std::filesystem;
+
+int check_scenario(Loader& loader, const BackendRegistry& backends, const std::string& file,
+                   const std::optional<std::string>& backend, bool list_points) {
+  const LoadedScenario s = loader.load(file, backend);
+  const Scenario& first = s.points.front().scenario;
+  if (const BackendInfo* info = backends.find(first.backend)) {
+    const auto b = info->make();
+    for (const auto& p : s.points)
+      b->validate(p.scenario);
+  }
+  for (const auto& w : s.warnings)
+    std::cerr << "warning: " << w << "\n";
+
+  std::string sweep;
+  for (const auto& key : s.sweep_keys)
+    sweep += (sweep.empty() ? "" : " x ") + key + " (" +
+             std::to_string(s.expanded["sweep"][key].size()) + ")";
+  const std::size_t runs = s.points.size() * static_cast<std::size_t>(first.repetitions);
+  std::cout << file << ": valid\n"
+            << "  name         " << first.name << "\n"
+            << "  backend      " << first.backend
+            << (backends.find(first.backend) ? "" : " (not built into this rosguard)") << "\n"
+            << "  platform     " << first.platform.name << " (" << first.platform.origin << ")\n"
+            << "  nodes        " << first.nodes.rt.size() << " RT, " << first.nodes.nrt.size()
+            << " nRT, controller on core " << first.nodes.controller_core << "\n"
+            << "  sweep        " << (sweep.empty() ? "none" : sweep) << "\n"
+            << "  repetitions  " << first.repetitions << " (" << runs << " runs)\n";
+  if (list_points)
+    for (const auto& p : s.points) {
+      std::cout << "  " << p.sweep.id;
+      for (const auto& q : p.sweep.params)
+        std::cout << "  " << q.path << "="
+                  << (q.value.is_string() ? q.value.get<std::string>() : q.value.dump());
+      std::cout << "\n";
+    }
+  std::cout << s.points.size() << " point" << (s.points.size() == 1 ? "" : "s") << "\n";
+  return 0;
+}
+
+int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
+                   const BackendRegistry& backends, const std::string& what) {
+  const auto print = [](const std::string& name, const std::string& text) {
+    std::cout << "  " << std::left << std::setw(18) << name << text << "\n";
+  };
+  if (what == "workloads") {
+    std::cout << "workloads (" << loader.home().workloads().string() << "):\n";
+    for (const auto& e : loader.workloads())
+      print(e.name, e.summary);
+  } else if (what == "platforms") {
+    std::cout << "platforms (" << loader.home().platforms().string() << "):\n";
+    for (const auto& e : loader.platforms())
+      print(e.name, e.summary);
+  } else if (what == "policies") {
+    std::cout << "policies:\n";
+    for (const auto& p : policies.all())
+      print(p.name, p.description);
+  } else if (what == "backends") {
+    std::cout << "backends:\n";
+    for (const auto& b : backends.all())
+      print(b.name, b.description);
+    if (backends.all().empty()) std::cout << "  (none built)\n";
+  } else {
+    throw InputError(
+        "", "", "cannot list '" + what + "': choose workloads, platforms, policies or backends");
+  }
+  return 0;
+}
+
+int run_analysis(const Home& home, const std::vector<std::string>& args) {
+  const fs::path package = home.root / "analysis" / "__main__.py";
+  std::error_code ec;
+  if (!fs::exists(package, ec))
+    throw RunError("the analysis package is not in this tree (" + package.string() +
+                   " is missing)");
+  std::string python = "/usr/bin/python3";
+  if (const char* env = std::getenv("ROSGUARD_PYTHON"); env && *env) python = env;
+
+  std::vector<std::string> argv_s = {python, "-m", "analysis"};
+  argv_s.insert(argv_s.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_s)
+    argv.push_back(a.data());
+  argv.push_back(nullptr);
+
+  std::cout.flush();
+  const pid_t pid = ::fork();
+  if (pid < 0) throw RunError(std::string("fork: ") + std::strerror(errno));
+  if (pid == 0) {
+    const char* old = std::getenv("PYTHONPATH");
+    const std::string path = home.root.string() + (old && *old ? ":" + std::string(old) : "");
+    ::setenv("PYTHONPATH", path.c_str(), 1);
+    ::setenv("MPLBACKEND", "Agg", 0);
+    ::execv(argv[0], argv.data());
+    std::cerr << "error: cannot start " << python << ": " << std::strerror(errno)
+              << " (install python3-matplotlib and python3-numpy, or set ROSGUARD_PYTHON)\n";
+    ::_exit(1);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  return 1;
+}
+
+}  // namespace rosguard

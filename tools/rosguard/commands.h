@@ -1,0 +1,29 @@
+// The subcommands other than `run` (see runner.h). Each returns a process exit code and throws
+// InputError (exit 2) or RunError (exit 1) for main() to report.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "backend/backend.h"
+#include "loader.h"
+#include "policy/policy.h"
+
+namespace rosguard {
+
+// Validates a scenario and prints a summary with the number of points; `list_points` prints
+// each point's id and parameters too.
+int check_scenario(Loader& loader, const BackendRegistry& backends, const std::string& file,
+                   const std::optional<std::string>& backend, bool list_points);
+
+// What is available: "workloads", "platforms", "policies" or "backends".
+int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
+                   const BackendRegistry& backends, const std::string& what);
+
+// Runs the analysis package (`python3 -m analysis <args>`) with the tree's analysis/ on the path.
+int run_analysis(const Home& home, const std::vector<std::string>& args);
+
+// Every backend this build has (sim and hw when they are compiled in).
+void register_backends(BackendRegistry& registry);
+
+}  // namespace rosguard

@@ -1,0 +1,58 @@
+// File primitives for crash-safe results (Linux).
+//
+// A killed run must leave only complete rows: every row is appended with one write() of the
+// whole line (SIGKILL cannot split a write() of a few KB to a regular file), whole files are
+// replaced by write-to-temporary + fsync + rename, and a torn tail left by a power loss is cut
+// at the last newline when a run resumes.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace rosguard {
+
+// Replaces `path` atomically with `content`. Throws RunError naming the file and errno.
+void write_file_atomic(const std::filesystem::path& path, const std::string& content);
+
+// Reads a whole file; throws RunError when it cannot.
+std::string read_file(const std::filesystem::path& path);
+
+// Cuts everything after the last '\n' (a row torn by a crash). Returns the bytes removed.
+std::size_t truncate_torn_tail(const std::filesystem::path& path);
+
+// Splits text into lines without their '\n' (a final line without '\n' is kept).
+std::vector<std::string> split_lines(const std::string& text);
+
+// An append-only file; each append() is one write() of the whole buffer.
+class AppendFile {
+ public:
+  explicit AppendFile(const std::filesystem::path& path);
+  ~AppendFile();
+  AppendFile(AppendFile&& other) noexcept;
+  AppendFile& operator=(AppendFile&&) = delete;
+  AppendFile(const AppendFile&) = delete;
+  AppendFile& operator=(const AppendFile&) = delete;
+
+  void append(const std::string& data);
+  void sync();
+
+ private:
+  std::filesystem::path path_;
+  int fd_ = -1;
+};
+
+// An exclusive advisory lock (flock) on a file, held for the object's lifetime, so that shards
+// writing into one results folder take turns.
+class FileLock {
+ public:
+  explicit FileLock(const std::filesystem::path& path);
+  ~FileLock();
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace rosguard

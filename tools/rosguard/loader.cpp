@@ -1,0 +1,342 @@
+#include "loader.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+
+#ifndef ROSGUARD_SOURCE_DIR
+#error "ROSGUARD_SOURCE_DIR must point at the source tree"
+#endif
+
+namespace rosguard {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+bool has_schemas(const fs::path& root) {
+  std::error_code ec;
+  return fs::exists(root / "scenarios" / "schema" / "scenario.schema.json", ec);
+}
+
+// A reference is a path when it names a file; otherwise it is a name in a catalogue folder.
+bool looks_like_path(const std::string& ref) {
+  return ref.find('/') != std::string::npos ||
+         (ref.size() > 5 && ref.compare(ref.size() - 5, 5, ".json") == 0);
+}
+
+std::string escape_token(const std::string& t) {
+  std::string out;
+  for (char c : t)
+    out += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
+  return out;
+}
+
+std::string params_text(const SweepPoint& p) {
+  std::string s;
+  for (const auto& param : p.params)
+    s += (s.empty() ? "" : ", ") + param.path + "=" +
+         (param.value.is_string() ? param.value.get<std::string>() : param.value.dump());
+  return s;
+}
+
+std::vector<CatalogEntry> catalogue(const fs::path& dir, const char* kind) {
+  std::vector<CatalogEntry> out;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    if (entry.path().extension() != ".json") continue;
+    CatalogEntry c{entry.path().stem().string(), "", entry.path()};
+    try {
+      const json doc = read_json_file(entry.path(), display_path(entry.path()));
+      std::string summary = doc.value("description", "");
+      if (std::string(kind) == "workload" && doc.contains("reference")) {
+        const auto& r = doc["reference"];
+        std::ostringstream os;
+        os << doc.value("suite", "") << (doc.contains("suite") ? "; " : "");
+        if (r.contains("ipc")) os << "IPC " << r["ipc"].get<double>() << ", ";
+        if (r.contains("mbps")) os << r["mbps"].get<double>() << " MB/s in isolation";
+        summary = os.str() + (summary.empty() ? "" : " - " + summary);
+      }
+      c.summary = summary;
+    } catch (const InputError& e) {
+      c.summary = std::string("(invalid: ") + e.what() + ")";
+    }
+    out.push_back(std::move(c));
+  }
+  std::sort(out.begin(), out.end(),
+            [](const CatalogEntry& a, const CatalogEntry& b) { return a.name < b.name; });
+  return out;
+}
+
+}  // namespace
+
+Home Home::locate() {
+  if (const char* env = std::getenv("ROSGUARD_HOME"); env && *env) return {fs::path(env)};
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec)
+    for (fs::path dir = exe.parent_path(); !dir.empty() && dir != dir.root_path();
+         dir = dir.parent_path())
+      if (has_schemas(dir)) return {dir};
+  return {fs::path(ROSGUARD_SOURCE_DIR)};
+}
+
+std::string display_path(const fs::path& path) {
+  std::error_code ec;
+  const fs::path rel = fs::proximate(path, ec);
+  if (ec) return path.string();
+  const std::string r = rel.string();
+  return r.size() <= path.string().size() ? r : path.string();
+}
+
+json read_json_file(const fs::path& path, const std::string& display) {
+  std::ifstream in(path);
+  if (!in) throw InputError(display, "", "cannot read the file (does it exist?)");
+  std::stringstream buf;
+  buf << in.rdbuf();
+
+  // Duplicate keys are silently merged by JSON parsers; here they are an error with a path.
+  struct Frame {
+    bool array = false;
+    long index = -1;
+    std::string key;
+    std::set<std::string> keys;
+  };
+  std::vector<Frame> stack;
+  std::string duplicate;
+  const auto pointer = [&stack]() {
+    std::string p;
+    for (std::size_t i = 0; i + 1 < stack.size(); ++i)
+      p += "/" + (stack[i].array ? std::to_string(stack[i].index) : escape_token(stack[i].key));
+    return p;
+  };
+  const auto enter_element = [&stack]() {
+    if (!stack.empty() && stack.back().array) ++stack.back().index;
+  };
+  const json::parser_callback_t cb = [&](int, json::parse_event_t ev, json& parsed) {
+    switch (ev) {
+      case json::parse_event_t::object_start:
+        enter_element();
+        stack.push_back({false, -1, "", {}});
+        break;
+      case json::parse_event_t::array_start:
+        enter_element();
+        stack.push_back({true, -1, "", {}});
+        break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        stack.pop_back();
+        break;
+      case json::parse_event_t::key: {
+        const std::string k = parsed.get<std::string>();
+        if (!stack.back().keys.insert(k).second && duplicate.empty())
+          duplicate = pointer() + "/" + escape_token(k);
+        stack.back().key = k;
+        break;
+      }
+      case json::parse_event_t::value:
+        enter_element();
+        break;
+    }
+    return true;
+  };
+  json doc;
+  try {
+    doc = json::parse(buf.str(), cb);
+  } catch (const json::parse_error& e) {
+    std::string what = e.what();
+    if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    throw InputError(display, "", "invalid JSON: " + what);
+  }
+  if (!duplicate.empty())
+    throw InputError(display, duplicate, "key written twice (the second would silently win)");
+  return doc;
+}
+
+Loader::Loader(Home home) : home_(std::move(home)), schemas_(home_.schemas()) {}
+
+fs::path Loader::find_named(const std::string& ref, const fs::path& dir, const fs::path& base,
+                            const std::string& file, const std::string& pointer,
+                            const char* what) const {
+  std::error_code ec;
+  if (looks_like_path(ref)) {
+    const fs::path p = fs::path(ref).is_absolute() ? fs::path(ref) : base / ref;
+    if (!fs::exists(p, ec))
+      throw InputError(file, pointer,
+                       std::string(what) + " file '" + ref + "' not found (looked at " +
+                           display_path(p.lexically_normal()) + ")");
+    return p.lexically_normal();
+  }
+  const fs::path p = dir / (ref + ".json");
+  if (fs::exists(p, ec)) return p;
+  std::string known;
+  for (const auto& e : catalogue(dir, what))
+    known += (known.empty() ? "" : ", ") + e.name;
+  throw InputError(file, pointer,
+                   "unknown " + std::string(what) + " '" + ref + "' (known: " + known +
+                       "; or give a path to a " + what + " JSON file)");
+}
+
+PlatformInfo Loader::resolve_platform(const json& ref, const fs::path& base,
+                                      const std::string& file, const std::string& pointer) {
+  const fs::path path =
+      find_named(ref.get<std::string>(), home_.platforms(), base, file, pointer, "platform");
+  const std::string key = fs::weakly_canonical(path).string();
+  if (auto it = platform_cache_.find(key); it != platform_cache_.end()) return it->second;
+  const std::string shown = display_path(path);
+  json doc = read_json_file(path, shown);
+  schemas_.validate(doc, SchemaKind::Platform, shown);
+  schemas_.apply_defaults(doc, SchemaKind::Platform);
+  PlatformInfo info = build_platform(doc, shown);
+  platform_cache_[key] = info;
+  return info;
+}
+
+WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
+                                      const std::string& file, const std::string& pointer) {
+  if (ref.is_object()) {
+    // Inline: validated by the scenario schema already; defaults from the workload schema.
+    WorkloadInfo w;
+    w.doc = ref;
+    if (!w.is_command()) schemas_.apply_defaults(w.doc, SchemaKind::Workload);
+    w.name = ref.value("name", w.is_command() ? ref["command"][0].get<std::string>() : "inline");
+    w.origin = "inline";
+    return w;
+  }
+  const fs::path path =
+      find_named(ref.get<std::string>(), home_.workloads(), base, file, pointer, "workload");
+  const std::string key = fs::weakly_canonical(path).string();
+  if (auto it = workload_cache_.find(key); it != workload_cache_.end()) return it->second;
+  const std::string shown = display_path(path);
+  json doc = read_json_file(path, shown);
+  schemas_.validate(doc, SchemaKind::Workload, shown);
+  schemas_.apply_defaults(doc, SchemaKind::Workload);
+  WorkloadInfo w{doc.at("name").get<std::string>(), shown, doc};
+  workload_cache_[key] = w;
+  return w;
+}
+
+LoadedScenario Loader::load(const std::string& file, const std::optional<std::string>& backend) {
+  LoadedScenario out;
+  out.file = file;
+  out.given = read_json_file(file, file);
+  schemas_.validate(out.given, SchemaKind::Scenario, file);
+
+  // JSON objects here are sorted by key; the sweep runs in the order its keys were written.
+  {
+    std::ifstream in(file);
+    const auto ordered = nlohmann::ordered_json::parse(in, nullptr, false);
+    if (ordered.is_object() && ordered.contains("sweep"))
+      for (const auto& [k, _] : ordered["sweep"].items())
+        out.sweep_keys.push_back(k);
+  }
+
+  out.expanded = out.given;
+  if (backend) out.expanded["backend"] = *backend;
+  schemas_.apply_defaults(out.expanded, SchemaKind::Scenario);
+  schemas_.validate(out.expanded, SchemaKind::Scenario, file);
+
+  // Each sweep key must name a place in a scenario: try it on the base document.
+  std::vector<std::string> sweep_pointers;
+  for (const auto& key : out.sweep_keys) {
+    const std::string where = "/sweep/" + escape_token(key);
+    try {
+      const auto path = parse_sweep_path(key);
+      json trial = out.expanded;
+      set_at_path(trial, path, out.expanded["sweep"][key][0]);
+      sweep_pointers.push_back(to_json_pointer(path));
+    } catch (const std::invalid_argument& e) {
+      throw InputError(file, where, e.what());
+    } catch (const std::out_of_range& e) {
+      throw InputError(file, where, std::string("this path does not exist: ") + e.what());
+    }
+  }
+  std::vector<SweepPoint> points = expand_sweep(out.expanded, out.sweep_keys);
+
+  const fs::path base = fs::path(file).parent_path();
+  const auto build = [&](json document) {
+    schemas_.apply_defaults(document, SchemaKind::Scenario);
+    if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
+      throw InputError(file, err->first, err->second);
+    ResolvedRefs refs;
+    refs.platform = resolve_platform(document["platform"], base, file, "/platform");
+    const auto& nodes = document["nodes"];
+    for (std::size_t i = 0; i < nodes["rt"].size(); ++i)
+      refs.rt_workloads.push_back(resolve_workload(nodes["rt"][i]["workload"], base, file,
+                                                   "/nodes/rt/" + std::to_string(i) + "/workload"));
+    for (std::size_t i = 0; i < nodes["nrt"].size(); ++i)
+      refs.nrt_workloads.push_back(
+          resolve_workload(nodes["nrt"][i]["workload"], base, file,
+                           "/nodes/nrt/" + std::to_string(i) + "/workload"));
+    return build_scenario(document, std::move(refs), file);
+  };
+
+  // An error in one point names the sweep value that caused it. An error the scenario has
+  // without any sweep value is reported plainly.
+  const auto attribute = [&](const InputError& e, const SweepPoint& p) -> InputError {
+    const std::string& path = e.json_path();
+    const std::string& msg = e.message();
+    for (std::size_t k = 0; k < p.params.size(); ++k) {
+      const std::string& sp = sweep_pointers[k];
+      if (path == sp || path.rfind(sp + "/", 0) == 0 || sp.rfind(path + "/", 0) == 0) {
+        const std::string where = "/sweep/" + escape_token(p.params[k].path);
+        if (msg.rfind("unknown key", 0) == 0)
+          return InputError(file, where, "this path does not exist in a scenario: " + msg);
+        return InputError(file, where + "/" + std::to_string(p.params[k].value_index),
+                          msg + (path == sp ? "" : " (at " + path + ")"));
+      }
+    }
+    json unswept = out.expanded;
+    unswept.erase("sweep");
+    try {
+      build(unswept);
+    } catch (const InputError& b) {
+      if (b.json_path() == path && b.message() == msg) return b;
+    }
+    return InputError(file, path, msg + " (in sweep point " + params_text(p) + ")");
+  };
+
+  for (SweepPoint& p : points) {
+    try {
+      Scenario s = build(p.document);
+      p.document = s.document;
+      out.points.push_back({std::move(p), std::move(s)});
+    } catch (const InputError& e) {
+      if (e.file() != file) throw;  // a problem inside a platform or workload file
+      throw attribute(e, p);
+    }
+  }
+
+  // The controller may share a core with an application node (2-CPU machines): allowed, said.
+  std::set<std::string> said;
+  for (const auto& lp : out.points) {
+    const auto& n = lp.scenario.nodes;
+    const auto warn = [&](const std::string& name) {
+      const std::string w = "the controller shares core " + std::to_string(n.controller_core) +
+                            " with node '" + name +
+                            "' (fine on small machines; its callbacks compete with the node)";
+      if (said.insert(w).second) out.warnings.push_back(w);
+    };
+    for (const auto& r : n.rt)
+      if (r.core == n.controller_core) warn(r.name);
+    for (const auto& r : n.nrt)
+      if (r.core == n.controller_core) warn(r.name);
+  }
+  return out;
+}
+
+std::vector<CatalogEntry> Loader::platforms() const {
+  return catalogue(home_.platforms(), "platform");
+}
+
+std::vector<CatalogEntry> Loader::workloads() const {
+  return catalogue(home_.workloads(), "workload");
+}
+
+}  // namespace rosguard

@@ -1,0 +1,84 @@
+// Loading scenarios from files: parse -> validate against the schema -> apply defaults ->
+// expand the sweep -> resolve platform and workload references -> typed, checked Scenario per
+// point. Every problem is an InputError naming the file and the JSON path; nothing is written.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scenario/scenario.h"
+#include "scenario/sweep.h"
+#include "schema.h"
+
+namespace rosguard {
+
+// Where rosguard's own files live (scenarios/, analysis/). ROSGUARD_HOME overrides; otherwise
+// the tree the executable was built from.
+struct Home {
+  std::filesystem::path root;
+  static Home locate();
+  std::filesystem::path scenarios() const { return root / "scenarios"; }
+  std::filesystem::path schemas() const { return root / "scenarios" / "schema"; }
+  std::filesystem::path platforms() const { return root / "scenarios" / "platforms"; }
+  std::filesystem::path workloads() const { return root / "scenarios" / "workloads"; }
+};
+
+struct LoadedPoint {
+  SweepPoint sweep;
+  Scenario scenario;
+};
+
+struct LoadedScenario {
+  std::string file;
+  nlohmann::json given;     // as written
+  nlohmann::json expanded;  // defaults applied, sweep still in place
+  std::vector<std::string> sweep_keys;
+  std::vector<LoadedPoint> points;
+  std::vector<std::string> warnings;  // e.g. the controller shares a core with a node
+};
+
+// A catalogue entry for `rosguard list`.
+struct CatalogEntry {
+  std::string name;
+  std::string summary;
+  std::filesystem::path file;
+};
+
+class Loader {
+ public:
+  explicit Loader(Home home);
+
+  // `backend` overrides the scenario's "backend" key (rosguard run --backend).
+  LoadedScenario load(const std::string& file, const std::optional<std::string>& backend = {});
+
+  std::vector<CatalogEntry> platforms() const;
+  std::vector<CatalogEntry> workloads() const;
+
+  const Home& home() const { return home_; }
+
+ private:
+  PlatformInfo resolve_platform(const nlohmann::json& ref, const std::filesystem::path& base,
+                                const std::string& file, const std::string& pointer);
+  WorkloadInfo resolve_workload(const nlohmann::json& ref, const std::filesystem::path& base,
+                                const std::string& file, const std::string& pointer);
+  std::filesystem::path find_named(const std::string& ref, const std::filesystem::path& dir,
+                                   const std::filesystem::path& base, const std::string& file,
+                                   const std::string& pointer, const char* what) const;
+
+  Home home_;
+  SchemaSet schemas_;
+  std::map<std::string, PlatformInfo> platform_cache_;
+  std::map<std::string, WorkloadInfo> workload_cache_;
+};
+
+// Reads a JSON file; syntax errors and duplicate keys are InputErrors with line and column.
+nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& display);
+
+// How a path is shown in messages: relative to the working directory when that is shorter.
+std::string display_path(const std::filesystem::path& path);
+
+}  // namespace rosguard

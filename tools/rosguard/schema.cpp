@@ -1,0 +1,387 @@
+#include "schema.h"
+
+#include <algorithm>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <valijson/adapters/nlohmann_json_adapter.hpp>
+#include <valijson/schema.hpp>
+#include <valijson/schema_parser.hpp>
+#include <valijson/validator.hpp>
+
+#include "core/error.h"
+
+namespace rosguard {
+namespace {
+
+using json = nlohmann::json;
+
+const char* file_of(SchemaKind kind) {
+  switch (kind) {
+    case SchemaKind::Scenario:
+      return "scenario.schema.json";
+    case SchemaKind::Platform:
+      return "platform.schema.json";
+    case SchemaKind::Workload:
+      return "workload.schema.json";
+  }
+  return "";
+}
+
+std::string type_name(const json& v) {
+  switch (v.type()) {
+    case json::value_t::null:
+      return "null";
+    case json::value_t::boolean:
+      return "a boolean";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+      return "an integer";
+    case json::value_t::number_float:
+      return "a number";
+    case json::value_t::string:
+      return "a string";
+    case json::value_t::array:
+      return "a list";
+    case json::value_t::object:
+      return "an object";
+    default:
+      return "something else";
+  }
+}
+
+std::string schema_type_name(const std::string& t) {
+  if (t == "integer") return "an integer";
+  if (t == "number") return "a number";
+  if (t == "string") return "a string";
+  if (t == "boolean") return "true or false";
+  if (t == "array") return "a list";
+  if (t == "object") return "an object";
+  return t;
+}
+
+std::string shown(const json& v) {
+  std::string s = v.dump();
+  return s.size() > 60 ? s.substr(0, 57) + "..." : s;
+}
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j)
+    row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string escape_token(const std::string& t) {
+  std::string out;
+  for (char c : t)
+    out += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
+  return out;
+}
+
+// Text between the last pair of single quotes of a valijson description.
+std::string quoted_name(const std::string& description) {
+  const auto end = description.rfind('\'');
+  if (end == std::string::npos || end == 0) return "";
+  const auto begin = description.rfind('\'', end - 1);
+  return begin == std::string::npos ? "" : description.substr(begin + 1, end - begin - 1);
+}
+
+bool is_wrapper(const std::string& d) {
+  static const char* const prefixes[] = {
+      "Failed to validate against schema associated with property name",
+      "Failed to validate item #",
+      "Failed to validate against child schema",
+      "Failed to validate against any child schemas",
+      "Failed to validate against",
+      "Failed to validate additional properties",
+      "Failed to validate properties",
+  };
+  return std::any_of(std::begin(prefixes), std::end(prefixes),
+                     [&](const char* p) { return d.rfind(p, 0) == 0; });
+}
+
+}  // namespace
+
+struct SchemaSet::Impl {
+  std::map<std::string, json> docs;  // schema file name -> document
+  std::map<SchemaKind, std::unique_ptr<valijson::Schema>> compiled;
+
+  // A schema node and the file it lives in (for resolving its relative $refs).
+  struct Node {
+    const json* schema = nullptr;
+    std::string file;
+  };
+
+  Node resolve(Node n) const {
+    for (int guard = 0;
+         guard < 16 && n.schema && n.schema->is_object() && n.schema->contains("$ref"); ++guard) {
+      const std::string ref = n.schema->at("$ref").get<std::string>();
+      const auto hash = ref.find('#');
+      const std::string file = hash == 0 ? n.file : ref.substr(0, hash);
+      const std::string pointer = hash == std::string::npos ? "" : ref.substr(hash + 1);
+      auto it = docs.find(file);
+      if (it == docs.end()) return {};
+      n = {&it->second.at(json::json_pointer(pointer)), file};
+    }
+    return n;
+  }
+
+  // Minimal evaluation of the "if" forms our schemas use: required keys, a type, const values.
+  static bool if_matches(const json& cond, const json& instance) {
+    if (cond.contains("type") && cond["type"] == "object" && !instance.is_object()) return false;
+    if (cond.contains("required")) {
+      if (!instance.is_object()) return false;
+      for (const auto& k : cond["required"])
+        if (!instance.contains(k.get<std::string>())) return false;
+    }
+    if (cond.contains("properties") && instance.is_object())
+      for (const auto& [k, sub] : cond["properties"].items())
+        if (sub.contains("const") && (!instance.contains(k) || instance[k] != sub["const"]))
+          return false;
+    return true;
+  }
+
+  // The branches of `n` that apply to `instance`: itself, then its matching then/else/allOf.
+  void branches(Node n, const json& instance, std::vector<Node>& out) const {
+    n = resolve(n);
+    if (!n.schema || !n.schema->is_object()) return;
+    out.push_back(n);
+    const json& s = *n.schema;
+    if (s.contains("if")) {
+      const bool match = if_matches(s["if"], instance);
+      if (match && s.contains("then")) branches({&s["then"], n.file}, instance, out);
+      if (!match && s.contains("else")) branches({&s["else"], n.file}, instance, out);
+    }
+    if (s.contains("allOf"))
+      for (const auto& sub : s["allOf"])
+        branches({&sub, n.file}, instance, out);
+  }
+
+  // Subschema for key `key` of object `instance` under schema `n`.
+  std::optional<Node> child(Node n, const json& instance, const std::string& key) const {
+    std::vector<Node> bs;
+    branches(n, instance, bs);
+    for (const Node& b : bs)
+      if (b.schema->contains("properties") && (*b.schema)["properties"].contains(key))
+        return Node{&(*b.schema)["properties"][key], b.file};
+    for (const Node& b : bs)
+      if (b.schema->contains("additionalProperties") &&
+          (*b.schema)["additionalProperties"].is_object())
+        return Node{&(*b.schema)["additionalProperties"], b.file};
+    return std::nullopt;
+  }
+
+  // Walks schema and instance along `tokens`; returns the schema node and instance value there.
+  std::pair<std::optional<Node>, const json*> locate(SchemaKind kind, const json& doc,
+                                                     const std::vector<std::string>& tokens) const {
+    std::optional<Node> n = Node{&docs.at(file_of(kind)), file_of(kind)};
+    const json* inst = &doc;
+    for (const auto& t : tokens) {
+      if (!n || !inst) return {std::nullopt, nullptr};
+      if (inst->is_array()) {
+        std::vector<Node> bs;
+        branches(*n, *inst, bs);
+        std::optional<Node> items;
+        for (const Node& b : bs)
+          if (b.schema->contains("items")) items = Node{&(*b.schema)["items"], b.file};
+        n = items;
+        const std::size_t i = std::stoul(t);
+        inst = i < inst->size() ? &(*inst)[i] : nullptr;
+      } else if (inst->is_object()) {
+        n = child(*n, *inst, t);
+        inst = inst->contains(t) ? &(*inst)[t] : nullptr;
+      } else {
+        return {std::nullopt, nullptr};
+      }
+    }
+    return {n, inst};
+  }
+
+  std::vector<std::string> allowed_keys(Node n, const json& instance) const {
+    std::vector<Node> bs;
+    branches(n, instance, bs);
+    std::vector<std::string> keys;
+    for (const Node& b : bs)
+      if (b.schema->contains("properties"))
+        for (const auto& [k, _] : (*b.schema)["properties"].items())
+          if (std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
+    return keys;
+  }
+
+  std::string range_text(const json& s) const {
+    const auto num = [](const json& v) { return v.dump(); };
+    const bool has_lo = s.contains("minimum") || s.contains("exclusiveMinimum");
+    const bool has_hi = s.contains("maximum") || s.contains("exclusiveMaximum");
+    const bool lo_open = s.contains("exclusiveMinimum");
+    const bool hi_open = s.contains("exclusiveMaximum");
+    const std::string lo = has_lo ? num(lo_open ? s["exclusiveMinimum"] : s["minimum"]) : "";
+    const std::string hi = has_hi ? num(hi_open ? s["exclusiveMaximum"] : s["maximum"]) : "";
+    if (has_lo && has_hi)
+      return "in " + std::string(lo_open ? "(" : "[") + lo + ", " + hi + (hi_open ? ")" : "]");
+    if (has_lo) return std::string(lo_open ? "> " : ">= ") + lo;
+    if (has_hi) return std::string(hi_open ? "< " : "<= ") + hi;
+    return "in range";
+  }
+
+  // Turns one valijson error into (JSON pointer, message).
+  std::pair<std::string, std::string> render(SchemaKind kind, const json& doc,
+                                             const valijson::ValidationResults::Error& e) const {
+    std::vector<std::string> tokens;
+    for (const auto& c : e.context)
+      if (c.size() >= 2 && c.front() == '[' && c.back() == ']')
+        tokens.push_back(c.substr(1, c.size() - 2));
+    std::string pointer;
+    for (const auto& t : tokens)
+      pointer += "/" + escape_token(t);
+    const auto [node, inst] = locate(kind, doc, tokens);
+    const json* s = node ? resolve(*node).schema : nullptr;
+    const std::string& d = e.description;
+
+    if (d.find("could not be validated using 'properties' or 'additionalProperties'") !=
+        std::string::npos) {
+      const std::string key = quoted_name(d);
+      std::string msg = "unknown key '" + key + "'";
+      if (node && inst) {
+        const auto keys = allowed_keys(*node, *inst);
+        std::string best;
+        std::size_t best_d = key.size() / 3 + 2;
+        for (const auto& k : keys)
+          if (const std::size_t dist = edit_distance(key, k); dist < best_d) {
+            best = k;
+            best_d = dist;
+          }
+        if (!best.empty()) msg += " (did you mean '" + best + "'?)";
+        std::string list;
+        for (const auto& k : keys)
+          if (k != "$schema") list += (list.empty() ? "" : ", ") + k;
+        if (!list.empty()) msg += "; allowed here: " + list;
+      }
+      return {pointer + "/" + escape_token(key), msg};
+    }
+    if (d.rfind("Missing required property", 0) == 0)
+      return {pointer, "missing required key '" + quoted_name(d) + "'"};
+    if (d.find("'type' constraint") != std::string::npos && s && inst) {
+      std::string want;
+      const json& t = (*s)["type"];
+      if (t.is_string()) {
+        want = schema_type_name(t.get<std::string>());
+      } else if (t.is_array()) {
+        for (std::size_t i = 0; i < t.size(); ++i)
+          want += (i ? " or " : "") + schema_type_name(t[i].get<std::string>());
+      }
+      return {pointer, "must be " + want + ", not " + type_name(*inst) + " (" + shown(*inst) + ")"};
+    }
+    if (d.find("enum values") != std::string::npos && s && s->contains("enum")) {
+      std::string list;
+      for (const auto& v : (*s)["enum"])
+        list += (list.empty() ? "" : ", ") + v.dump();
+      return {pointer, "must be one of " + list + (inst ? ", not " + shown(*inst) : std::string())};
+    }
+    if ((d.rfind("Expected number", 0) == 0 || d.find("less than") != std::string::npos ||
+         d.find("greater than") != std::string::npos) &&
+        s) {
+      return {pointer, "must be " + range_text(*s) + (inst ? ", not " + shown(*inst) : "")};
+    }
+    if (d.find("no fewer than") != std::string::npos) {
+      if (inst && inst->is_string()) return {pointer, "must not be empty"};
+      if (inst && inst->is_object()) return {pointer, "must have at least one entry"};
+      return {pointer, "must not be an empty list"};
+    }
+    if (d.find("regex") != std::string::npos && inst) {
+      std::string hint = s && s->contains("pattern")
+                             ? " (pattern " + (*s)["pattern"].get<std::string>() + ")"
+                             : "";
+      return {pointer, shown(*inst) + " is not a valid value here" + hint};
+    }
+    if (d.find("property names") != std::string::npos ||
+        d.find("propertyNames") != std::string::npos)
+      return {pointer, "has an invalid key: " + d};
+    return {pointer, d};
+  }
+};
+
+SchemaSet::SchemaSet(const std::filesystem::path& dir) : impl_(std::make_unique<Impl>()) {
+  for (SchemaKind kind : {SchemaKind::Scenario, SchemaKind::Platform, SchemaKind::Workload}) {
+    const auto path = dir / file_of(kind);
+    std::ifstream in(path);
+    if (!in) throw RunError("cannot read schema " + path.string());
+    try {
+      impl_->docs[file_of(kind)] = json::parse(in);
+    } catch (const json::parse_error& e) {
+      throw RunError("schema " + path.string() + " is not valid JSON: " + e.what());
+    }
+  }
+  using Adapter = valijson::adapters::NlohmannJsonAdapter;
+  for (SchemaKind kind : {SchemaKind::Scenario, SchemaKind::Platform, SchemaKind::Workload}) {
+    auto schema = std::make_unique<valijson::Schema>();
+    valijson::SchemaParser parser;
+    Adapter adapter(impl_->docs[file_of(kind)]);
+    const auto fetch = [this](const std::string& uri) -> const json* {
+      auto it = impl_->docs.find(uri);
+      return it == impl_->docs.end() ? nullptr : new json(it->second);
+    };
+    const auto release = [](const json* doc) { delete doc; };
+    parser.populateSchema(adapter, *schema, fetch, release);
+    impl_->compiled[kind] = std::move(schema);
+  }
+}
+
+SchemaSet::~SchemaSet() = default;
+
+std::optional<std::pair<std::string, std::string>> SchemaSet::first_error(const json& doc,
+                                                                          SchemaKind kind) const {
+  valijson::Validator validator;
+  valijson::ValidationResults results;
+  valijson::adapters::NlohmannJsonAdapter adapter(doc);
+  if (validator.validate(*impl_->compiled.at(kind), adapter, &results)) return std::nullopt;
+  std::optional<std::pair<std::string, std::string>> first;
+  std::size_t leaves = 0;
+  valijson::ValidationResults::Error e;
+  while (results.popError(e)) {
+    if (is_wrapper(e.description)) continue;
+    if (!first) first = impl_->render(kind, doc, e);
+    ++leaves;
+  }
+  if (!first) first = {"", "does not match " + std::string(file_of(kind))};
+  if (leaves > 1)
+    first->second +=
+        " (and " + std::to_string(leaves - 1) + " more problem" + (leaves > 2 ? "s" : "") + ")";
+  return first;
+}
+
+void SchemaSet::validate(const json& doc, SchemaKind kind, const std::string& file) const {
+  if (auto err = first_error(doc, kind)) throw InputError(file, err->first, err->second);
+}
+
+void SchemaSet::apply_defaults(json& doc, SchemaKind kind) const {
+  using Node = Impl::Node;
+  const std::function<void(Node, json&)> walk = [&](Node n, json& inst) {
+    n = impl_->resolve(n);
+    if (!n.schema || !n.schema->is_object()) return;
+    const json& s = *n.schema;
+    if (inst.is_object() && s.contains("properties")) {
+      for (const auto& [key, sub] : s["properties"].items()) {
+        const Node child = impl_->resolve({&sub, n.file});
+        if (!inst.contains(key) && child.schema && child.schema->contains("default"))
+          inst[key] = (*child.schema)["default"];
+        if (inst.contains(key)) walk(child, inst[key]);
+      }
+    }
+    if (inst.is_array() && s.contains("items"))
+      for (auto& item : inst)
+        walk({&s["items"], n.file}, item);
+  };
+  walk({&impl_->docs.at(file_of(kind)), file_of(kind)}, doc);
+}
+
+}  // namespace rosguard

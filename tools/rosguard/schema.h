@@ -1,0 +1,43 @@
+// JSON Schema validation and defaults for scenario, platform and workload documents.
+//
+// The schema files under scenarios/schema/ are the single source of truth for the structure of
+// these documents: valijson checks documents against them, errors are rendered from the schema
+// node at the failing path (allowed keys, enum values, ranges), and defaults come from their
+// "default" annotations. Contract: load once, then use from one thread at a time.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace rosguard {
+
+enum class SchemaKind { Scenario, Platform, Workload };
+
+class SchemaSet {
+ public:
+  // Loads scenario/platform/workload.schema.json from `dir`. Throws RunError when missing.
+  explicit SchemaSet(const std::filesystem::path& dir);
+  ~SchemaSet();
+  SchemaSet(const SchemaSet&) = delete;
+  SchemaSet& operator=(const SchemaSet&) = delete;
+
+  // Throws InputError(file, JSON pointer, message) for the first problem found; when there are
+  // more, the message says how many.
+  void validate(const nlohmann::json& doc, SchemaKind kind, const std::string& file) const;
+
+  // Inserts the schema's "default" for every missing key (recursively; inserted objects get
+  // their own defaults too).
+  void apply_defaults(nlohmann::json& doc, SchemaKind kind) const;
+
+  // Validation error of `doc` as (JSON pointer, message), or nullopt when valid.
+  std::optional<std::pair<std::string, std::string>> first_error(const nlohmann::json& doc,
+                                                                 SchemaKind kind) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rosguard

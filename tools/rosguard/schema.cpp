@@ -4,6 +4,7 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <regex>
 #include <valijson/adapters/nlohmann_json_adapter.hpp>
 #include <valijson/schema.hpp>
 #include <valijson/schema_parser.hpp>
@@ -152,19 +153,20 @@ struct SchemaSet::Impl {
   }
 
   // The branches of `n` that apply to `instance`: itself, then its matching then/else/allOf.
-  void branches(Node n, const json& instance, std::vector<Node>& out) const {
+  // With `all`, every conditional branch is included whatever the instance (for suggestions).
+  void branches(Node n, const json& instance, std::vector<Node>& out, bool all = false) const {
     n = resolve(n);
     if (!n.schema || !n.schema->is_object()) return;
     out.push_back(n);
     const json& s = *n.schema;
     if (s.contains("if")) {
       const bool match = if_matches(s["if"], instance);
-      if (match && s.contains("then")) branches({&s["then"], n.file}, instance, out);
-      if (!match && s.contains("else")) branches({&s["else"], n.file}, instance, out);
+      if ((all || match) && s.contains("then")) branches({&s["then"], n.file}, instance, out, all);
+      if ((all || !match) && s.contains("else")) branches({&s["else"], n.file}, instance, out, all);
     }
     if (s.contains("allOf"))
       for (const auto& sub : s["allOf"])
-        branches({&sub, n.file}, instance, out);
+        branches({&sub, n.file}, instance, out, all);
   }
 
   // Subschema for key `key` of object `instance` under schema `n`.
@@ -209,7 +211,7 @@ struct SchemaSet::Impl {
 
   std::vector<std::string> allowed_keys(Node n, const json& instance) const {
     std::vector<Node> bs;
-    branches(n, instance, bs);
+    branches(n, instance, bs, true);
     std::vector<std::string> keys;
     for (const Node& b : bs)
       if (b.schema->contains("properties"))
@@ -231,6 +233,32 @@ struct SchemaSet::Impl {
     if (has_lo) return std::string(lo_open ? "> " : ">= ") + lo;
     if (has_hi) return std::string(hi_open ? "< " : "<= ") + hi;
     return "in range";
+  }
+
+  // valijson reports some failures (propertyNames) only as "failed to validate against the
+  // schema of property X": find what is wrong at X from the schema itself.
+  std::pair<std::string, std::string> explain_wrapper(
+      SchemaKind kind, const json& doc, const valijson::ValidationResults::Error& e) const {
+    std::vector<std::string> tokens;
+    for (const auto& c : e.context)
+      if (c.size() >= 2 && c.front() == '[' && c.back() == ']')
+        tokens.push_back(c.substr(1, c.size() - 2));
+    if (const std::string name = quoted_name(e.description); !name.empty()) tokens.push_back(name);
+    std::string pointer;
+    for (const auto& t : tokens)
+      pointer += "/" + escape_token(t);
+    const auto [node, inst] = locate(kind, doc, tokens);
+    const json* s = node ? resolve(*node).schema : nullptr;
+    if (s && inst && inst->is_object() && s->contains("propertyNames")) {
+      const json& names = (*s)["propertyNames"];
+      const std::regex re(names.value("pattern", ".*"));
+      for (const auto& [key, _] : inst->items())
+        if (!std::regex_search(key, re))
+          return {pointer,
+                  "key '" + key + "' is not valid here: expected " +
+                      names.value("description", "a key matching " + names.value("pattern", "?"))};
+    }
+    return {pointer, "does not match " + std::string(file_of(kind)) + " here"};
   }
 
   // Turns one valijson error into (JSON pointer, message).
@@ -347,12 +375,16 @@ std::optional<std::pair<std::string, std::string>> SchemaSet::first_error(const 
   std::optional<std::pair<std::string, std::string>> first;
   std::size_t leaves = 0;
   valijson::ValidationResults::Error e;
+  valijson::ValidationResults::Error deepest;
   while (results.popError(e)) {
-    if (is_wrapper(e.description)) continue;
+    if (is_wrapper(e.description)) {
+      if (e.context.size() >= deepest.context.size()) deepest = e;
+      continue;
+    }
     if (!first) first = impl_->render(kind, doc, e);
     ++leaves;
   }
-  if (!first) first = {"", "does not match " + std::string(file_of(kind))};
+  if (!first) first = impl_->explain_wrapper(kind, doc, deepest);
   if (leaves > 1)
     first->second +=
         " (and " + std::to_string(leaves - 1) + " more problem" + (leaves > 2 ? "s" : "") + ")";

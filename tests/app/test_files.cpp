@@ -1,0 +1,56 @@
+// Crash-safe file primitives: atomic replace, torn-tail repair, single-write appends.
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+#include <filesystem>
+
+#include "files.h"
+
+using namespace rosguard;
+namespace fs = std::filesystem;
+
+namespace {
+fs::path temp_dir() {
+  fs::path d = fs::temp_directory_path() / ("rosguard-test-" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+}  // namespace
+
+TEST_CASE("atomic writes replace the whole file and leave no temporary", "[files]") {
+  const fs::path d = temp_dir();
+  const fs::path f = d / "a.txt";
+  write_file_atomic(f, "first\n");
+  write_file_atomic(f, "second\n");
+  CHECK(read_file(f) == "second\n");
+  std::size_t entries = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(d))
+    ++entries;
+  CHECK(entries == 1);
+  fs::remove_all(d);
+}
+
+TEST_CASE("a torn last row is cut at the last newline", "[files]") {
+  const fs::path d = temp_dir();
+  const fs::path f = d / "points.csv";
+  write_file_atomic(f, "h1,h2\n1,2\n3,");
+  CHECK(truncate_torn_tail(f) == 2);
+  CHECK(read_file(f) == "h1,h2\n1,2\n");
+  CHECK(truncate_torn_tail(f) == 0);
+  fs::remove_all(d);
+}
+
+TEST_CASE("appends accumulate whole rows", "[files]") {
+  const fs::path d = temp_dir();
+  const fs::path f = d / "rows.csv";
+  {
+    AppendFile out(f);
+    out.append("a\n");
+    out.append(std::string(100000, 'x') + "\n");
+    out.sync();
+  }
+  const auto lines = split_lines(read_file(f));
+  REQUIRE(lines.size() == 2);
+  CHECK(lines[1].size() == 100000);
+  fs::remove_all(d);
+}

@@ -1,0 +1,138 @@
+#!/usr/bin/env bash
+# Runner mechanics through the real CLI (main.cpp) with the fake backend (app/fake/):
+# determinism over --jobs and shards, crash safety, SIGINT, resume, failures, folders.
+# Usage: runner_cli_test.sh ROSGUARD_FAKE CASE   (from the source root)
+set -u
+bin=$1
+case=$2
+scenario=tests/app/fixtures/sweep.json
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+rows() { tail -n +2 "$1/points.csv" | wc -l; }
+# Every row of points.csv has exactly as many fields as the header (no torn rows).
+complete_rows() {
+  awk -F, 'NR==1 {n=NF; next} NF!=n {bad=1} END {exit bad}' "$1/points.csv" ||
+    fail "$1/points.csv has a row with a wrong field count"
+}
+# Waits (up to 30 s) until a running run has written at least $2 rows.
+wait_rows() {
+  for _ in $(seq 300); do
+    [[ -f "$1/points.csv" && $(rows "$1") -ge $2 ]] && return 0
+    sleep 0.1
+  done
+  fail "no $2 rows in $1 after 30 s"
+}
+status() { /usr/bin/python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['status'])" "$1/manifest.json"; }
+
+case $case in
+determinism)
+  # Byte-identical results whatever --jobs and sharding were.
+  "$bin" run $scenario --out "$tmp/j1" --jobs 1 --quiet || fail "jobs 1"
+  "$bin" run $scenario --out "$tmp/j2" --jobs 2 --quiet || fail "jobs 2"
+  "$bin" run $scenario --out "$tmp/sh" --shard 1/2 --quiet || fail "shard 1/2"
+  "$bin" run $scenario --out "$tmp/sh" --shard 0/2 --quiet || fail "shard 0/2"
+  [[ $(rows "$tmp/j1") -eq 24 ]] || fail "expected 24 rows, got $(rows "$tmp/j1")"
+  for d in j2 sh; do
+    cmp "$tmp/j1/points.csv" "$tmp/$d/points.csv" || fail "points.csv differs for $d"
+    cmp "$tmp/j1/samples.csv" "$tmp/$d/samples.csv" || fail "samples.csv differs for $d"
+  done
+  ;;
+kill9)
+  # A run killed with SIGKILL leaves only complete rows; --resume finishes it identically.
+  "$bin" run $scenario --out "$tmp/ref" --quiet || fail "reference run"
+  ROSGUARD_FAKE_SLEEP_MS=150 setsid "$bin" run $scenario --out "$tmp/k" --jobs 2 --quiet &
+  pid=$!
+  wait_rows "$tmp/k" 2
+  kill -9 -- -$pid 2>/dev/null || kill -9 $pid
+  wait $pid 2>/dev/null
+  n=$(rows "$tmp/k")
+  [[ $n -gt 0 && $n -lt 24 ]] || fail "expected a partial run, got $n rows"
+  complete_rows "$tmp/k"
+  [[ $(status "$tmp/k") == running ]] || fail "manifest of a killed run should say running"
+  "$bin" run $scenario --out "$tmp/k" --resume 2> "$tmp/err" >/dev/null || fail "resume"
+  grep -q "already in" "$tmp/err" || fail "resume did not report skipped runs"
+  cmp "$tmp/ref/points.csv" "$tmp/k/points.csv" || fail "resumed points.csv differs"
+  cmp "$tmp/ref/samples.csv" "$tmp/k/samples.csv" || fail "resumed samples.csv differs"
+  [[ $(status "$tmp/k") == complete ]] || fail "manifest after resume should say complete"
+  ;;
+sigint)
+  # SIGINT stops an in-process (hw-like) run: exit 130, complete rows, status interrupted.
+  for backend in hw sim; do
+    out="$tmp/int-$backend"
+    ROSGUARD_FAKE_SLEEP_MS=200 "$bin" run $scenario --backend $backend --out "$out" --quiet &
+    pid=$!
+    wait_rows "$out" 1
+    kill -INT $pid
+    wait $pid
+    rc=$?
+    [[ $rc -eq 130 ]] || fail "$backend: exit $rc after SIGINT, expected 130"
+    complete_rows "$out"
+    [[ $(status "$out") == interrupted ]] || fail "$backend: manifest status $(status "$out")"
+    "$bin" run $scenario --backend $backend --out "$out" --resume --quiet || fail "$backend: resume"
+    [[ $(rows "$out") -eq 24 ]] || fail "$backend: $(rows "$out") rows after resume"
+  done
+  ;;
+failure)
+  # A failing point: exit 1, status failed, the error in the manifest, complete rows kept.
+  ROSGUARD_FAKE_FAIL_AT=15 "$bin" run $scenario --out "$tmp/f" --jobs 1 --quiet 2> "$tmp/err"
+  rc=$?
+  [[ $rc -eq 1 ]] || fail "exit $rc, expected 1"
+  grep -q "fake failure at threshold 15" "$tmp/err" || fail "error not reported: $(cat "$tmp/err")"
+  [[ $(status "$tmp/f") == failed ]] || fail "status $(status "$tmp/f")"
+  complete_rows "$tmp/f"
+  [[ $(rows "$tmp/f") -ge 4 ]] || fail "rows before the failure were not kept"
+  ;;
+folders)
+  # An existing results folder is never overwritten by accident.
+  "$bin" run $scenario --out "$tmp/o" --quiet || fail "first run"
+  "$bin" run $scenario --out "$tmp/o" --quiet 2> "$tmp/err"
+  [[ $? -eq 2 ]] || fail "rerun into a used folder should exit 2"
+  grep -q -- "--resume" "$tmp/err" || fail "message should mention --resume"
+  "$bin" run $scenario --out "$tmp/o" --overwrite --quiet || fail "--overwrite"
+  [[ $(rows "$tmp/o") -eq 24 ]] || fail "--overwrite left $(rows "$tmp/o") rows"
+  sed 's/25, 30/25, 35/' $scenario > tests/app/fixtures/.changed-$$.json
+  "$bin" run tests/app/fixtures/.changed-$$.json --out "$tmp/o" --resume --quiet 2> "$tmp/err"
+  rc=$?
+  rm -f tests/app/fixtures/.changed-$$.json
+  [[ $rc -eq 2 ]] || fail "resuming a different scenario should exit 2, got $rc"
+  grep -q "different scenario" "$tmp/err" || fail "message: $(cat "$tmp/err")"
+  "$bin" run $scenario --out "$tmp/o" --resume --overwrite 2>/dev/null
+  [[ $? -eq 2 ]] || fail "--resume with --overwrite should exit 2"
+  "$bin" run $scenario --out "$tmp/o2" --shard 2/2 2>/dev/null
+  [[ $? -eq 2 ]] || fail "--shard 2/2 should exit 2"
+  [[ ! -e "$tmp/o2" ]] || fail "a usage error created the results folder"
+  ;;
+trace)
+  # --trace writes a Chrome trace with one process per point and repetition.
+  "$bin" run $scenario --out "$tmp/t" --trace --quiet || fail "run"
+  /usr/bin/python3 - "$tmp/t/trace.json" <<'PY' || fail "trace.json is not a valid Chrome trace"
+import json, sys
+t = json.load(open(sys.argv[1]))
+ev = t["traceEvents"]
+names = {e["args"]["name"] for e in ev if e.get("name") == "process_name"}
+assert len(names) == 24, len(names)
+assert {"X", "C", "i", "M"} <= {e["ph"] for e in ev}
+assert all("ts" in e for e in ev if e["ph"] != "M")
+PY
+  ;;
+manifest)
+  # The manifest describes the run: tool, host, scenario (given and expanded), counts.
+  "$bin" run $scenario --out "$tmp/m" --quiet || fail "run"
+  /usr/bin/python3 - "$tmp/m/manifest.json" <<'PY' || fail "manifest incomplete"
+import json, sys
+m = json.load(open(sys.argv[1]))
+for k in ["tool", "host", "scenario", "platform", "backend", "seed", "start_time", "end_time",
+          "fallbacks", "counts", "scenario_hash"]:
+    assert k in m, k
+assert m["tool"]["git_revision"], m["tool"]
+assert m["scenario"]["expanded"]["regulation"]["sampling"] == "self"  # a schema default
+assert len(m["scenario"]["points"]) == 12
+assert m["counts"]["rows"] == 24 and m["status"] == "complete"
+PY
+  ;;
+*)
+  fail "unknown case $case"
+  ;;
+esac
+echo "ok: $case"

@@ -88,7 +88,7 @@ const std::vector<std::string>& fixed_point_columns() {
 }
 
 std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
-                                       const std::vector<std::string>& sweep_keys) {
+                                       const std::vector<std::string>& sweep_paths) {
   std::vector<std::string> h = fixed_point_columns();
   for (const char* c : {"platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps",
                         "sampling_overhead_p50_us", "pmc_callback_max_us"})
@@ -100,8 +100,8 @@ std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
     for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "bandwidth_mbps",
                           "throttle_count", "throttled_us"})
       h.push_back("nrt" + std::to_string(i) + "_" + c);
-  for (const auto& k : sweep_keys)
-    h.push_back("param:" + k);
+  for (const auto& p : sweep_paths)
+    h.push_back("param:" + p);
   return h;
 }
 

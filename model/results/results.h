@@ -18,9 +18,9 @@ namespace rosguard {
 const std::vector<std::string>& fixed_point_columns();
 
 // Header of points.csv for a run: the fixed columns, then platform / counts, then per-node
-// columns for the second and later RT / nRT nodes, then one "param:<path>" column per sweep key.
+// columns for the second and later RT / nRT nodes, then one "param:<path>" column per swept path.
 std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
-                                       const std::vector<std::string>& sweep_keys);
+                                       const std::vector<std::string>& sweep_paths);
 
 // One CSV line (with '\n') of points.csv for `header`.
 std::string points_row(const std::vector<std::string>& header, const SweepPoint& point,

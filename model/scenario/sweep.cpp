@@ -8,6 +8,18 @@
 
 namespace rosguard {
 
+std::vector<std::string> split_sweep_key(const std::string& key) {
+  std::vector<std::string> paths;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t plus = key.find('+', start);
+    paths.push_back(key.substr(start, plus - start));
+    if (plus == std::string::npos) break;
+    start = plus + 1;
+  }
+  return paths;
+}
+
 std::vector<PathSegment> parse_sweep_path(const std::string& path) {
   std::vector<PathSegment> out;
   std::size_t i = 0;
@@ -101,33 +113,50 @@ std::vector<SweepPoint> expand_sweep(const nlohmann::json& doc,
   if (key_order.size() != sweep.size())
     throw std::invalid_argument("sweep key order does not match the sweep object");
 
-  std::vector<std::vector<PathSegment>> paths;
+  struct Key {
+    std::vector<std::string> names;
+    std::vector<std::vector<PathSegment>> paths;
+    const nlohmann::json* values;
+  };
+  std::vector<Key> keys;
   std::size_t total = 1;
   for (const auto& key : key_order) {
-    paths.push_back(parse_sweep_path(key));
-    const auto& values = sweep.at(key);
-    if (!values.is_array() || values.empty())
+    Key k{split_sweep_key(key), {}, &sweep.at(key)};
+    for (const auto& name : k.names)
+      k.paths.push_back(parse_sweep_path(name));
+    if (!k.values->is_array() || k.values->empty())
       throw std::invalid_argument("sweep '" + key + "' must be a non-empty list");
-    total *= values.size();
+    if (k.names.size() > 1)
+      for (std::size_t i = 0; i < k.values->size(); ++i)
+        if (!(*k.values)[i].is_array() || (*k.values)[i].size() != k.names.size())
+          throw std::invalid_argument(
+              "sweep '" + key + "' joins " + std::to_string(k.names.size()) +
+              " paths, so each value must be a list of " + std::to_string(k.names.size()) +
+              " values (value " + std::to_string(i) + " is not)");
+    total *= k.values->size();
+    keys.push_back(std::move(k));
   }
 
   std::vector<SweepPoint> points;
   points.reserve(total);
-  std::vector<std::size_t> digit(key_order.size(), 0);
+  std::vector<std::size_t> digit(keys.size(), 0);
   for (std::size_t n = 0; n < total; ++n) {
     SweepPoint p;
     p.index = n;
     p.document = base;
-    for (std::size_t k = 0; k < key_order.size(); ++k) {
-      const auto& value = sweep.at(key_order[k])[digit[k]];
-      set_at_path(p.document, paths[k], value);
-      p.params.push_back({key_order[k], value, digit[k]});
+    for (std::size_t k = 0; k < keys.size(); ++k) {
+      const auto& value = (*keys[k].values)[digit[k]];
+      for (std::size_t c = 0; c < keys[k].names.size(); ++c) {
+        const auto& v = keys[k].names.size() > 1 ? value[c] : value;
+        set_at_path(p.document, keys[k].paths[c], v);
+        p.params.push_back({keys[k].names[c], v, digit[k], key_order[k], c});
+      }
     }
     p.id = point_id(p.params);
     points.push_back(std::move(p));
     // Odometer: the last key varies fastest.
-    for (std::size_t k = key_order.size(); k-- > 0;) {
-      if (++digit[k] < sweep.at(key_order[k]).size()) break;
+    for (std::size_t k = keys.size(); k-- > 0;) {
+      if (++digit[k] < keys[k].values->size()) break;
       digit[k] = 0;
     }
   }

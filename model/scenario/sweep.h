@@ -1,7 +1,8 @@
 // Sweep expansion over dotted paths ("regulation.threshold_pct", "nodes.rt[0].workload").
 //
 // Contract: pure functions on JSON documents. Points are the cartesian product of the sweep
-// lists; the first key written varies slowest. A point's id depends only on its parameter
+// lists; the first key written varies slowest. A key joining paths with '+' makes them co-vary:
+// its values are tuples, one element per path. A point's id depends only on its parameter
 // values (not on the backend, platform or order), so resumed, sharded and cross-backend result
 // folders can be matched point by point.
 #pragma once
@@ -15,7 +16,9 @@ namespace rosguard {
 struct SweepParam {
   std::string path;  // dotted, as written in the sweep
   nlohmann::json value;
-  std::size_t value_index = 0;  // position of `value` in the sweep list
+  std::size_t value_index = 0;  // position of the value (or tuple) in the sweep list
+  std::string key;              // the sweep key it comes from (several paths joined by '+')
+  std::size_t component = 0;    // position of `path` in that key
 };
 
 struct SweepPoint {
@@ -30,6 +33,10 @@ struct PathSegment {
   std::string key;
   std::vector<std::size_t> indexes;
 };
+
+// The paths of a sweep key: one, or several joined by '+' that co-vary (their values are
+// tuples: "regulation.sampling_period_us+regulation.regulation_period_us": [[500, 2500], ...]).
+std::vector<std::string> split_sweep_key(const std::string& key);
 
 // Parses "nodes.rt[0].workload". Throws std::invalid_argument on a malformed path.
 std::vector<PathSegment> parse_sweep_path(const std::string& path);

@@ -48,9 +48,13 @@ TEST_CASE("the cartesian product runs in written key order, first key slowest", 
 }
 
 TEST_CASE("point ids depend on the parameter values only", "[sweep]") {
-  const std::vector<SweepParam> p1 = {{"regulation.threshold_pct", 10, 0}};
-  const std::vector<SweepParam> p2 = {{"regulation.threshold_pct", 20, 1}};
-  CHECK(point_id(p1) == point_id({{"regulation.threshold_pct", 10, 7}}));
+  const auto param = [](json value, std::size_t index) {
+    return SweepParam{"regulation.threshold_pct", std::move(value), index,
+                      "regulation.threshold_pct", 0};
+  };
+  const std::vector<SweepParam> p1 = {param(10, 0)};
+  const std::vector<SweepParam> p2 = {param(20, 1)};
+  CHECK(point_id(p1) == point_id({param(10, 7)}));
   CHECK(point_id(p1) != point_id(p2));
   CHECK(point_id(p1).size() == 11);
   CHECK(point_id(p1)[0] == 'p');
@@ -70,4 +74,32 @@ TEST_CASE("no sweep gives one point", "[sweep]") {
   const auto points = expand_sweep(json{{"a", 1}, {"sweep", json::object()}}, {});
   REQUIRE(points.size() == 1);
   CHECK(points[0].params.empty());
+}
+
+TEST_CASE("a key joining paths with + makes them co-vary", "[sweep]") {
+  const json doc = {{"r", {{"s", 1}, {"p", 5}}},
+                    {"t", 0},
+                    {"sweep",
+                     {{"r.s+r.p", json::array({json::array({1, 5}), json::array({2, 10})})},
+                      {"t", json::array({7, 8, 9})}}}};
+  CHECK(split_sweep_key("r.s+r.p") == std::vector<std::string>{"r.s", "r.p"});
+  const auto points = expand_sweep(doc, {"r.s+r.p", "t"});
+  REQUIRE(points.size() == 6);
+  CHECK(points[0].document["r"] == json{{"s", 1}, {"p", 5}});
+  CHECK(points[3].document["r"] == json{{"s", 2}, {"p", 10}});
+  CHECK(points[3].document["t"] == 7);
+  REQUIRE(points[3].params.size() == 3);
+  CHECK(points[3].params[1].path == "r.p");
+  CHECK(points[3].params[1].key == "r.s+r.p");
+  CHECK(points[3].params[1].component == 1);
+  CHECK(points[3].params[1].value_index == 1);
+  // Same parameters, same id, whether they were swept jointly or not.
+  const json separate = {
+      {"r", {{"s", 1}, {"p", 5}}}, {"t", 0}, {"sweep", {{"r.s", {2}}, {"r.p", {10}}, {"t", {7}}}}};
+  CHECK(expand_sweep(separate, {"r.s", "r.p", "t"})[0].id == points[3].id);
+
+  json bad = doc;
+  bad["sweep"]["r.s+r.p"] = json::array({json::array({1, 5}), 3});
+  CHECK_THROWS_WITH(expand_sweep(bad, {"r.s+r.p", "t"}),
+                    Catch::Contains("each value must be a list of 2 values (value 1 is not)"));
 }

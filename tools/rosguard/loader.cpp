@@ -242,22 +242,39 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
   schemas_.apply_defaults(out.expanded, SchemaKind::Scenario);
   schemas_.validate(out.expanded, SchemaKind::Scenario, file);
 
-  // Each sweep key must name a place in a scenario: try it on the base document.
-  std::vector<std::string> sweep_pointers;
+  // Each sweep path must name a place in a scenario: try it on the base document.
+  std::map<std::string, std::string> sweep_pointers;  // dotted path -> JSON pointer
   for (const auto& key : out.sweep_keys) {
     const std::string where = "/sweep/" + escape_token(key);
-    try {
-      const auto path = parse_sweep_path(key);
-      json trial = out.expanded;
-      set_at_path(trial, path, out.expanded["sweep"][key][0]);
-      sweep_pointers.push_back(to_json_pointer(path));
-    } catch (const std::invalid_argument& e) {
-      throw InputError(file, where, e.what());
-    } catch (const std::out_of_range& e) {
-      throw InputError(file, where, std::string("this path does not exist: ") + e.what());
+    const auto paths = split_sweep_key(key);
+    const json& values = out.expanded["sweep"][key];
+    for (std::size_t i = 0; paths.size() > 1 && i < values.size(); ++i)
+      if (!values[i].is_array() || values[i].size() != paths.size())
+        throw InputError(file, where + "/" + std::to_string(i),
+                         "this key joins " + std::to_string(paths.size()) +
+                             " paths, so each value must be a list of " +
+                             std::to_string(paths.size()) + " values, one per path");
+    for (std::size_t c = 0; c < paths.size(); ++c) {
+      try {
+        const auto path = parse_sweep_path(paths[c]);
+        const json& first = out.expanded["sweep"][key][0];
+        json trial = out.expanded;
+        set_at_path(trial, path,
+                    paths.size() > 1 && first.is_array() && c < first.size() ? first[c] : first);
+        sweep_pointers[paths[c]] = to_json_pointer(path);
+      } catch (const std::invalid_argument& e) {
+        throw InputError(file, where, e.what());
+      } catch (const std::out_of_range& e) {
+        throw InputError(file, where, std::string("this path does not exist: ") + e.what());
+      }
     }
   }
-  std::vector<SweepPoint> points = expand_sweep(out.expanded, out.sweep_keys);
+  std::vector<SweepPoint> points;
+  try {
+    points = expand_sweep(out.expanded, out.sweep_keys);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(file, "/sweep", e.what());
+  }
 
   const fs::path base = fs::path(file).parent_path();
   const auto build = [&](json document) {
@@ -282,14 +299,15 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
   const auto attribute = [&](const InputError& e, const SweepPoint& p) -> InputError {
     const std::string& path = e.json_path();
     const std::string& msg = e.message();
-    for (std::size_t k = 0; k < p.params.size(); ++k) {
-      const std::string& sp = sweep_pointers[k];
+    for (const SweepParam& q : p.params) {
+      const std::string& sp = sweep_pointers.at(q.path);
       if (path == sp || path.rfind(sp + "/", 0) == 0 || sp.rfind(path + "/", 0) == 0) {
-        const std::string where = "/sweep/" + escape_token(p.params[k].path);
+        const std::string where = "/sweep/" + escape_token(q.key);
         if (msg.rfind("unknown key", 0) == 0)
           return InputError(file, where, "this path does not exist in a scenario: " + msg);
-        return InputError(file, where + "/" + std::to_string(p.params[k].value_index),
-                          msg + (path == sp ? "" : " (at " + path + ")"));
+        std::string at = where + "/" + std::to_string(q.value_index);
+        if (q.key != q.path) at += "/" + std::to_string(q.component);
+        return InputError(file, at, msg + (path == sp ? "" : " (at " + path + ")"));
       }
     }
     json unswept = out.expanded;
@@ -312,6 +330,10 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
       throw attribute(e, p);
     }
   }
+
+  for (const auto& key : out.sweep_keys)
+    for (const auto& path : split_sweep_key(key))
+      out.sweep_paths.push_back(path);
 
   // The controller may share a core with an application node (2-CPU machines): allowed, said.
   std::set<std::string> said;

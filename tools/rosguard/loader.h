@@ -36,7 +36,8 @@ struct LoadedScenario {
   std::string file;
   nlohmann::json given;     // as written
   nlohmann::json expanded;  // defaults applied, sweep still in place
-  std::vector<std::string> sweep_keys;
+  std::vector<std::string> sweep_keys;   // as written (a key may join paths with '+')
+  std::vector<std::string> sweep_paths;  // every swept path, in key order
   std::vector<LoadedPoint> points;
   std::vector<std::string> warnings;  // e.g. the controller shares a core with a node
 };

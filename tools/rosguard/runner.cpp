@@ -588,8 +588,8 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     max_rt = std::max(max_rt, p.scenario.nodes.rt.size());
     max_nrt = std::max(max_nrt, p.scenario.nodes.nrt.size());
   }
-  const std::string header_line = join(points_header(max_rt, max_nrt, loaded.sweep_keys), ",");
-  const std::vector<std::string> header = points_header(max_rt, max_nrt, loaded.sweep_keys);
+  const std::vector<std::string> header = points_header(max_rt, max_nrt, loaded.sweep_paths);
+  const std::string header_line = join(header, ",");
   std::map<std::string, std::size_t> order;
   for (const auto& p : loaded.points)
     order.emplace(p.sweep.id, p.sweep.index);

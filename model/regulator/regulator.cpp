@@ -131,13 +131,11 @@ void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValu
   advance(t, out);
 
   if (ent.has_baseline) {
-    double bytes = metric_.delta_bytes(ent.last, counters);
+    // Usage counts in the window the sample arrives in, as the paper's controller accumulates
+    // it: the first sample of a window may carry traffic from the end of the previous one.
+    const double bytes = metric_.delta_bytes(ent.last, counters);
     ent.view.bytes_active += bytes;
     Account& acc = accounts_[ent.view.account];
-    // Usage is spread evenly over the time the sample covers; only the part after the window
-    // opened counts against this window.
-    if (ent.last_t < acc.window_start && t > ent.last_t)
-      bytes *= static_cast<double>(t - acc.window_start) / static_cast<double>(t - ent.last_t);
     acc.used_bytes += bytes;
     if (!acc.throttled && policy_->over_budget(acc)) {
       acc.throttled = true;
@@ -146,7 +144,6 @@ void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValu
     }
   }
   std::copy(counters.begin(), counters.end(), ent.last.begin());
-  ent.last_t = t;
   ent.has_baseline = true;
 }
 

@@ -11,7 +11,8 @@
 // - The first sample of an entity after an activation starts is its baseline (no usage); the
 //   host takes it as soon as the entity is switched ON. Later samples are cumulative readings of
 //   the same counter group; their increase is the entity's usage.
-// - Boundaries are processed before any input at or after them, so the order in which the host
+// - A sample's usage counts in the window it arrives in (no pro-rating across a boundary).
+//   Boundaries are processed before any input at or after them, so the order in which the host
 //   calls tick() and sample() for the same t does not matter.
 #pragma once
 
@@ -83,7 +84,6 @@ class Regulator {
   struct Entity {
     EntityView view;
     bool has_baseline = false;
-    TimeNs last_t = 0;
     std::vector<CounterValue> last;
   };
 

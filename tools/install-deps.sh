@@ -34,5 +34,6 @@ else
   exit 1
 fi
 export DEBIAN_FRONTEND=noninteractive
-"${sudo[@]}" apt-get update
+# ROSGUARD_APT_UPDATED: the caller (e.g. .ci/run) has just updated the package lists.
+[[ -n "${ROSGUARD_APT_UPDATED:-}" ]] || "${sudo[@]}" apt-get update
 "${sudo[@]}" apt-get install -y --no-install-recommends "${missing[@]}"

@@ -1,5 +1,8 @@
 // Interval policy: the ROSGuard default. The budget of each regulation period is the threshold
 // scaled to the period; it is replenished at every period boundary.
+#include <stdexcept>
+#include <string>
+
 #include "metric/metric.h"
 #include "policy/policy.h"
 
@@ -30,6 +33,10 @@ class IntervalPolicy : public Policy {
 }  // namespace
 
 std::unique_ptr<Policy> make_interval_policy(const PolicyParams& params) {
+  // A window that ends where it starts would never let the regulator's catch-up loop finish.
+  if (params.regulation_period_ns <= 0)
+    throw std::invalid_argument("interval policy: the regulation period must be positive, not " +
+                                std::to_string(params.regulation_period_ns) + " ns");
   return std::make_unique<IntervalPolicy>(params);
 }
 

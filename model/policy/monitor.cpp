@@ -1,6 +1,9 @@
 // Monitor policy: entities are switched ON (so self-sampling runs and costs what it costs) and
 // usage is accounted per regulation period, but nothing is ever throttled. Used to measure the
 // sampling overhead (experiment 2 of the paper).
+#include <stdexcept>
+#include <string>
+
 #include "metric/metric.h"
 #include "policy/policy.h"
 
@@ -31,6 +34,10 @@ class MonitorPolicy : public Policy {
 }  // namespace
 
 std::unique_ptr<Policy> make_monitor_policy(const PolicyParams& params) {
+  // A window that ends where it starts would never let the regulator's catch-up loop finish.
+  if (params.regulation_period_ns <= 0)
+    throw std::invalid_argument("monitor policy: the regulation period must be positive, not " +
+                                std::to_string(params.regulation_period_ns) + " ns");
   return std::make_unique<MonitorPolicy>(params);
 }
 

@@ -1,6 +1,9 @@
 // Monolithic policy: one budget for the whole RT execution window (the threshold times the
 // reference bandwidth times the RT node's isolation time). Once exceeded, the entity stays
 // throttled until the last RT node finishes (OFF).
+#include <stdexcept>
+#include <string>
+
 #include "metric/metric.h"
 #include "policy/policy.h"
 
@@ -29,6 +32,11 @@ class MonolithicPolicy : public Policy {
 }  // namespace
 
 std::unique_ptr<Policy> make_monolithic_policy(const PolicyParams& params) {
+  // The window is the RT node's isolation time; without it the budget would be zero.
+  if (params.monolithic_window_ns <= 0)
+    throw std::invalid_argument(
+        "monolithic policy: the RT execution window must be positive, not " +
+        std::to_string(params.monolithic_window_ns) + " ns");
   return std::make_unique<MonolithicPolicy>(params);
 }
 

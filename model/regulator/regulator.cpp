@@ -62,9 +62,9 @@ void Regulator::send(TimeNs t, std::size_t entity, Command c, Commands& out) {
 }
 
 void Regulator::rt_started(TimeNs t, std::size_t rt, Commands& out) {
-  check_time(t);
   if (rt >= rt_running_.size()) throw std::out_of_range("no RT node " + std::to_string(rt));
   if (rt_running_[rt]) throw std::logic_error("RT node " + std::to_string(rt) + " started twice");
+  check_time(t);
   advance(t, out);
   rt_running_[rt] = true;
   if (++running_rt_ > 1 || !policy_->regulates()) return;
@@ -81,12 +81,13 @@ void Regulator::rt_started(TimeNs t, std::size_t rt, Commands& out) {
 }
 
 void Regulator::rt_finished(TimeNs t, std::size_t rt, Commands& out) {
-  check_time(t);
   if (rt >= rt_running_.size()) throw std::out_of_range("no RT node " + std::to_string(rt));
   if (!rt_running_[rt]) throw std::logic_error("RT node " + std::to_string(rt) + " not running");
-  advance(t, out);
+  check_time(t);
   rt_running_[rt] = false;
-  if (--running_rt_ > 0 || !policy_->regulates()) return;
+  // The last finish ends the activation: OFF alone, no REPLENISH of a boundary at the same t.
+  if (--running_rt_ > 0) advance(t, out);
+  if (running_rt_ > 0 || !policy_->regulates()) return;
 
   next_boundary_.reset();
   for (std::size_t e = 0; e < entities_.size(); ++e)
@@ -122,11 +123,11 @@ void Regulator::advance(TimeNs t, Commands& out) {
 
 void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValue> counters,
                        Commands& out) {
-  check_time(t);
   Entity& ent = entities_.at(entity);
   if (counters.size() != ent.last.size())
     throw std::invalid_argument("sample has " + std::to_string(counters.size()) +
                                 " counters, the metric has " + std::to_string(ent.last.size()));
+  check_time(t);
   if (!active() || !policy_->regulates()) return;
   advance(t, out);
 

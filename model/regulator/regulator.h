@@ -3,7 +3,7 @@
 // Contract:
 // - The host (a SystemC process, or the controller thread of the hw backend) calls every method
 //   from one thread, with non-decreasing timestamps `t` (integer ns). The regulator never reads
-//   a clock or a counter itself.
+//   a clock or a counter itself. A call rejected for its arguments changes nothing.
 // - Commands are appended to the caller's `out` vector (never cleared here); reusing one vector
 //   keeps sample() free of allocation.
 // - Entities are the regulated nRT nodes, numbered 0..n-1. Each maps to a budget account (the

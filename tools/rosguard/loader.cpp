@@ -59,8 +59,9 @@ std::vector<CatalogEntry> catalogue(const fs::path& dir, const char* kind) {
         const auto& r = doc["reference"];
         std::ostringstream os;
         os << doc.value("suite", "") << (doc.contains("suite") ? "; " : "");
-        if (r.contains("ipc")) os << "IPC " << r["ipc"].get<double>() << ", ";
-        if (r.contains("mbps")) os << r["mbps"].get<double>() << " MB/s in isolation";
+        // dump() prints the figures as written (an ostream would round 26271.74 to 26271.7).
+        if (r.contains("ipc")) os << "IPC " << r["ipc"].dump() << ", ";
+        if (r.contains("mbps")) os << r["mbps"].dump() << " MB/s in isolation";
         summary = os.str() + (summary.empty() ? "" : " - " + summary);
       }
       c.summary = summary;
@@ -303,7 +304,10 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
       const std::string& sp = sweep_pointers.at(q.path);
       if (path == sp || path.rfind(sp + "/", 0) == 0 || sp.rfind(path + "/", 0) == 0) {
         const std::string where = "/sweep/" + escape_token(q.key);
-        if (msg.rfind("unknown key", 0) == 0)
+        // An unknown key on the sweep path means the path is wrong; one inside the swept value
+        // (an object) is that value's fault.
+        const bool inside_value = path.rfind(sp + "/", 0) == 0;
+        if (msg.rfind("unknown key", 0) == 0 && !inside_value)
           return InputError(file, where, "this path does not exist in a scenario: " + msg);
         std::string at = where + "/" + std::to_string(q.value_index);
         if (q.key != q.path) at += "/" + std::to_string(q.component);

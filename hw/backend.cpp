@@ -164,6 +164,50 @@ void emit_trace(TraceSink* sink, const TraceLog& log, const char* default_track)
   }
 }
 
+// Idle spinners on the scenario's cores other than `busy` (RAII: stopped and joined on every
+// path). They sit at the NCT priority and only execute pause instructions.
+class IdleCores {
+ public:
+  IdleCores(const Scenario& s, int busy, SchedClass sched) {
+    std::set<int> cores{s.nodes.controller_core};
+    for (const auto& n : s.nodes.rt)
+      cores.insert(n.core);
+    for (const auto& n : s.nodes.nrt)
+      cores.insert(n.core);
+    cores.erase(busy);
+    for (int c : cores)
+      threads_.push_back(std::make_unique<RtThread>(
+          ThreadSpec{"idle" + std::to_string(c), c, sched, prio::kNct}, [this] {
+            while (!stop_.load(std::memory_order_relaxed))
+              cpu_pause();
+          }));
+  }
+  ~IdleCores() {
+    stop_.store(true);
+    for (auto& t : threads_)
+      t->join();
+  }
+  IdleCores(const IdleCores&) = delete;
+  IdleCores& operator=(const IdleCores&) = delete;
+  std::vector<SchedOutcome> outcomes() const {
+    std::vector<SchedOutcome> out;
+    for (const auto& t : threads_)
+      out.push_back(t->outcome());
+    return out;
+  }
+
+ private:
+  static void cpu_pause() {
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#elif defined(__aarch64__)
+    asm volatile("yield" ::: "memory");
+#endif
+  }
+  std::atomic<bool> stop_{false};
+  std::vector<std::unique_ptr<RtThread>> threads_;
+};
+
 class HwBackend : public Backend {
  public:
   explicit HwBackend(HwOptions options) : options_(options) { register_builtin(sources_); }
@@ -211,6 +255,9 @@ class HwBackend : public Backend {
                             RunContext& ctx) override {
     const MetricPlan plan = plan_metric(s, sources_);
     ctx.fact("pmc_source", plan.source);
+    ctx.fact("isolation",
+             "each workload alone on its core, unregulated, repetitions times (median); the "
+             "scenario's other cores held by idle spinner threads meanwhile");
     std::vector<double> times, mbps, ipcs;
     for (int rep = 0; rep < s.repetitions; ++rep) {
       if (ctx.stop_requested()) throw Interrupted();
@@ -247,6 +294,12 @@ IsolationResult HwBackend::run_alone(const Scenario& s, const MetricPlan& plan,
   std::unique_ptr<BuiltinWorkload> builtin;
   if (!w.is_command()) builtin = make_builtin_workload(w);
   Fd stop_fd(::eventfd(0, EFD_CLOEXEC));
+
+  // The other cores of the scenario are held by idle spinners (no memory traffic) while the
+  // workload runs alone, as they are held by the nodes' threads in a co-run: on a shared machine
+  // other processes would otherwise run there and interfere with the isolation figure only.
+  IdleCores idle(s, core, sched_of(s));
+  report_sched(idle.outcomes(), ctx);
 
   const ThreadSpec spec{"isolation", core, sched_of(s), prio::kNct};
   RtThread thread(

@@ -625,6 +625,8 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
       out.samples.push_back({"activation_delay", v});
     for (double v : n.pmc_callbacks_us())
       out.samples.push_back({"pmc_callback", v});
+    for (double v : n.pmc_reads_us())
+      out.samples.push_back({"pmc_read", v});
     for (double v : n.sampling_overheads_us())
       out.samples.push_back({"sampling_overhead", v});
     for (const TraceLog* t : n.traces())
@@ -632,8 +634,11 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
     if (n.watchdog_fired())
       ctx.fact("watchdog_fired", n.config().name + ": " + std::to_string(n.watchdog_fired()));
   }
-  for (double v : controller.external_reads_us())
+  // External sampling: the controller's read of an nRT group is the sampling callback.
+  for (double v : controller.external_reads_us()) {
     out.samples.push_back({"pmc_callback", v});
+    out.samples.push_back({"pmc_read", v});
+  }
   emit_trace(ctx.trace(), controller.trace(), "controller");
   return out;
 }

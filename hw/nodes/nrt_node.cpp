@@ -82,6 +82,7 @@ NrtRunner::NrtRunner(NrtConfig config, const WorkloadInfo& workload, const PmcSo
   sample_pub_ = samples_.add_publisher();
   activation_us_.reserve(1 << 14);
   pmc_us_.reserve(1 << 16);
+  read_us_.reserve(1 << 16);
   overhead_us_.reserve(1 << 16);
 }
 
@@ -236,15 +237,26 @@ void NrtRunner::take_sample(bool periodic, TimeNs& cpu_mark) {
   std::array<CounterValue, kMaxGroupEvents> all{};
   const TimeNs t0 = now_ns();
   group_->read(std::span(all.data(), cfg_.group_events.size()));
+  const TimeNs t_read = now_ns();
   std::copy_n(all.begin(), cfg_.metric_events, msg.counters.begin());
   msg.t_published = now_ns();
   samples_.publish(sample_pub_, msg);
   const TimeNs t1 = now_ns();
   pmc_us_.push_back(ns_to_us(t1 - t0));
+  read_us_.push_back(ns_to_us(t_read - t0));
   pmc_trace_.span(t0 - origin_, t1 - origin_, cfg_.core, &track_state_, "PMC");
-  const TimeNs cpu = thread_cpu_ns();
-  if (periodic && cpu_mark > 0) overhead_us_.push_back(ns_to_us(cpu - cpu_mark));
-  cpu_mark = cpu;
+  // Sampling overhead: the PMC thread's CPU time (wake-up, read, publish, going back to sleep)
+  // per sampling period, averaged over kOverheadPeriods periods so that reading the thread
+  // clock (a system call) costs little itself.
+  if (!periodic) {
+    cpu_mark = thread_cpu_ns();
+    overhead_periods_ = 0;
+  } else if (++overhead_periods_ == kOverheadPeriods) {
+    const TimeNs cpu = thread_cpu_ns();
+    overhead_us_.push_back(ns_to_us(cpu - cpu_mark) / kOverheadPeriods);
+    cpu_mark = cpu;
+    overhead_periods_ = 0;
+  }
 }
 
 // PMC (self-sampling): a baseline sample at every ON, then one per sampling period while ON.
@@ -254,7 +266,6 @@ void NrtRunner::pmc_main() {
   while (!stop_.load(std::memory_order_acquire)) {
     const auto epoch = pmc_waker_.epoch();
     if (sample_now_.exchange(false, std::memory_order_acq_rel)) {
-      cpu_mark = 0;
       take_sample(false, cpu_mark);
       next = now_ns() + cfg_.sampling_period_ns;
       continue;
@@ -270,8 +281,10 @@ void NrtRunner::pmc_main() {
       pmc_waker_.wait(epoch, next);
       continue;
     }
-    cpu_mark = 0;  // a period spent throttled or off is not sampling overhead
+    overhead_periods_ = 0;  // a period spent throttled or off is not sampling overhead
+    cpu_mark = thread_cpu_ns();
     pmc_waker_.wait(epoch, -1);
+    cpu_mark = thread_cpu_ns();
   }
 }
 

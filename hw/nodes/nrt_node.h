@@ -100,7 +100,9 @@ class NrtRunner {
   double once_time_us() const { return once_time_us_; }
   double once_fraction() const { return once_fraction_; }
   const std::vector<double>& activation_delays_us() const { return activation_us_; }
+  // PMC callback: group read + publish; pmc read: the group read alone.
   const std::vector<double>& pmc_callbacks_us() const { return pmc_us_; }
+  const std::vector<double>& pmc_reads_us() const { return read_us_; }
   const std::vector<double>& sampling_overheads_us() const { return overhead_us_; }
   std::vector<const TraceLog*> traces() const { return {&cfb_trace_, &thr_trace_, &pmc_trace_}; }
   const std::string& error() const { return command_error_; }
@@ -147,7 +149,9 @@ class NrtRunner {
   std::uint64_t watchdog_fired_ = 0;
   double once_time_us_ = 0.0;
   double once_fraction_ = 0.0;
-  std::vector<double> activation_us_, pmc_us_, overhead_us_;
+  static constexpr int kOverheadPeriods = 10;
+  int overhead_periods_ = 0;  // PMC thread only
+  std::vector<double> activation_us_, pmc_us_, read_us_, overhead_us_;
   std::string command_error_;
   TraceLog cfb_trace_, thr_trace_, pmc_trace_;
 

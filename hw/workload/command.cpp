@@ -44,8 +44,6 @@ CommandProcess::CommandProcess(const std::vector<std::string>& argv, const Threa
   cpu_set_t set;
   CPU_ZERO(&set);
   if (spec.core >= 0) CPU_SET(spec.core, &set);
-  sched_param sp{};
-  sp.sched_priority = spec.priority;
   const int nice = prio::nice_for(spec.priority);
 
   const pid_t pid = ::fork();
@@ -66,13 +64,12 @@ CommandProcess::CommandProcess(const std::vector<std::string>& argv, const Threa
     ::signal(SIGINT, SIG_DFL);
     ::signal(SIGTERM, SIG_DFL);
     if (spec.core >= 0) ::sched_setaffinity(0, sizeof set, &set);
-    if (spec.sched == SchedClass::Fifo) {
-      if (::sched_setscheduler(0, SCHED_FIFO, &sp) != 0) ::setpriority(PRIO_PROCESS, 0, nice);
-    } else {
-      ::sched_param zero{};
-      ::sched_setscheduler(0, SCHED_OTHER, &zero);
-      ::setpriority(PRIO_PROCESS, 0, nice);
-    }
+    // Never SCHED_FIFO: a program may fork workers that could outlive a killed rosguard, and
+    // none of them may be left spinning under a real-time policy. SCHED_OTHER is below every
+    // SCHED_FIFO thread of the node, so the THR callback still preempts the whole program.
+    ::sched_param zero{};
+    ::sched_setscheduler(0, SCHED_OTHER, &zero);
+    ::setpriority(PRIO_PROCESS, 0, nice);
     const int devnull = ::open("/dev/null", O_RDWR);
     if (devnull >= 0) {
       ::dup2(devnull, 0);

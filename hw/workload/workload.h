@@ -49,8 +49,10 @@ ProxyCalibration calibrate_proxy(double target_mbps, std::uint32_t working_set_k
 
 class CommandProcess {
  public:
-  // Forks a child in its own process group, pinned to spec.core under spec's scheduling (the
-  // NCT priority: below THR, so the throttle preempts it). The child waits for start().
+  // Forks a child in its own process group (killed with rosguard: parent-death signal), pinned
+  // to spec.core, under SCHED_OTHER with the nice value of spec.priority whatever spec.sched
+  // says: below every SCHED_FIFO callback of the node, so THR preempts it, and nothing it forks
+  // can outlive rosguard as a real-time spinner. The child waits for start().
   CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec);
   ~CommandProcess();
   CommandProcess(const CommandProcess&) = delete;

@@ -102,21 +102,31 @@ class ErrorBox {
   std::atomic<bool> failed_{false};
 };
 
+// One stable message per kind of refusal (the runner keeps each distinct fallback once).
 void report_sched(const std::vector<SchedOutcome>& outcomes, RunContext& ctx) {
-  std::size_t no_fifo = 0, no_pin = 0;
-  std::string fifo_detail, pin_detail;
+  std::set<std::string> fifo, nice, pin;
   for (const auto& o : outcomes) {
-    if (!o.fifo && no_fifo++ == 0) fifo_detail = o.detail;
-    if (!o.pinned && no_pin++ == 0) pin_detail = o.detail;
+    if (!o.fifo) fifo.insert(o.fifo_error);
+    if (!o.nice_error.empty()) nice.insert(o.nice_error);
+    if (!o.pinned) pin.insert(o.pin_error);
   }
-  if (no_fifo)
-    ctx.fallback("sched_fifo", std::to_string(no_fifo) +
-                                   " thread(s) could not get SCHED_FIFO; throttling and "
-                                   "priorities are approximate (first: " +
-                                   fifo_detail + ")");
-  if (no_pin)
-    ctx.fallback("affinity", std::to_string(no_pin) +
-                                 " thread(s) could not be pinned (first: " + pin_detail + ")");
+  const auto join = [](const std::set<std::string>& v) {
+    std::string s;
+    for (const auto& x : v)
+      s += (s.empty() ? "" : ", ") + x;
+    return s;
+  };
+  if (!fifo.empty())
+    ctx.fallback("sched_fifo",
+                 "SCHED_FIFO refused (" + join(fifo) +
+                     "): the node threads run under SCHED_OTHER with nice values in the same "
+                     "priority order; the throttle and the callback priorities are approximate" +
+                     (nice.empty() ? std::string()
+                                   : "; raising priorities with nice was refused too (" +
+                                         join(nice) + "), so they share the CPU at nice 0"));
+  if (!pin.empty())
+    ctx.fallback("affinity",
+                 "a thread could not be pinned to its core (" + join(pin) + "): it runs unpinned");
 }
 
 void report_shared_core(const Scenario& s, RunContext& ctx) {

@@ -42,6 +42,7 @@ SchedOutcome apply_to_current_thread(const ThreadSpec& spec, const SchedOps& ops
     CPU_SET(spec.core, &set);
     if (const int err = ops.set_affinity(self, sizeof set, &set); err != 0) {
       out.pinned = false;
+      out.pin_error = errno_text(err);
       out.detail = "thread " + spec.name + ": cannot pin to core " + std::to_string(spec.core) +
                    " (" + errno_text(err) + "); it runs unpinned";
     }
@@ -52,15 +53,20 @@ SchedOutcome apply_to_current_thread(const ThreadSpec& spec, const SchedOps& ops
     const int err = ops.set_nice(current_tid(), nice);
     std::string d = "thread " + spec.name + ": " + why + "; runs under SCHED_OTHER with nice " +
                     std::to_string(nice);
-    if (err != 0) d += " (setting the nice value failed too: " + errno_text(err) + ")";
+    if (err != 0) {
+      out.nice_error = errno_text(err);
+      d += " (setting the nice value failed too: " + out.nice_error + ")";
+    }
     out.detail += (out.detail.empty() ? "" : "; ") + d;
   };
   if (spec.sched == SchedClass::Fifo) {
     sched_param p{};
     p.sched_priority = spec.priority;
-    if (const int err = ops.set_scheduler(self, SCHED_FIFO, &p); err != 0)
+    if (const int err = ops.set_scheduler(self, SCHED_FIFO, &p); err != 0) {
+      out.fifo_error = errno_text(err);
       fall_back_to_nice("SCHED_FIFO priority " + std::to_string(spec.priority) + " refused (" +
                         errno_text(err) + ")");
+    }
   } else {
     out.fifo = true;  // not requested: nothing to report
     ops.set_nice(current_tid(), prio::nice_for(spec.priority));

@@ -59,7 +59,8 @@ const SchedOps& system_sched_ops();
 struct SchedOutcome {
   bool pinned = true;  // on the requested core (or none requested)
   bool fifo = true;    // under SCHED_FIFO (or not requested)
-  std::string detail;  // why a fallback was taken; empty when none
+  std::string detail;  // why a fallback was taken, naming the thread; empty when none
+  std::string fifo_error, nice_error, pin_error;  // errno texts of what was refused
 };
 
 // Applies `spec` to the calling thread. Never throws: failures become fallbacks.

@@ -92,3 +92,41 @@ TEST_CASE("SIGINT mid-run: exit 130, only complete rows, nothing left under SCHE
   fs::remove_all(out);
   fs::remove(err);
 }
+
+TEST_CASE("as an unprivileged user the run falls back from SCHED_FIFO, and says so",
+          "[hw][executor][fallback]") {
+  if (::geteuid() != 0 || ::access("/usr/bin/setpriv", X_OK) != 0) {
+    WARN("SKIPPED: needs root and setpriv to run rosguard as the user nobody");
+    return;
+  }
+  const fs::path dir =
+      fs::temp_directory_path() / ("rosguard-nobody-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  fs::permissions(dir, fs::perms::all);
+  const fs::path err = dir / "stderr";
+  const std::string scenario =
+      std::string(ROSGUARD_TEST_SOURCE_DIR) + "/tests/hw/scenarios/watchdog.json";
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0666);
+    ::dup2(fd, 2);
+    ::setenv("ROSGUARD_HOME", ROSGUARD_TEST_SOURCE_DIR, 1);
+    ::execl("/usr/bin/setpriv", "setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
+            ROSGUARD_BINARY, "run", scenario.c_str(), "--backend", "hw", "--out",
+            (dir / "out").c_str(), "--quiet", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  const std::string text = slurp(err);
+  INFO(text);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  CHECK_THAT(text, Catch::Contains("warning: fallback (sched_fifo): SCHED_FIFO refused (EPERM"));
+  const std::string manifest = slurp(dir / "out" / "manifest.json");
+  CHECK_THAT(manifest, Catch::Contains("\"what\": \"sched_fifo\""));
+  CHECK(lines_of(slurp(dir / "out" / "points.csv")).size() == 2);
+  fs::remove_all(dir);
+}

@@ -145,15 +145,30 @@ void report_shared_core(const Scenario& s, RunContext& ctx) {
                        " usable CPUs): it preempts the node's throttle when it runs");
 }
 
-// The safety net after every task: no thread of this process may remain under a real-time
-// policy (the nodes' threads have all been joined by now).
-void check_no_realtime_threads() {
-  const auto rt = realtime_threads();
-  if (rt.empty()) return;
+// The safety net after every task: no thread that the task started may remain under a
+// real-time policy (they have all been joined by now). Threads that were real-time before the
+// task (e.g. rosguard itself started with chrt) are not the task's.
+std::set<pid_t> realtime_tids() {
+  std::set<pid_t> out;
+  for (const auto& t : realtime_threads())
+    out.insert(t.tid);
+  return out;
+}
+
+std::size_t left_realtime(const std::set<pid_t>& before) {
+  std::size_t n = 0;
+  for (const auto& t : realtime_threads())
+    n += before.count(t.tid) ? 0 : 1;
+  return n;
+}
+
+void check_no_realtime_threads(const std::set<pid_t>& before) {
   std::string names;
-  for (const auto& t : rt)
-    names += (names.empty() ? "" : ", ") + t.name + " (" + std::to_string(t.tid) + ")";
-  throw RunError("after the point, thread(s) still under a real-time policy: " + names);
+  for (const auto& t : realtime_threads())
+    if (!before.count(t.tid))
+      names += (names.empty() ? "" : ", ") + t.name + " (" + std::to_string(t.tid) + ")";
+  if (!names.empty())
+    throw RunError("after the point, thread(s) still under a real-time policy: " + names);
 }
 
 void emit_trace(TraceSink* sink, const TraceLog& log, const char* default_track) {
@@ -268,6 +283,7 @@ class HwBackend : public Backend {
     ctx.fact("isolation",
              "each workload alone on its core, unregulated, repetitions times (median); the "
              "scenario's other cores held by idle spinner threads meanwhile");
+    const auto rt_before = realtime_tids();
     std::vector<double> times, mbps, ipcs;
     for (int rep = 0; rep < s.repetitions; ++rep) {
       if (ctx.stop_requested()) throw Interrupted();
@@ -276,7 +292,7 @@ class HwBackend : public Backend {
       mbps.push_back(r.mbps);
       ipcs.push_back(r.ipc);
     }
-    check_no_realtime_threads();
+    check_no_realtime_threads(rt_before);
     return {median_of(times), median_of(ipcs), median_of(mbps)};
   }
 
@@ -393,6 +409,7 @@ IsolationResult HwBackend::run_alone(const Scenario& s, const MetricPlan& plan,
 PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines, int, std::uint64_t,
                                   RunContext& ctx) {
   if (ctx.stop_requested()) throw Interrupted();
+  const auto rt_before = realtime_tids();
   const MetricPlan plan = plan_metric(s, sources_);
   ctx.fact("pmc_source", plan.source);
   ctx.fact("pmc_source_choice", plan.why);
@@ -578,14 +595,13 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
         stopping, 2 * s.hw.watchdog_ms * kNsPerMs + 500 * kNsPerMs);
   }
   teardown();
-  check_no_realtime_threads();
-
   if (ctx.stop_requested()) {
     std::cerr << "hw: interrupted; " << nrts.size()
               << " nRT node(s) returned to nominal, every node thread joined, "
-              << realtime_threads().size() << " thread(s) left under SCHED_FIFO\n";
+              << left_realtime(rt_before) << " thread(s) left under SCHED_FIFO\n";
     throw Interrupted();
   }
+  check_no_realtime_threads(rt_before);
   if (errors.failed()) throw RunError(errors.message());
   for (auto& c : controls)
     if (c->dropped()) throw RunError("a control topic dropped a command");

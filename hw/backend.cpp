@@ -471,13 +471,25 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   rc.metric = plan.spec;
   auto regulator = std::make_unique<Regulator>(rc, policies.make(r.policy, params));
 
-  // Window snapshots, taken on the controller thread at activation start and end.
+  // Regulation windows (activation start -> end), measured on the controller thread: counters,
+  // work and completed runs are snapshotted at both ends and their increases summed over every
+  // activation, so gaps between RT jobs (regulation off) do not count.
+  const Metric metric(plan.spec);
   struct Snapshot {
     TimeNs t = -1;
     std::vector<std::array<CounterValue, kMaxGroupEvents>> values;
     std::vector<std::uint64_t> units, completed;
   };
-  Snapshot w0, w1;
+  struct Active {
+    TimeNs ns = 0;
+    int windows = 0;
+    std::vector<double> bytes, units, completed;
+  };
+  Snapshot open, close;
+  Active active;
+  active.bytes.assign(n_nrt, 0.0);
+  active.units.assign(n_nrt, 0.0);
+  active.completed.assign(n_nrt, 0.0);
   const auto snapshot = [&](Snapshot& snap, TimeNs t) {
     snap.values.assign(n_nrt, {});
     snap.units.assign(n_nrt, 0);
@@ -490,8 +502,21 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
     snap.t = t;
   };
   const auto on_window = [&](bool start, TimeNs t) {
-    if (start && w0.t < 0) snapshot(w0, t);
-    if (!start) snapshot(w1, t);
+    if (start) {
+      snapshot(open, t);
+      return;
+    }
+    if (open.t < 0) return;
+    snapshot(close, t);
+    for (std::size_t i = 0; i < n_nrt; ++i) {
+      active.bytes[i] += metric.delta_bytes(std::span(open.values[i].data(), plan.metric_events),
+                                            std::span(close.values[i].data(), plan.metric_events));
+      active.units[i] += static_cast<double>(close.units[i] - open.units[i]);
+      active.completed[i] += static_cast<double>(close.completed[i] - open.completed[i]);
+    }
+    active.ns += t - open.t;
+    ++active.windows;
+    open.t = -1;
   };
 
   ControllerConfig cc;
@@ -619,9 +644,8 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
     out.rt.push_back(o);
     emit_trace(ctx.trace(), x->trace(), "rt");
   }
-  const Metric metric(plan.spec);
-  const bool window = w0.t >= 0 && w1.t > w0.t;
-  const double window_us = window ? ns_to_us(w1.t - w0.t) : kNaN;
+  const bool window = active.windows > 0 && active.ns > 0;
+  const double window_us = window ? ns_to_us(active.ns) : kNaN;
   for (std::size_t i = 0; i < n_nrt; ++i) {
     NrtRunner& n = *nrts[i];
     NrtOutcome o;
@@ -629,21 +653,12 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
     if (n.config().mode == NrtMode::Once) {
       o.time_us = n.once_done() ? n.once_time_us() : kNaN;
       o.runs = n.once_fraction();
-    } else if (window && n.builtin()) {
-      o.runs =
-          static_cast<double>(w1.units[i] - w0.units[i]) / static_cast<double>(n.units_per_run());
-      o.time_us = o.runs > 0 ? window_us / o.runs : kNaN;
     } else if (window) {
-      o.runs = static_cast<double>(w1.completed[i] - w0.completed[i]);
+      o.runs = n.builtin() ? active.units[i] / static_cast<double>(n.units_per_run())
+                           : active.completed[i];
       o.time_us = o.runs > 0 ? window_us / o.runs : kNaN;
     }
-    if (window) {
-      const double bytes = metric.delta_bytes(std::span(w0.values[i].data(), plan.metric_events),
-                                              std::span(w1.values[i].data(), plan.metric_events));
-      o.bandwidth_mbps = bytes / kBytesPerMb / (window_us / 1e6);
-    } else {
-      o.bandwidth_mbps = kNaN;
-    }
+    o.bandwidth_mbps = window ? active.bytes[i] / kBytesPerMb / (window_us / 1e6) : kNaN;
     o.throttle_count = n.throttles();
     o.throttled_us = ns_to_us(n.throttled_ns());
     out.nrt.push_back(o);

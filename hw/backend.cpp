@@ -18,6 +18,7 @@
 #include <iostream>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <set>
 
 #include "core/error.h"
@@ -324,6 +325,8 @@ IsolationResult HwBackend::run_alone(const Scenario& s, const MetricPlan& plan,
   // The other cores of the scenario are held by idle spinners (no memory traffic) while the
   // workload runs alone, as they are held by the nodes' threads in a co-run: on a shared machine
   // other processes would otherwise run there and interfere with the isolation figure only.
+  std::optional<ScopedSched> engine_sched(std::in_place,
+                                          ThreadSpec{"", -1, sched_of(s), prio::kEngine});
   IdleCores idle(s, core, sched_of(s));
   report_sched(idle.outcomes(), ctx);
 
@@ -540,6 +543,10 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   Controller controller(cc, std::move(regulator), rt_topic, samples, control_ptrs, {}, on_window,
                         engine_waker, errors.handler(), origin);
 
+  // The engine's thread above every node thread while they run (restored before the safety
+  // check below; declared before the teardown so that unwinding tears down at this priority): it
+  // must not wait for a time slice behind SCHED_FIFO threads on every core.
+  std::optional<ScopedSched> engine_sched(std::in_place, ThreadSpec{"", -1, sched, prio::kEngine});
   // Every exit path from here: nRT nodes to nominal first, then RT nodes, then the controller.
   struct Teardown {
     std::vector<std::unique_ptr<NrtRunner>>& nrts;
@@ -578,17 +585,24 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
     return true;
   };
   bool ok = true;
-  for (auto& n : nrts)
-    n->begin();
+  if (rts.empty()) {
+    // No RT node: regulation covers the whole run. The activation starts (ON, baselines) before
+    // the nRT nodes begin, so their runs lie entirely inside the regulation window.
+    rt_topic.publish(engine_pub, {0, true, now_ns()});
+    ok = wait_for(
+        engine_waker, [&] { return controller.windows_opened() > 0; }, stopping);
+  }
+  if (ok)
+    for (auto& n : nrts)
+      n->begin();
   const bool any_loop = std::any_of(
       nrts.begin(), nrts.end(), [](const auto& n) { return n->config().mode == NrtMode::Loop; });
-  if (!rts.empty() && any_loop)
+  if (ok && !rts.empty() && any_loop)
     ok = !wait_for(
              engine_waker, [] { return false; }, stopping, options_.warmup_ns) &&
          !stopping();
   if (ok) {
     if (rts.empty()) {
-      rt_topic.publish(engine_pub, {0, true, now_ns()});
       ok = wait_for(engine_waker, nrt_once_done, stopping);
       if (ok) rt_topic.publish(engine_pub, {0, false, now_ns()});
     } else {
@@ -620,6 +634,7 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
         stopping, 2 * s.hw.watchdog_ms * kNsPerMs + 500 * kNsPerMs);
   }
   teardown();
+  engine_sched.reset();
   if (ctx.stop_requested()) {
     std::cerr << "hw: interrupted; " << nrts.size()
               << " nRT node(s) returned to nominal, every node thread joined, "

@@ -35,7 +35,7 @@ const SchedOps& system_sched_ops() {
 SchedOutcome apply_to_current_thread(const ThreadSpec& spec, const SchedOps& ops) {
   SchedOutcome out;
   const pthread_t self = ::pthread_self();
-  ::pthread_setname_np(self, spec.name.substr(0, 15).c_str());
+  if (!spec.name.empty()) ::pthread_setname_np(self, spec.name.substr(0, 15).c_str());
   if (spec.core >= 0) {
     cpu_set_t set;
     CPU_ZERO(&set);

@@ -31,6 +31,9 @@ enum class SchedClass { Fifo, Other };
 // is above everything so it may share a core on small machines; an RT node sits between THR and
 // PMC so the controller preempts it when they share a core.
 namespace prio {
+// The engine's own thread while a point runs: it mostly sleeps, but must not be starved when
+// every core runs SCHED_FIFO node threads (it starts activations, sees stop requests).
+inline constexpr int kEngine = 70;
 inline constexpr int kController = 60;
 inline constexpr int kCfb = 50;
 inline constexpr int kThr = 40;
@@ -43,7 +46,7 @@ int nice_for(int fifo_priority);
 }  // namespace prio
 
 struct ThreadSpec {
-  std::string name;  // at most 15 characters are kept (pthread_setname_np)
+  std::string name;  // at most 15 characters are kept (pthread_setname_np); empty: unchanged
   int core = -1;     // -1: not pinned
   SchedClass sched = SchedClass::Fifo;
   int priority = prio::kNct;  // SCHED_FIFO priority (nice_for() under SCHED_OTHER)

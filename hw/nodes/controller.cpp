@@ -123,6 +123,8 @@ void Controller::main() {
         if (on_window_) on_window_(true, t);
         send(out_, t);
         trace_.instant(t - origin_, cfg_.core, nullptr, "activation");
+        opened_.fetch_add(1, std::memory_order_acq_rel);
+        engine_waker_.notify();
         if (external && reg_->policy().regulates()) {
           external_round();  // the baselines, as soon as the entities are ON
           next_sample = now_ns() + cfg_.sampling_period_ns;

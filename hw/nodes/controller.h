@@ -62,6 +62,7 @@ class Controller {
   SchedOutcome outcome() const { return thread_ ? thread_->outcome() : SchedOutcome{}; }
   // Activations that have ended (OFF sent); the engine waits for it after the RT nodes finish.
   int windows_closed() const { return closed_.load(std::memory_order_acquire); }
+  int windows_opened() const { return opened_.load(std::memory_order_acquire); }
   bool failed_on_purpose() const { return faulted_.load(std::memory_order_acquire); }
   TimeNs fault_time() const { return fault_t_; }
   const std::vector<double>& external_reads_us() const { return reads_us_; }
@@ -90,6 +91,7 @@ class Controller {
   std::size_t rt_sub_ = 0, sample_sub_ = 0;
   std::atomic<bool> stop_{false};
   std::atomic<int> closed_{0};
+  std::atomic<int> opened_{0};
   std::atomic<bool> faulted_{false};
   TimeNs fault_t_ = 0;
   TimeNs last_t_ = 0;

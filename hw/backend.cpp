@@ -619,11 +619,16 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
           stopping);
     }
   }
-  if (ok)  // the controller's OFF, and the window's end snapshot
+  if (ok) {
+    // Every enable / disable signal processed: the last OFF sent, the last window measured.
+    int sent = rts.empty() ? 2 : 0;
+    for (auto& x : rts)
+      sent += x->published();
     wait_for(
         engine_waker,
-        [&] { return controller.windows_closed() > 0 || controller.failed_on_purpose(); }, stopping,
+        [&] { return controller.rt_events() >= sent || controller.failed_on_purpose(); }, stopping,
         s.hw.watchdog_ms * kNsPerMs + 500 * kNsPerMs);
+  }
   if (controller.failed_on_purpose()) {
     // The controller went silent: the nodes must come back on their own (watchdog).
     wait_for(

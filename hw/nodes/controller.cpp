@@ -139,6 +139,8 @@ void Controller::main() {
       } else {
         send(out_, t);
       }
+      rt_events_.fetch_add(1, std::memory_order_acq_rel);
+      engine_waker_.notify();
     }
     SampleMsg s;
     while (samples_.take(sample_sub_, s)) {

@@ -63,6 +63,8 @@ class Controller {
   // Activations that have ended (OFF sent); the engine waits for it after the RT nodes finish.
   int windows_closed() const { return closed_.load(std::memory_order_acquire); }
   int windows_opened() const { return opened_.load(std::memory_order_acquire); }
+  // Enable / disable signals processed so far (the engine waits for all it knows were sent).
+  int rt_events() const { return rt_events_.load(std::memory_order_acquire); }
   bool failed_on_purpose() const { return faulted_.load(std::memory_order_acquire); }
   TimeNs fault_time() const { return fault_t_; }
   const std::vector<double>& external_reads_us() const { return reads_us_; }
@@ -92,6 +94,7 @@ class Controller {
   std::atomic<bool> stop_{false};
   std::atomic<int> closed_{0};
   std::atomic<int> opened_{0};
+  std::atomic<int> rt_events_{0};
   std::atomic<bool> faulted_{false};
   TimeNs fault_t_ = 0;
   TimeNs last_t_ = 0;

@@ -81,6 +81,7 @@ void RtRunner::main() {
     }
     const TimeNs t0 = now_ns();
     topic_.publish(pub_, {index_, true, t0});
+    published_.fetch_add(1, std::memory_order_acq_rel);
     if (builtin_) {
       builtin_->run(stop_, work_);
     } else {
@@ -93,6 +94,7 @@ void RtRunner::main() {
     }
     const TimeNs t1 = now_ns();
     topic_.publish(pub_, {index_, false, t1});
+    published_.fetch_add(1, std::memory_order_acq_rel);
     if (stop_.load(std::memory_order_acquire)) break;  // an aborted job is not a measurement
     jobs_us_.push_back(ns_to_us(t1 - t0));
     trace_.span(t0 - origin_, t1 - origin_, spec_.core, &track_, "job");

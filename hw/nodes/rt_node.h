@@ -30,6 +30,8 @@ class RtRunner {
   void go();
   void shutdown();
   bool done() const { return done_.load(std::memory_order_acquire); }
+  // Enable / disable signals published so far.
+  int published() const { return published_.load(std::memory_order_acquire); }
 
   const RtNodeSpec& spec() const { return spec_; }
   SchedOutcome outcome() const { return thread_ ? thread_->outcome() : SchedOutcome{}; }
@@ -53,6 +55,7 @@ class RtRunner {
   Waker waker_;
   Fd stop_fd_;
   std::atomic<bool> go_{false}, stop_{false}, done_{false};
+  std::atomic<int> published_{0};
   std::vector<double> jobs_us_;
   TraceLog trace_;
   std::unique_ptr<RtThread> thread_;

@@ -12,6 +12,10 @@
 
 #include "core/error.h"
 
+#ifdef ROSGUARD_WITH_HW
+#include "hw/pmc_source/pmc_source.h"
+#endif
+
 namespace rosguard {
 namespace fs = std::filesystem;
 
@@ -75,9 +79,29 @@ int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
     for (const auto& b : backends.all())
       print(b.name, b.description);
     if (backends.all().empty()) std::cout << "  (none built)\n";
+  } else if (what == "pmc-sources") {
+    // The hw backend's counter sources, and whether each works on this host.
+#ifdef ROSGUARD_WITH_HW
+    hw::PmcSourceRegistry sources;
+    hw::register_builtin(sources);
+    std::cout << "pmc sources (hw backend; hw.pmc_source \"auto\" picks perf, else instrumented, "
+                 "else software):\n";
+    for (const auto& info : sources.all()) {
+      const auto src = info.make();
+      const auto why = src->unavailable_reason();
+      std::string events;
+      for (const auto& e : src->events())
+        events += (events.empty() ? "" : ", ") + e;
+      print(info.name, info.description);
+      print("", why ? "unavailable here: " + *why : "available here: " + events);
+    }
+#else
+    std::cout << "pmc sources: (the hw backend is not built into this rosguard)\n";
+#endif
   } else {
-    throw InputError(
-        "", "", "cannot list '" + what + "': choose workloads, platforms, policies or backends");
+    throw InputError("", "",
+                     "cannot list '" + what +
+                         "': choose workloads, platforms, policies, backends or pmc-sources");
   }
   return 0;
 }

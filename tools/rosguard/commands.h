@@ -16,7 +16,7 @@ namespace rosguard {
 int check_scenario(Loader& loader, const BackendRegistry& backends, const std::string& file,
                    const std::optional<std::string>& backend, bool list_points);
 
-// What is available: "workloads", "platforms", "policies" or "backends".
+// What is available: "workloads", "platforms", "policies", "backends" or "pmc-sources".
 int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
                    const BackendRegistry& backends, const std::string& what);
 

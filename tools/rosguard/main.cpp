@@ -81,10 +81,11 @@ int main(int argc, char** argv) {
   compare->add_option("--out", cmp_out, "Output folder (default: RESULTS_B/compare)");
 
   std::string list_what;
-  auto* list = app.add_subcommand("list", "List workloads, platforms, policies or backends.");
-  list->add_option("what", list_what, "workloads | platforms | policies | backends")
+  auto* list =
+      app.add_subcommand("list", "List workloads, platforms, policies, backends or pmc-sources.");
+  list->add_option("what", list_what, "workloads | platforms | policies | backends | pmc-sources")
       ->required()
-      ->check(CLI::IsMember({"workloads", "platforms", "policies", "backends"}));
+      ->check(CLI::IsMember({"workloads", "platforms", "policies", "backends", "pmc-sources"}));
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,48 @@
+// The hw backend: real threads, real counters, real throttling, measured.
+//
+// Contract (model/backend/backend.h): validate() rejects what this host cannot run with an
+// InputError naming the file and JSON path; isolation() runs a workload alone on its core
+// (repetitions times, median); run_point() wires the controller, RT and nRT nodes of one point,
+// runs it and measures it. Calls come one at a time from the runner's main thread
+// (process_per_task() is false). On every exit path (success, exception, failed node,
+// stop_requested()) every nRT node is returned to nominal, every thread joined and every
+// external command killed before the call returns; an interrupted task throws Interrupted.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "backend/backend.h"
+#include "hw/pmc_source/pmc_source.h"
+
+namespace rosguard::hw {
+
+struct HwOptions {
+  // Fault injection for tests: the controller stops answering this long after the first
+  // activation (negative: never).
+  TimeNs controller_fail_after_ns = -1;
+  // How long nRT loop workloads run before the RT nodes start.
+  TimeNs warmup_ns = 20 * kNsPerMs;
+};
+
+// How the regulation metric is measured on this host for a scenario.
+struct MetricPlan {
+  std::string source;                     // perf | software | instrumented
+  std::string why;                        // how it was chosen (auto) or "requested"
+  std::vector<std::string> group_events;  // opened per nRT entity; the metric's first
+  std::size_t metric_events = 0;
+  MetricSpec spec;          // what the regulator is given
+  bool time_based = false;  // software source: bytes estimated from task_clock
+  std::string basis;        // human-readable description of the metric
+  std::string fallback;     // non-empty: the scenario's metric could not be measured as written
+};
+
+// Chooses the source (hw.pmc_source; auto: perf if the hardware PMU works, else instrumented when
+// every nRT workload is built in, else software) and maps the scenario's metric onto it. Throws
+// InputError when an explicitly requested source cannot serve the scenario.
+MetricPlan plan_metric(const Scenario& s, const PmcSourceRegistry& sources);
+
+std::unique_ptr<Backend> make_hw_backend(HwOptions options = {});
+
+}  // namespace rosguard::hw

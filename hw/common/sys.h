@@ -1,0 +1,66 @@
+// Small RAII wrappers and host facts for the hw backend.
+//
+// Contract: Fd is move-only and closes on destruction; errors are reported as RunError with the
+// call and the errno name. Host queries read /proc and /sys and never modify anything.
+#pragma once
+
+#include <sys/types.h>
+
+#include <string>
+#include <vector>
+
+namespace rosguard::hw {
+
+// "ENOENT (No such file or directory)".
+std::string errno_text(int err);
+
+class Fd {
+ public:
+  Fd() = default;
+  explicit Fd(int fd) : fd_(fd) {}
+  ~Fd() { reset(); }
+  Fd(Fd&& o) noexcept : fd_(o.release()) {}
+  Fd& operator=(Fd&& o) noexcept {
+    if (this != &o) {
+      reset();
+      fd_ = o.release();
+    }
+    return *this;
+  }
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+
+  int get() const { return fd_; }
+  bool valid() const { return fd_ >= 0; }
+  int release() {
+    const int f = fd_;
+    fd_ = -1;
+    return f;
+  }
+  void reset();
+
+ private:
+  int fd_ = -1;
+};
+
+pid_t current_tid();
+
+// CPUs this process may run on (online and in its affinity mask), ascending.
+std::vector<int> usable_cpus();
+
+// One thread of this process as /proc/self/task/<tid>/stat shows it.
+struct ThreadSchedInfo {
+  pid_t tid = 0;
+  std::string name;
+  int policy = 0;       // SCHED_OTHER 0, SCHED_FIFO 1, SCHED_RR 2, ...
+  int rt_priority = 0;  // 1..99 for SCHED_FIFO / SCHED_RR
+};
+std::vector<ThreadSchedInfo> process_threads(pid_t pid = 0);  // 0: this process
+
+// Threads of this process under a real-time policy (SCHED_FIFO / SCHED_RR).
+std::vector<ThreadSchedInfo> realtime_threads();
+
+// Name of the host CPU frequency source and its value in MHz (cpuinfo "cpu MHz"), 0 if unknown.
+double host_cpu_mhz();
+
+}  // namespace rosguard::hw

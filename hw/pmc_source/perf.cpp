@@ -1,0 +1,176 @@
+// The perf source: hardware PMU events, and the perf_event_open group code the software source
+// shares.
+#include "hw/pmc_source/perf.h"
+
+#include <linux/perf_event.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+
+#include "core/error.h"
+#include "hw/common/sys.h"
+
+namespace rosguard::hw {
+namespace {
+
+long perf_event_open(perf_event_attr* attr, pid_t pid, int cpu, int group_fd, unsigned long flags) {
+  long fd;
+  do {
+    fd = ::syscall(SYS_perf_event_open, attr, pid, cpu, group_fd, flags);
+  } while (fd < 0 && errno == EINTR);
+  return fd;
+}
+
+std::string code_text(const PerfEventCode& c) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "type %u config 0x%llx", c.type,
+                static_cast<unsigned long long>(c.config));
+  return buf;
+}
+
+std::string hint(int err) {
+  switch (err) {
+    case ENOENT:
+    case EOPNOTSUPP:
+      return ": this host does not provide the event (no hardware PMU, e.g. in a VM?)";
+    case EACCES:
+    case EPERM:
+      return ": not permitted (kernel.perf_event_paranoid, or run as root)";
+    case EINVAL:
+      return ": invalid for this target or PMU";
+    default:
+      return "";
+  }
+}
+
+class PerfGroup : public CounterGroup {
+ public:
+  PerfGroup(std::vector<Fd> fds, std::vector<std::string> names)
+      : fds_(std::move(fds)), names_(std::move(names)), buf_(3 + fds_.size()) {}
+
+  std::size_t size() const override { return fds_.size(); }
+
+  void read(std::span<CounterValue> out) override {
+    // PERF_FORMAT_GROUP layout: nr, time_enabled, time_running, value[nr].
+    const std::size_t bytes = buf_.size() * sizeof(std::uint64_t);
+    // A buffer per call, so that two threads may read the same group at once.
+    std::uint64_t local[16];
+    std::vector<std::uint64_t> big;
+    if (buf_.size() > 16) big.resize(buf_.size());
+    std::uint64_t* dst = buf_.size() <= 16 ? local : big.data();
+    ssize_t n;
+    do {
+      n = ::read(fds_[0].get(), dst, bytes);
+    } while (n < 0 && errno == EINTR);
+    if (n != static_cast<ssize_t>(bytes))
+      throw RunError("reading perf group (" + names_[0] + ", ...) failed: " +
+                     (n < 0 ? errno_text(errno) : "short read of " + std::to_string(n) + " bytes"));
+    const std::size_t k = std::min(out.size(), fds_.size());
+    for (std::size_t i = 0; i < k; ++i)
+      out[i] = {dst[3 + i], dst[1], dst[2]};
+  }
+
+ private:
+  std::vector<Fd> fds_;
+  std::vector<std::string> names_;
+  std::vector<std::uint64_t> buf_;
+};
+
+class PerfSource : public PmcSource {
+ public:
+  std::string_view name() const override { return "perf"; }
+
+  std::optional<std::string> unavailable_reason() const override {
+    try {
+      open({"cpu_cycles"}, PmcTarget{});
+      return std::nullopt;
+    } catch (const RunError& e) {
+      return std::string(e.what());
+    }
+  }
+
+  std::vector<std::string> events() const override {
+    if (unavailable_reason()) return {};
+    std::vector<std::string> out;
+    for (const auto& n : hardware_event_names())
+      if (hardware_event(n, host_arch())) out.push_back(n);
+    return out;
+  }
+
+  bool counts_processes() const override { return true; }
+
+  std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
+                                     const PmcTarget& target) const override {
+    std::vector<NamedEvent> named;
+    for (const auto& e : events) {
+      auto code = hardware_event(e, host_arch());
+      if (!code)
+        throw RunError("perf source: event '" + e + "' has no code on " +
+                       std::string(to_string(host_arch())));
+      named.emplace_back(e, *code);
+    }
+    return open_perf_group(named, target);
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<CounterGroup> open_perf_group(const std::vector<NamedEvent>& events,
+                                              const PmcTarget& target) {
+  if (events.empty()) throw RunError("perf group: no events to open");
+  std::vector<Fd> fds;
+  std::vector<std::string> names;
+  pid_t pid = -1;
+  int cpu = -1;
+  switch (target.kind) {
+    case PmcTarget::Kind::Thread:
+      pid = target.pid;
+      break;
+    case PmcTarget::Kind::Process:
+      pid = target.pid;
+      break;
+    case PmcTarget::Kind::Cpu:
+      cpu = target.cpu;
+      break;
+  }
+  bool exclude_kernel = false;
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    const auto& [name, code] = events[i];
+    perf_event_attr attr{};
+    attr.size = sizeof attr;
+    attr.type = code.type;
+    attr.config = code.config;
+    attr.read_format =
+        PERF_FORMAT_GROUP | PERF_FORMAT_TOTAL_TIME_ENABLED | PERF_FORMAT_TOTAL_TIME_RUNNING;
+    attr.exclude_hv = 1;
+    attr.exclude_kernel = exclude_kernel ? 1 : 0;
+    attr.inherit = target.kind == PmcTarget::Kind::Process ? 1 : 0;
+    // Members follow the leader; the leader starts at once, or at exec for a fresh child.
+    attr.disabled = (i == 0 && target.enable_on_exec) ? 1 : 0;
+    attr.enable_on_exec = (i == 0 && target.enable_on_exec) ? 1 : 0;
+    const int leader = fds.empty() ? -1 : fds[0].get();
+    long fd = perf_event_open(&attr, pid, cpu, leader, PERF_FLAG_FD_CLOEXEC);
+    if (fd < 0 && (errno == EACCES || errno == EPERM) && !exclude_kernel && i == 0) {
+      // Unprivileged callers may count user space only: retry the whole group that way.
+      exclude_kernel = true;
+      attr.exclude_kernel = 1;
+      fd = perf_event_open(&attr, pid, cpu, leader, PERF_FLAG_FD_CLOEXEC);
+    }
+    if (fd < 0) {
+      const int err = errno;
+      throw RunError("cannot open perf event '" + name + "' (" + code_text(code) + ") on " +
+                     target.describe() + ": " + errno_text(err) + hint(err));
+    }
+    fds.emplace_back(static_cast<int>(fd));
+    names.push_back(name);
+  }
+  return std::make_unique<PerfGroup>(std::move(fds), std::move(names));
+}
+
+std::unique_ptr<PmcSource> make_perf_source() {
+  return std::make_unique<PerfSource>();
+}
+
+}  // namespace rosguard::hw

@@ -1,0 +1,25 @@
+// perf_event_open groups, shared by the perf (hardware) and software sources.
+//
+// Contract: PerfGroup owns every fd (RAII, move-only), opens the first event as the group
+// leader with PERF_FORMAT_GROUP | TOTAL_TIME_ENABLED | TOTAL_TIME_RUNNING, retries EINTR, and
+// throws RunError naming the event, its code, the target and the errno when an event cannot be
+// opened. Multiplexed values are returned raw with their times; metric.h scales them.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "hw/pmc_source/perf_events.h"
+#include "hw/pmc_source/pmc_source.h"
+
+namespace rosguard::hw {
+
+using NamedEvent = std::pair<std::string, PerfEventCode>;
+
+// Opens `events` as one group on `target`. Throws RunError.
+std::unique_ptr<CounterGroup> open_perf_group(const std::vector<NamedEvent>& events,
+                                              const PmcTarget& target);
+
+}  // namespace rosguard::hw

@@ -1,0 +1,14 @@
+#include "hw/register.h"
+
+#include "hw/backend.h"
+
+namespace rosguard::hw {
+
+void register_builtin(BackendRegistry& registry) {
+  registry.add({"hw",
+                "this Linux machine: pthread executors (SCHED_FIFO, affinity), perf_event_open / "
+                "instrumented counters, the paper's throttle",
+                [] { return make_hw_backend(); }});
+}
+
+}  // namespace rosguard::hw

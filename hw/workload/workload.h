@@ -1,0 +1,83 @@
+// Workloads of the hw backend: built-in kernels run in the calling thread (the node's NCT or RT
+// thread), external commands run as a child process pinned to the node's core.
+//
+// Contract:
+// - make_workload() runs on the engine's thread before any node thread starts: it allocates and
+//   pre-faults buffers and calibrates proxies, so a run does no allocation and no page faults.
+// - BuiltinWorkload::run() is called from one thread at a time. It publishes its progress through
+//   WorkCounters (see work_counters.h) every 64 lines and checks `stop` as often; it returns the
+//   fraction of a run completed (1.0 unless stopped).
+// - CommandProcess owns a child process group: the destructor kills (SIGKILL) and reaps it, so
+//   no external program outlives its node.
+#pragma once
+
+#include <sys/types.h>
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hw/common/sys.h"
+#include "hw/executor/executor.h"
+#include "hw/workload/work_counters.h"
+#include "scenario/scenario.h"
+
+namespace rosguard::hw {
+
+class BuiltinWorkload {
+ public:
+  virtual ~BuiltinWorkload() = default;
+  virtual std::string_view kernel() const = 0;
+  // Work units (cache lines touched) in one run.
+  virtual std::uint64_t units_per_run() const = 0;
+  virtual double run(const std::atomic<bool>& stop, WorkCounters& counters) = 0;
+};
+
+// Throws InputError naming the workload when its "hw" part cannot be run.
+std::unique_ptr<BuiltinWorkload> make_builtin_workload(const WorkloadInfo& info);
+
+// Proxy calibration on this host: ALU iterations per line so that the proxy reaches its target
+// bandwidth (instrumented metric) on an idle core. Cached per process.
+struct ProxyCalibration {
+  double ns_per_line = 0.0;  // touching one line alone
+  double ns_per_alu = 0.0;   // one compute iteration
+  std::uint32_t alu_per_line = 0;
+  double achievable_mbps = 0.0;  // with alu_per_line = 0
+};
+ProxyCalibration calibrate_proxy(double target_mbps, std::uint32_t working_set_kb);
+
+class CommandProcess {
+ public:
+  // Forks a child in its own process group (killed with rosguard: parent-death signal), pinned
+  // to spec.core, under SCHED_OTHER with the nice value of spec.priority whatever spec.sched
+  // says: below every SCHED_FIFO callback of the node, so THR preempts it, and nothing it forks
+  // can outlive rosguard as a real-time spinner. The child waits for start().
+  CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec);
+  ~CommandProcess();
+  CommandProcess(const CommandProcess&) = delete;
+  CommandProcess& operator=(const CommandProcess&) = delete;
+
+  pid_t pid() const { return pid_; }
+  // Lets the child exec. Throws RunError when exec fails (command not found, ...).
+  void start();
+  // Blocks until the child exits (true) or `stop_fd` becomes readable (false).
+  bool wait(int stop_fd);
+  // Exit status as waitpid gives it (valid after wait() returned true).
+  int status() const { return status_; }
+  void kill();
+
+ private:
+  std::vector<std::string> argv_;
+  pid_t pid_ = -1;
+  Fd go_;   // write end: one byte lets the child exec
+  Fd err_;  // read end: errno of a failed exec, EOF when exec succeeded
+  Fd pidfd_;
+  bool reaped_ = false;
+  int status_ = 0;
+};
+
+// Describes an exit status: "exit 0", "signal 9 (Killed)".
+std::string describe_status(int status);
+
+}  // namespace rosguard::hw

@@ -1,0 +1,313 @@
+// The hw backend end to end on this machine: regulation protects the RT node, the regulated
+// bandwidth stays within budget + overshoot bound, external commands are regulated, failures and
+// stop requests return every node to nominal and leave no thread under SCHED_FIFO.
+#include <unistd.h>
+
+#include <atomic>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <map>
+#include <thread>
+
+#include "core/error.h"
+#include "hw/backend.h"
+#include "hw/common/clock.h"
+#include "hw/common/sys.h"
+#include "loader.h"
+#include "results/results.h"
+
+using namespace rosguard;
+using namespace rosguard::hw;
+
+namespace {
+
+const std::string kScenarios = std::string(ROSGUARD_TEST_SOURCE_DIR) + "/tests/hw/scenarios/";
+
+class TestContext : public RunContext {
+ public:
+  void fallback(const std::string& what, const std::string& detail) override {
+    fallbacks[what] = detail;
+  }
+  void fact(const std::string& key, const std::string& value) override { facts[key] = value; }
+  TraceSink* trace() override { return nullptr; }
+  bool stop_requested() const override {
+    return stop.load() || (stop_at >= 0 && now_ns() >= stop_at);
+  }
+  std::map<std::string, std::string> fallbacks, facts;
+  std::atomic<bool> stop{false};
+  TimeNs stop_at = -1;
+};
+
+struct PointRun {
+  Scenario scenario;
+  std::vector<PointOutcome> reps;
+};
+
+LoadedScenario load(const std::string& file) {
+  Loader loader(Home{ROSGUARD_TEST_SOURCE_DIR});
+  return loader.load(kScenarios + file);
+}
+
+void isolate(Backend& b, const Scenario& s, Baselines& baselines, RunContext& ctx) {
+  const auto need = [&](const WorkloadInfo& w, int core) {
+    const auto key = Baselines::key(s, w, core);
+    if (!baselines.all().count(key)) baselines.put(key, b.isolation(s, w, core, 0, ctx));
+  };
+  for (const auto& n : s.nodes.rt)
+    need(n.workload, n.core);
+  for (const auto& n : s.nodes.nrt)
+    need(n.workload, n.core);
+}
+
+// Runs every point and repetition like the runner does (isolation first).
+std::vector<PointRun> run_all(Backend& b, const LoadedScenario& loaded, TestContext& ctx,
+                              Baselines& baselines) {
+  std::vector<PointRun> out;
+  for (const auto& p : loaded.points) {
+    b.validate(p.scenario);
+    isolate(b, p.scenario, baselines, ctx);
+  }
+  // Repetitions outermost: the points alternate, so a change in the machine's load (other
+  // users of this VM, other guests on the host) affects them alike.
+  for (const auto& p : loaded.points)
+    out.push_back(PointRun{p.scenario, {}});
+  for (int rep = 0; rep < loaded.points.front().scenario.repetitions; ++rep)
+    for (std::size_t i = 0; i < loaded.points.size(); ++i)
+      out[i].reps.push_back(b.run_point(loaded.points[i].scenario, baselines, rep, 0, ctx));
+  return out;
+}
+
+std::vector<double> of_kind(const PointOutcome& o, const std::string& kind) {
+  std::vector<double> v;
+  for (const auto& s : o.samples)
+    if (s.kind == kind) v.push_back(s.value_us);
+  return v;
+}
+
+}  // namespace
+
+struct Protection {
+  double interference = 0.0;  // median RT slowdown without regulation, minus 1
+  double gain = 0.0;          // median of paired (none - interval) RT slowdowns
+};
+
+// One attempt: isolation + both policies alternating; checks the bound.
+Protection protection_attempt(int attempt) {
+  const auto loaded = load("rt-vs-nrt-bandwidth-read.json");
+  auto backend = make_hw_backend();
+  TestContext ctx;
+  Baselines baselines;
+  const auto runs = run_all(*backend, loaded, ctx, baselines);
+  REQUIRE(runs.size() == 2);
+  const PointRun& none = runs[0];
+  const PointRun& interval = runs[1];
+  REQUIRE(none.scenario.regulation.policy == "none");
+  REQUIRE(interval.scenario.regulation.policy == "interval");
+  CHECK(realtime_threads().empty());
+
+  const Scenario& s = interval.scenario;
+  const auto& rt_iso = baselines.at(s, s.nodes.rt[0].workload, s.nodes.rt[0].core);
+  const auto& nrt_iso = baselines.at(s, s.nodes.nrt[0].workload, s.nodes.nrt[0].core);
+  std::vector<double> slow_none, slow_interval, bw_interval, delays;
+  for (const auto& o : none.reps)
+    slow_none.push_back(o.rt[0].time_us / rt_iso.time_us);
+  for (const auto& o : interval.reps) {
+    slow_interval.push_back(o.rt[0].time_us / rt_iso.time_us);
+    bw_interval.push_back(o.nrt[0].bandwidth_mbps);
+    for (double d : of_kind(o, "activation_delay"))
+      delays.push_back(d);
+    CHECK(o.nrt[0].throttle_count > 0);
+  }
+  const double none_med = median(slow_none), interval_med = median(slow_interval);
+  std::vector<double> paired;  // none - interval, repetition by repetition
+  std::string reps_text;
+  for (std::size_t i = 0; i < slow_none.size(); ++i) {
+    paired.push_back(slow_none[i] - slow_interval[i]);
+    reps_text += " " + std::to_string(slow_none[i]) + "/" + std::to_string(slow_interval[i]);
+  }
+  // Bound (DESIGN section 3): per regulation period the nRT node may use its budget plus what it
+  // moves, unregulated, in one sampling period and one activation delay.
+  const auto& r = s.regulation;
+  const double budget_mbps = r.threshold_pct / 100.0 * r.reference_mbps;
+  const double overshoot_us = static_cast<double>(r.sampling_period_us) + maximum(delays);
+  const double bound_mbps =
+      budget_mbps + nrt_iso.mbps * overshoot_us / static_cast<double>(r.regulation_period_us);
+  WARN("attempt " << attempt << ": RT slowdown median: none " << none_med << ", interval "
+                  << interval_med << "; nRT bandwidth while regulated (max of reps) "
+                  << maximum(bw_interval) << " MB/s, budget " << budget_mbps << " MB/s, bound "
+                  << bound_mbps << " MB/s (nRT alone " << nrt_iso.mbps
+                  << " MB/s, activation delay max " << maximum(delays) << " us); source "
+                  << ctx.facts["pmc_source"]
+                  << "; RT slowdown none/interval per repetition:" << reps_text);
+  CHECK(maximum(bw_interval) <= bound_mbps);
+  CHECK(median(bw_interval) < 0.5 * nrt_iso.mbps);  // regulation did hold the nRT node back
+  return {none_med - 1.0, median(paired)};
+}
+
+TEST_CASE("interval regulation at a low threshold protects the RT node, within the bound",
+          "[hw][integration][timing]") {
+  // The VM shares its host, and how much two vCPUs contend depends on where the host places
+  // them (same or different CCD / memory link): the co-runner slows the RT node by 5 % at some
+  // times and by 20-45 % at others. Up to three attempts (each alternates the policies over 5
+  // repetitions): regulation must remove a clear part of the interference whenever there is
+  // interference to remove; the bound must hold in every attempt.
+  bool interfered = false;
+  Protection best;
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    const Protection p = protection_attempt(attempt);
+    if (p.interference < 0.10) continue;  // nothing to protect from right now
+    interfered = true;
+    if (p.gain > best.gain) best = p;
+    if (p.gain > 0.05) break;
+  }
+  if (!interfered) {
+    WARN(
+        "SKIPPED (protection part): the co-runner slowed the RT node by less than 10 % in every "
+        "attempt, so this host cannot show protection now; the bound was checked");
+    return;
+  }
+  INFO("interference " << best.interference << ", gain " << best.gain);
+  CHECK(best.gain >
+        0.05);  // measurably lower RT slowdown with regulation, repetition by repetition
+}
+
+TEST_CASE("an external command (stress-ng --stream) is regulated as an nRT workload",
+          "[hw][integration][command]") {
+  if (::access("/usr/bin/stress-ng", X_OK) != 0) {
+    WARN("SKIPPED: stress-ng is not installed (Debian package stress-ng)");
+    return;
+  }
+  const auto loaded = load("stress-ng-nrt.json");
+  auto backend = make_hw_backend();
+  TestContext ctx;
+  Baselines baselines;
+  const auto runs = run_all(*backend, loaded, ctx, baselines);
+  const PointOutcome& o = runs[0].reps[0];
+  const Scenario& s = runs[0].scenario;
+  WARN("stress-ng regulated with pmc_source "
+       << ctx.facts["pmc_source"] << " (" << ctx.facts["metric_basis"]
+       << "): " << o.nrt[0].throttle_count << " throttles, " << o.nrt[0].throttled_us / 1e3
+       << " ms throttled, metric bandwidth " << o.nrt[0].bandwidth_mbps << " MB/s");
+  CHECK(o.nrt[0].throttle_count > 0);
+  CHECK(o.nrt[0].throttled_us > 0.3 * o.rt[0].time_us);  // threshold 20 %: mostly throttled
+  if (ctx.facts["pmc_source"] == "software") {
+    CHECK(ctx.fallbacks.count("metric"));
+    // Time-based budget: CPU share of the command close to the threshold (plus overshoot).
+    // Bound: threshold + one sampling period and the activation delay per regulation period.
+    const auto& r = s.regulation;
+    const double share = o.nrt[0].bandwidth_mbps / r.reference_mbps;
+    const double bound = r.threshold_pct / 100.0 + (static_cast<double>(r.sampling_period_us) +
+                                                    maximum(of_kind(o, "activation_delay"))) /
+                                                       static_cast<double>(r.regulation_period_us);
+    INFO("CPU share " << share << ", bound " << bound);
+    CHECK(share <= bound + 0.05);  // + the command's restarts inside the window
+  }
+  CHECK(realtime_threads().empty());
+  // No process of the command outlives the point.
+  CHECK(std::system("pgrep -x stress-ng > /dev/null") != 0);
+}
+
+TEST_CASE("watchdog: the controller goes silent mid-run, the nRT node returns to nominal",
+          "[hw][integration][safety]") {
+  const auto loaded = load("watchdog.json");
+  HwOptions opt;
+  opt.controller_fail_after_ns = 30 * kNsPerMs;  // monolithic 1 %: throttled by then, for good
+  auto backend = make_hw_backend(opt);
+  TestContext ctx;
+  Baselines baselines;
+  const TimeNs t0 = now_ns();
+  const auto runs = run_all(*backend, loaded, ctx, baselines);
+  const PointOutcome& o = runs[0].reps[0];
+  CHECK(o.nrt[0].throttle_count >= 1);
+  REQUIRE(ctx.facts.count("watchdog_fired"));
+  CHECK_THAT(ctx.facts["watchdog_fired"], Catch::Contains("nrt0: 1"));
+  // Throttled from before the fault until the watchdog: at most fault + watchdog (+ slack).
+  CHECK(o.nrt[0].throttled_us < (30.0 + 50.0 + 30.0) * 1e3);
+  CHECK(realtime_threads().empty());
+  CHECK(now_ns() - t0 < 20 * kNsPerS);
+}
+
+TEST_CASE("a stop request mid-point returns nodes to nominal and throws Interrupted",
+          "[hw][integration][safety]") {
+  const auto loaded = load("long-run.json");
+  auto backend = make_hw_backend();
+  TestContext ctx;
+  Baselines baselines;
+  const Scenario& s = loaded.points[0].scenario;
+  isolate(*backend, s, baselines, ctx);
+  ctx.stop_at = now_ns() + 15 * kNsPerMs;  // during the RT job, the nRT node throttled
+  const TimeNs t0 = now_ns();
+  CHECK_THROWS_AS(backend->run_point(s, baselines, 0, 0, ctx), Interrupted);
+  CHECK(now_ns() - t0 < 2 * kNsPerS);
+  CHECK(realtime_threads().empty());
+}
+
+TEST_CASE("a failing nRT command fails the point cleanly", "[hw][integration][safety]") {
+  Loader loader(Home{ROSGUARD_TEST_SOURCE_DIR});
+  auto loaded = load("stress-ng-nrt.json");
+  Scenario s = loaded.points[0].scenario;
+  s.nodes.nrt[0].workload.doc = {{"command", {"false"}}};
+  auto backend = make_hw_backend();
+  TestContext ctx;
+  Baselines baselines;
+  baselines.put(Baselines::key(s, s.nodes.rt[0].workload, s.nodes.rt[0].core), {1e5, 0, 0});
+  CHECK_THROWS_WITH(backend->run_point(s, baselines, 0, 0, ctx),
+                    Catch::Contains("false") && Catch::Contains("exit 1"));
+  CHECK(realtime_threads().empty());
+}
+
+TEST_CASE("validate rejects what this host cannot run, naming file and path", "[hw][validate]") {
+  auto loaded = load("rt-vs-nrt-bandwidth-read.json");
+  auto backend = make_hw_backend();
+  Scenario s = loaded.points[1].scenario;
+  CHECK_NOTHROW(backend->validate(s));
+
+  Scenario far = s;
+  far.nodes.nrt[0].core = 1000;
+  CHECK_THROWS_WITH(backend->validate(far), Catch::Contains("rt-vs-nrt-bandwidth-read.json") &&
+                                                Catch::Contains("/nodes/nrt/0/core") &&
+                                                Catch::Contains("not available on this host"));
+
+  Scenario cmd = s;
+  cmd.nodes.nrt[0].workload.doc = {{"command", {"true"}}};
+  cmd.hw.pmc_source = PmcSourceKind::Instrumented;
+  CHECK_THROWS_WITH(backend->validate(cmd),
+                    Catch::Contains("/nodes/nrt/0/workload") && Catch::Contains("instrumented"));
+
+  Scenario perf = s;
+  perf.hw.pmc_source = PmcSourceKind::Perf;
+  if (make_perf_source()->unavailable_reason()) {
+    CHECK_THROWS_WITH(backend->validate(perf),
+                      Catch::Contains("/hw/pmc_source") && Catch::Contains("ENOENT"));
+  } else {
+    WARN("this host has a PMU: perf is accepted");
+    CHECK_NOTHROW(backend->validate(perf));
+  }
+}
+
+TEST_CASE("auto picks a source and records why; software gives a time-based budget",
+          "[hw][validate]") {
+  auto loaded = load("rt-vs-nrt-bandwidth-read.json");
+  PmcSourceRegistry sources;
+  register_builtin(sources);
+  Scenario s = loaded.points[1].scenario;
+  const MetricPlan a = plan_metric(s, sources);
+  if (make_perf_source()->unavailable_reason()) {
+    CHECK(a.source == "instrumented");
+    CHECK_THAT(a.why, Catch::Contains("no usable hardware PMU"));
+  } else {
+    CHECK(a.source == "perf");
+  }
+  s.nodes.nrt[0].workload.doc = {{"command", {"true"}}};
+  const MetricPlan b = plan_metric(s, sources);
+  if (b.source == "software") {
+    CHECK(b.time_based);
+    CHECK(b.group_events.size() == 4);
+    CHECK(b.metric_events == 1);
+    CHECK(b.spec.events[0].name == "task_clock");
+    // 1 ms of task clock is 1 ms worth of the reference bandwidth.
+    const double bytes = b.spec.line_bytes * b.spec.events[0].weight * 1e6;
+    CHECK(bytes == Approx(s.regulation.reference_mbps * kBytesPerMb / 1e3));
+    CHECK_FALSE(b.fallback.empty());
+  }
+}

@@ -1,0 +1,132 @@
+// SIGINT through the real binary: `rosguard run ... --backend hw` interrupted mid-run exits 130,
+// keeps only complete rows, and reports that no thread was left under SCHED_FIFO (the hw backend
+// checks /proc/self/task after joining every node thread).
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "results/results.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream s(text);
+  for (std::string l; std::getline(s, l);)
+    if (!l.empty()) out.push_back(l);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("SIGINT mid-run: exit 130, only complete rows, nothing left under SCHED_FIFO",
+          "[hw][safety][sigint]") {
+  const fs::path out =
+      fs::temp_directory_path() / ("rosguard-sigint-" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  const fs::path err = out.string() + ".stderr";
+  const std::string scenario =
+      std::string(ROSGUARD_TEST_SOURCE_DIR) + "/tests/hw/scenarios/long-run.json";
+
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 2);
+    ::execl(ROSGUARD_BINARY, ROSGUARD_BINARY, "run", scenario.c_str(), "--backend", "hw", "--out",
+            out.c_str(), "--quiet", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  // Interrupt once a few rows are written (the run is then between or inside points).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  std::size_t rows = 0;
+  while (std::chrono::steady_clock::now() < deadline) {
+    rows = lines_of(slurp(out / "points.csv")).size();
+    if (rows >= 4) break;  // header + 3 rows
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  REQUIRE(rows >= 4);
+  std::this_thread::sleep_for(std::chrono::milliseconds(40));  // land inside a point
+  REQUIRE(::kill(pid, SIGINT) == 0);
+  int status = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  const double exit_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const std::string stderr_text = slurp(err);
+  INFO(stderr_text);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 130);
+  CHECK(exit_s < 5.0);
+
+  const auto points = lines_of(slurp(out / "points.csv"));
+  REQUIRE(points.size() >= 4);
+  const std::size_t columns = rosguard::csv_split(points[0]).size();
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    const auto cells = rosguard::csv_split(points[i]);
+    CHECK(cells.size() == columns);
+    CHECK_FALSE(cells[11].empty());  // rt_time_us: a complete measurement
+  }
+  CHECK(points.size() - 1 < 40);  // interrupted before the end
+  CHECK_THAT(slurp(out / "manifest.json"), Catch::Contains("\"interrupted\""));
+  // The interrupted point went back to nominal and joined every thread before exit.
+  CHECK_THAT(stderr_text, Catch::Contains("hw: interrupted") &&
+                              Catch::Contains("0 thread(s) left under SCHED_FIFO"));
+  fs::remove_all(out);
+  fs::remove(err);
+}
+
+TEST_CASE("as an unprivileged user the run falls back from SCHED_FIFO, and says so",
+          "[hw][executor][fallback]") {
+  if (::geteuid() != 0 || ::access("/usr/bin/setpriv", X_OK) != 0) {
+    WARN("SKIPPED: needs root and setpriv to run rosguard as the user nobody");
+    return;
+  }
+  const fs::path dir =
+      fs::temp_directory_path() / ("rosguard-nobody-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  fs::permissions(dir, fs::perms::all);
+  const fs::path err = dir / "stderr";
+  const std::string scenario =
+      std::string(ROSGUARD_TEST_SOURCE_DIR) + "/tests/hw/scenarios/watchdog.json";
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0666);
+    ::dup2(fd, 2);
+    ::setenv("ROSGUARD_HOME", ROSGUARD_TEST_SOURCE_DIR, 1);
+    ::execl("/usr/bin/setpriv", "setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
+            ROSGUARD_BINARY, "run", scenario.c_str(), "--backend", "hw", "--out",
+            (dir / "out").c_str(), "--quiet", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  const std::string text = slurp(err);
+  INFO(text);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  CHECK_THAT(text, Catch::Contains("warning: fallback (sched_fifo): SCHED_FIFO refused (EPERM"));
+  const std::string manifest = slurp(dir / "out" / "manifest.json");
+  CHECK_THAT(manifest, Catch::Contains("\"what\": \"sched_fifo\""));
+  CHECK(lines_of(slurp(dir / "out" / "points.csv")).size() == 2);
+  fs::remove_all(dir);
+}

@@ -52,20 +52,20 @@ double ContentionModel::dram_latency(double u) const {
   return p_.dram.latency_ns + p_.dram.queue_ns * u / (1.0 - u);
 }
 
-MemoryState ContentionModel::unloaded() const {
+MemoryState ContentionModel::unloaded(std::size_t demands) const {
   MemoryState s;
   const auto n = static_cast<std::size_t>(p_.clusters);
   s.l3_ns.assign(n, p_.l3.latency_ns);
   s.l3_util.assign(n, 0.0);
-  s.capacity_factor.assign(n, 1.0);
+  s.capacity_factor.assign(demands, 1.0);
   s.dram_ns = p_.dram.latency_ns;
   return s;
 }
 
-CoreRates ContentionModel::rates(const Phase& ph, double l3_hit, int cluster,
+CoreRates ContentionModel::rates(const Phase& ph, double l3_hit, int cluster, double capf,
                                  const MemoryState& st) const {
   const auto k = static_cast<std::size_t>(cluster);
-  const double h = l3_hit * st.capacity_factor[k];
+  const double h = l3_hit * capf;
   const double latency = st.l3_ns[k] + (1.0 - h) * st.dram_ns;
   const double stall =
       ph.refill_pki / 1000.0 * f_ghz_ * std::max(0.0, latency - p_.l3.latency_ns) / ph.mlp;
@@ -79,17 +79,72 @@ CoreRates ContentionModel::rates(const Phase& ph, double l3_hit, int cluster,
   return r;
 }
 
-double ContentionModel::l3_traffic(std::span<const CoreDemand> demands, int cluster, double l3_ns,
-                                   double dram_ns, double capf, double* dram_bytes) const {
+std::vector<double> ContentionModel::capacity_factors(std::span<const CoreDemand> demands) const {
+  std::vector<double> factor(demands.size(), 1.0);
+  for (int c = 0; c < p_.clusters; ++c) {
+    std::vector<std::size_t> members;
+    double footprint = 0.0;
+    for (std::size_t i = 0; i < demands.size(); ++i)
+      if (demands[i].cluster == c && demands[i].resident && demands[i].footprint_kb > 0) {
+        members.push_back(i);
+        footprint += demands[i].footprint_kb;
+      }
+    if (footprint <= p_.l3.capacity_kb) continue;
+    // Pressure: L3 lines inserted per ns at the unloaded latency (a resident core with no phase
+    // known keeps a minimal pressure).
+    std::vector<double> pressure(demands.size(), 0.0);
+    const MemoryState idle = unloaded(0);
+    for (std::size_t i : members) {
+      const Phase* ph = demands[i].resident_phase ? demands[i].resident_phase : demands[i].phase;
+      if (ph) {
+        const CoreRates r = rates(*ph, demands[i].l3_hit, c, 1.0, idle);
+        pressure[i] = r.refill_per_ns + r.wb_per_ns;
+      }
+      pressure[i] = std::max(pressure[i], 1e-9);
+    }
+    // Water-filling: shares in proportion to pressure, capped at the footprint.
+    std::vector<double> share(demands.size(), 0.0);
+    std::vector<bool> capped(demands.size(), false);
+    double left = p_.l3.capacity_kb;
+    for (std::size_t round = 0; round < members.size(); ++round) {
+      double total = 0.0;
+      for (std::size_t i : members)
+        if (!capped[i]) total += pressure[i];
+      bool any = false;
+      for (std::size_t i : members)
+        if (!capped[i] && left * pressure[i] / total >= demands[i].footprint_kb) {
+          capped[i] = true;
+          share[i] = demands[i].footprint_kb;
+          any = true;
+        }
+      if (!any) {
+        for (std::size_t i : members)
+          if (!capped[i]) share[i] = left * pressure[i] / total;
+        break;
+      }
+      left = p_.l3.capacity_kb;
+      for (std::size_t i : members)
+        if (capped[i]) left -= share[i];
+    }
+    for (std::size_t i : members)
+      factor[i] =
+          std::pow(std::min(1.0, share[i] / demands[i].footprint_kb), p_.l3.capacity_exponent);
+  }
+  return factor;
+}
+
+double ContentionModel::l3_traffic(std::span<const CoreDemand> demands,
+                                   const std::vector<double>& capf, int cluster, double l3_ns,
+                                   double dram_ns, double* dram_bytes) const {
   MemoryState st;
   const auto k = static_cast<std::size_t>(cluster);
   st.l3_ns.assign(k + 1, l3_ns);
-  st.capacity_factor.assign(k + 1, capf);
   st.dram_ns = dram_ns;
   double bytes = 0.0;
-  for (const auto& d : demands) {
+  for (std::size_t i = 0; i < demands.size(); ++i) {
+    const CoreDemand& d = demands[i];
     if (d.cluster != cluster || d.phase == nullptr) continue;
-    const CoreRates r = rates(*d.phase, d.l3_hit, cluster, st);
+    const CoreRates r = rates(*d.phase, d.l3_hit, cluster, capf[i], st);
     bytes += (r.refill_per_ns + r.wb_per_ns) * line_;
     if (dram_bytes) *dram_bytes += r.dram_lines_per_ns * line_;
   }
@@ -97,17 +152,11 @@ double ContentionModel::l3_traffic(std::span<const CoreDemand> demands, int clus
 }
 
 MemoryState ContentionModel::solve(std::span<const CoreDemand> demands) const {
-  MemoryState s = unloaded();
+  MemoryState s = unloaded(demands.size());
+  s.capacity_factor = capacity_factors(demands);
   std::vector<bool> busy(s.l3_ns.size(), false);
-  std::vector<double> footprint(s.l3_ns.size(), 0.0);
-  for (const auto& d : demands) {
-    const auto k = static_cast<std::size_t>(d.cluster);
-    if (d.resident) footprint[k] += d.footprint_kb;
-    if (d.phase) busy[k] = true;
-  }
-  for (std::size_t k = 0; k < footprint.size(); ++k)
-    if (footprint[k] > p_.l3.capacity_kb)
-      s.capacity_factor[k] = std::pow(p_.l3.capacity_kb / footprint[k], p_.l3.capacity_exponent);
+  for (const auto& d : demands)
+    if (d.phase) busy[static_cast<std::size_t>(d.cluster)] = true;
 
   const double l3_bw = bytes_per_ns(p_.l3.bandwidth_mbps);
   const double dram_bw = bytes_per_ns(p_.dram.bandwidth_mbps);
@@ -117,13 +166,13 @@ MemoryState ContentionModel::solve(std::span<const CoreDemand> demands) const {
     for (std::size_t k = 0; k < out.l3_ns.size(); ++k) {
       if (!busy[k]) continue;
       const int c = static_cast<int>(k);
-      const double capf = out.capacity_factor[k];
       const double u = increasing_root([&](double x) {
-        return x - l3_traffic(demands, c, l3_latency(x), dram_ns, capf, nullptr) / l3_bw;
+        return x -
+               l3_traffic(demands, s.capacity_factor, c, l3_latency(x), dram_ns, nullptr) / l3_bw;
       });
       out.l3_util[k] = u;
       out.l3_ns[k] = l3_latency(u);
-      l3_traffic(demands, c, out.l3_ns[k], dram_ns, capf, &dram_bytes);
+      l3_traffic(demands, s.capacity_factor, c, out.l3_ns[k], dram_ns, &dram_bytes);
     }
     return dram_bytes;
   };

@@ -11,8 +11,8 @@ constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
 constexpr double kInstEpsilon = 1e-3;
 
 bool same_demand(const CoreDemand& a, const CoreDemand& b) {
-  return a.cluster == b.cluster && a.phase == b.phase && a.l3_hit == b.l3_hit &&
-         a.footprint_kb == b.footprint_kb && a.resident == b.resident;
+  return a.cluster == b.cluster && a.phase == b.phase && a.resident_phase == b.resident_phase &&
+         a.l3_hit == b.l3_hit && a.footprint_kb == b.footprint_kb && a.resident == b.resident;
 }
 
 }  // namespace
@@ -31,7 +31,7 @@ Core::Core(const sc_core::sc_module_name& name, int id, const SimPlatform& platf
   SC_METHOD(wake);
   sensitive << wake_ev_;
   dont_initialize();
-  memory_.attach(this);
+  mem_index_ = memory_.attach(this);
 }
 
 void Core::start_work(WorkloadRun* run, Done on_end) {
@@ -81,6 +81,7 @@ CoreDemand Core::demand() const {
     d.footprint_kb = run_->profile().footprint_kb;
     d.l3_hit = run_->profile().l3_hit;
     d.resident = !thr_;
+    d.resident_phase = &run_->phase();
     if (running_ == Running::Work) d.phase = &run_->phase();
   }
   return d;
@@ -160,7 +161,7 @@ void Core::dispatch(TimeNs now) {
     if (p.started < 0) p.started = now;
     at = now + std::max<TimeNs>(0, p.remaining);
   } else if (next == Running::Work) {
-    rates_ = memory_.rates(run_->phase(), run_->profile().l3_hit, cluster_);
+    rates_ = memory_.rates(mem_index_, run_->phase(), run_->profile().l3_hit, cluster_);
     const double left = run_->remaining_in_segment();
     const double ns = std::ceil(left / rates_.inst_per_ns);
     at = now + std::max<TimeNs>(1, static_cast<TimeNs>(ns));

@@ -80,6 +80,7 @@ class Core : public sc_core::sc_module {
   double callback_ipc_;
   double idle_ipc_;
   MemorySystem& memory_;
+  std::size_t mem_index_ = 0;
   Runtime& rt_;
   TraceSink* trace_;
 

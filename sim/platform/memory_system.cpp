@@ -18,8 +18,9 @@ MemorySystem::MemorySystem(const sc_core::sc_module_name& name, const SimPlatfor
   dont_initialize();
 }
 
-void MemorySystem::attach(Core* core) {
+std::size_t MemorySystem::attach(Core* core) {
   cores_.push_back(core);
+  return cores_.size() - 1;
 }
 
 void MemorySystem::mark_dirty() {
@@ -40,12 +41,13 @@ void MemorySystem::resolve() {
     std::vector<CoreDemand> demands;
     std::vector<std::uintptr_t> key;
     demands.reserve(cores_.size());
-    key.reserve(cores_.size() * 5);
+    key.reserve(cores_.size() * 6);
     for (Core* c : cores_) {
       const CoreDemand d = c->demand();
       demands.push_back(d);
       key.push_back(static_cast<std::uintptr_t>(d.cluster));
       key.push_back(reinterpret_cast<std::uintptr_t>(d.phase));
+      key.push_back(reinterpret_cast<std::uintptr_t>(d.resident_phase));
       key.push_back(d.resident ? 1 : 0);
       key.push_back(static_cast<std::uintptr_t>(std::bit_cast<std::uint64_t>(d.footprint_kb)));
       key.push_back(static_cast<std::uintptr_t>(std::bit_cast<std::uint64_t>(d.l3_hit)));

@@ -32,14 +32,16 @@ class MemorySystem : public sc_core::sc_module {
   MemorySystem(const sc_core::sc_module_name& name, const SimPlatform& platform, TimeNs quantum_ns,
                Runtime& rt);
 
-  void attach(Core* core);
+  // Returns the core's index in the memory state (its capacity factor).
+  std::size_t attach(Core* core);
   // A core's demand changed: re-solve at the next quantum boundary (now, if on one).
   void mark_dirty();
 
   const MemoryState& state() const { return state_; }
   const ContentionModel& model() const { return model_; }
-  CoreRates rates(const Phase& phase, double l3_hit, int cluster) const {
-    return model_.rates(phase, l3_hit, cluster, state_);
+  CoreRates rates(std::size_t index, const Phase& phase, double l3_hit, int cluster) const {
+    const double capf = index < state_.capacity_factor.size() ? state_.capacity_factor[index] : 1.0;
+    return model_.rates(phase, l3_hit, cluster, capf, state_);
   }
   std::uint64_t solves() const { return solves_; }
   std::uint64_t resolves() const { return resolves_; }

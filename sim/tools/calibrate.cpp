@@ -42,9 +42,9 @@ Figures steady_state(const SimPlatform& p, const WorkloadProfile& w) {
   const ContentionModel model(p);
   double cycles = 0.0, l3 = 0.0, ns = 0.0;
   for (const Phase& ph : w.phases) {
-    CoreDemand d{0, &ph, w.l3_hit, w.footprint_kb, true};
+    CoreDemand d{0, &ph, w.l3_hit, w.footprint_kb, true, &ph};
     const MemoryState st = model.solve({&d, 1});
-    const CoreRates r = model.rates(ph, w.l3_hit, 0, st);
+    const CoreRates r = model.rates(ph, w.l3_hit, 0, st.capacity_factor[0], st);
     const double inst = w.instructions * ph.fraction;
     const double t = inst / r.inst_per_ns;
     ns += t;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/error.h"
 
@@ -32,10 +33,13 @@ WorkloadProfile parse_profile(const WorkloadInfo& w, const std::string& file,
     total += phase.fraction;
     p.phases.push_back(phase);
   }
-  if (std::abs(total - 1.0) > 1e-6)
+  if (std::abs(total - 1.0) > 1e-6) {
+    char sum[32];
+    std::snprintf(sum, sizeof sum, "%g", total);
     throw InputError(file, base + "/phases",
-                     "the phase fractions add up to " + std::to_string(total) +
+                     std::string("the phase fractions add up to ") + sum +
                          "; they are shares of the run's instructions and must add up to 1");
+  }
   return p;
 }
 

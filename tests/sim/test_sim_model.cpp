@@ -37,13 +37,14 @@ WorkloadProfile profile(const std::string& name) {
 std::vector<double> speeds(const ContentionModel& m, const std::vector<CoreDemand>& d) {
   const MemoryState st = m.solve(d);
   std::vector<double> out;
-  for (const auto& x : d)
-    out.push_back(m.rates(*x.phase, x.l3_hit, x.cluster, st).inst_per_ns);
+  for (std::size_t i = 0; i < d.size(); ++i)
+    out.push_back(
+        m.rates(*d[i].phase, d[i].l3_hit, d[i].cluster, st.capacity_factor[i], st).inst_per_ns);
   return out;
 }
 
 CoreDemand demand(const WorkloadProfile& w, int cluster) {
-  return {cluster, &w.phases[0], w.l3_hit, w.footprint_kb, true};
+  return {cluster, &w.phases[0], w.l3_hit, w.footprint_kb, true, &w.phases[0]};
 }
 
 }  // namespace
@@ -56,8 +57,8 @@ TEST_CASE("memory model: the solved latencies are a fixed point of the traffic t
   const std::vector<CoreDemand> d = {demand(br, 0), demand(br, 0)};
   const MemoryState st = m.solve(d);
   double bytes = 0.0;
-  for (const auto& x : d) {
-    const CoreRates r = m.rates(*x.phase, x.l3_hit, 0, st);
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const CoreRates r = m.rates(*d[i].phase, d[i].l3_hit, 0, st.capacity_factor[i], st);
     bytes += (r.refill_per_ns + r.wb_per_ns) * p.line_bytes;
   }
   const double util = bytes / ContentionModel::bytes_per_ns(p.l3.bandwidth_mbps);
@@ -82,7 +83,7 @@ TEST_CASE("memory model: co-runners in a cluster slow each other, across cluster
   CHECK(three < same);
 }
 
-TEST_CASE("memory model: capacity contention only when the resident footprints exceed the L3",
+TEST_CASE("memory model: the L3 is shared by pressure when the resident footprints exceed it",
           "[sim][memory]") {
   const SimPlatform p = orin();
   const ContentionModel m(p);
@@ -92,13 +93,25 @@ TEST_CASE("memory model: capacity contention only when the resident footprints e
   CHECK(fits.capacity_factor[0] == 1.0);
   WorkloadProfile big = small;
   big.footprint_kb = 2048;
-  CoreDemand idle = demand(big, 0);
-  idle.resident = false;  // a throttled co-runner's lines have been evicted
-  idle.phase = nullptr;
+  // Equal pressure: half the L3 each.
   const MemoryState over = m.solve(std::vector<CoreDemand>{demand(big, 0), demand(big, 0)});
   CHECK(over.capacity_factor[0] == Approx(std::pow(0.5, p.l3.capacity_exponent)));
+  CHECK(over.capacity_factor[1] == over.capacity_factor[0]);
+  // A throttled co-runner's lines have been evicted: the L3 is the other's alone.
+  CoreDemand idle = demand(big, 0);
+  idle.resident = false;
+  idle.phase = nullptr;
   const MemoryState one = m.solve(std::vector<CoreDemand>{demand(big, 0), idle});
   CHECK(one.capacity_factor[0] == 1.0);
+  // A stream evicts a light co-runner; the light one barely disturbs the stream.
+  const WorkloadProfile br = profile("bandwidth_read");
+  const WorkloadProfile sift = profile("sift");
+  const MemoryState mixed = m.solve(std::vector<CoreDemand>{demand(br, 0), demand(sift, 0)});
+  CHECK(mixed.capacity_factor[0] > 0.98);
+  CHECK(mixed.capacity_factor[1] < 0.5);
+  // Another cluster does not count.
+  const MemoryState apart = m.solve(std::vector<CoreDemand>{demand(br, 0), demand(br, 1)});
+  CHECK(apart.capacity_factor[0] == 1.0);
 }
 
 TEST_CASE("memory model: saturation is bounded (latency finite, utilisation below 1)",

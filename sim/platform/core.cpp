@@ -9,6 +9,12 @@ namespace {
 constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
 // A segment with fewer instructions left than this is finished (rounding of rate x time).
 constexpr double kInstEpsilon = 1e-3;
+// Wake-ups are armed at most this far ahead. SystemC keeps a cancelled timed notification in its
+// event queue until its time comes, so re-arming a far-future wake-up at every preemption would
+// grow the queue for the whole segment (and every queue operation with it). Armed lazily (a
+// later wake-up never replaces a pending earlier one; an early wake-up just re-arms) and within
+// this horizon, the queue holds a handful of entries per core.
+constexpr TimeNs kWakeHorizonNs = 5 * kNsPerMs;
 
 bool same_demand(const CoreDemand& a, const CoreDemand& b) {
   return a.cluster == b.cluster && a.phase == b.phase && a.resident_phase == b.resident_phase &&
@@ -174,20 +180,29 @@ void Core::dispatch(TimeNs now) {
     memory_.mark_dirty();
   }
 
-  if (at != wake_at_) {
-    wake_ev_.cancel();
-    wake_at_ = at;
-    if (at == now)
-      wake_ev_.notify(sc_core::SC_ZERO_TIME);
-    else if (at > now)
-      wake_ev_.notify(to_sc(at - now));
-  }
+  wake_at_ = at;
+  arm(now);
+}
+
+void Core::arm(TimeNs now) {
+  if (wake_at_ < 0) return;  // a pending wake-up, if any, will find nothing to do
+  const TimeNs target = std::min(wake_at_, now + kWakeHorizonNs);
+  if (armed_at_ >= 0 && armed_at_ <= target) return;
+  armed_at_ = target;
+  if (target <= now)
+    wake_ev_.notify(sc_core::SC_ZERO_TIME);
+  else
+    wake_ev_.notify(to_sc(target - now));
 }
 
 void Core::wake() {
   rt_.guarded([&] {
     const TimeNs now = now_ns();
-    if (wake_at_ < 0 || now < wake_at_) return;  // superseded
+    armed_at_ = -1;
+    if (wake_at_ < 0 || now < wake_at_) {  // early (the horizon, or the end moved later)
+      arm(now);
+      return;
+    }
     wake_at_ = -1;
     sync(now);
     if (running_ == Running::Callback && callbacks_[running_cb_].remaining <= 0) {

@@ -72,6 +72,7 @@ class Core : public sc_core::sc_module {
   void wake();
   void sync(TimeNs now);
   void dispatch(TimeNs now);
+  void arm(TimeNs now);
   std::size_t top_callback() const;  // index of the callback to run, or npos
 
   int id_;
@@ -98,7 +99,8 @@ class Core : public sc_core::sc_module {
   CoreDemand reported_;
   bool reported_valid_ = false;
   sc_core::sc_event wake_ev_;
-  TimeNs wake_at_ = -1;
+  TimeNs wake_at_ = -1;   // when the running callback or workload segment ends (-1: never)
+  TimeNs armed_at_ = -1;  // the notification pending in the kernel (-1: none)
 };
 
 }  // namespace rosguard::sim

@@ -38,10 +38,10 @@ void MemorySystem::resolve() {
   rt_.guarded([&] {
     scheduled_ = false;
     ++resolves_;
-    std::vector<CoreDemand> demands;
-    std::vector<std::uintptr_t> key;
-    demands.reserve(cores_.size());
-    key.reserve(cores_.size() * 6);
+    std::vector<CoreDemand>& demands = demands_;
+    std::vector<std::uintptr_t>& key = key_;
+    demands.clear();
+    key.clear();
     for (Core* c : cores_) {
       const CoreDemand d = c->demand();
       demands.push_back(d);
@@ -56,7 +56,7 @@ void MemorySystem::resolve() {
     if (it == memo_.end()) {
       ++solves_;
       if (memo_.size() > 4096) memo_.clear();
-      it = memo_.emplace(std::move(key), model_.solve(demands)).first;
+      it = memo_.emplace(key, model_.solve(demands)).first;
     }
     if (it->second == state_) return;
     state_ = it->second;

@@ -55,6 +55,8 @@ class MemorySystem : public sc_core::sc_module {
   std::vector<Core*> cores_;
   MemoryState state_;
   std::map<std::vector<std::uintptr_t>, MemoryState> memo_;
+  std::vector<CoreDemand> demands_;  // scratch of resolve()
+  std::vector<std::uintptr_t> key_;  // scratch of resolve()
   sc_core::sc_event ev_;
   bool scheduled_ = false;
   std::uint64_t solves_ = 0;    // fixed points computed

@@ -158,9 +158,10 @@ class Top : public sc_core::sc_module {
     maybe_finish(now);
   }
 
+  // A `once` nRT node finished. (`loop` nodes never finish: the RT nodes end the run.)
   void nrt_done(TimeNs now) {
     for (auto& n : nrt_)
-      if (!n->done()) return;
+      if (!n->config().loop && !n->done()) return;
     if (rt_nodes_.empty() && controller_) {
       rt_window_end_ = now;
       controller_->disable(0, now);

@@ -141,7 +141,7 @@ void Controller::publish(TimeNs origin, TimeNs now) {
       rec_.trace->instant(now, cfg_.core, "controller",
                           std::string(to_string(cmd)) + " -> " + node->config().name);
     bus_.send(links_[c.entity], now, latency_[c.entity].draw_ns(),
-              [node, cmd, origin](TimeNs at) { node->on_command(cmd, origin, at); });
+              [node, cmd, origin](TimeNs) { node->on_command(cmd, origin); });
   }
   out_.clear();
 }

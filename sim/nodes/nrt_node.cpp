@@ -45,11 +45,10 @@ void NrtNodeModel::work_ended(TimeNs now) {
   if (on_done_) on_done_(now);
 }
 
-void NrtNodeModel::on_command(Command command, TimeNs origin, TimeNs now) {
+void NrtNodeModel::on_command(Command command, TimeNs origin) {
   const TimeNs cost = cfb_cost_.draw_ns();
   core_.post(Core::Prio::Cfb, cost, std::string("CFB ") + std::string(to_string(command)),
              [this, command, origin](TimeNs t) { apply(command, origin, t); });
-  (void)now;
 }
 
 void NrtNodeModel::set_state_span(NodeState from, TimeNs now) {
@@ -78,36 +77,35 @@ void NrtNodeModel::apply(Command command, TimeNs origin, TimeNs now) {
     // A new activation: its baseline sample now, then one every sampling period.
     sample_timer_.set(now + cfg_.sampling_period_ns);
     sample_pending_ = false;
-    post_pmc(now);
+    post_pmc();
   } else if (tr.to == NodeState::Off) {
     sample_timer_.cancel();
     sample_pending_ = false;
   } else if (tr.from == NodeState::Thr && tr.to == NodeState::On && sample_pending_) {
     sample_pending_ = false;
-    post_pmc(now);
+    post_pmc();
   }
 }
 
 void NrtNodeModel::pmc_timer(TimeNs now) {
   sample_timer_.set(now + cfg_.sampling_period_ns);
   if (node_.state() == NodeState::On && !sample_busy_)
-    post_pmc(now);
+    post_pmc();
   else
     sample_pending_ = true;
 }
 
-void NrtNodeModel::post_pmc(TimeNs now) {
+void NrtNodeModel::post_pmc() {
   if (sample_busy_) {
     sample_pending_ = true;
     return;
   }
   sample_busy_ = true;
   const TimeNs cost = pmc_cost_.draw_ns();
-  core_.post(Core::Prio::Pmc, cost, "PMC", [this, now, cost](TimeNs t) { pmc_done(now, cost, t); });
+  core_.post(Core::Prio::Pmc, cost, "PMC", [this, cost](TimeNs t) { pmc_done(cost, t); });
 }
 
-void NrtNodeModel::pmc_done(TimeNs start, TimeNs cost, TimeNs now) {
-  (void)start;
+void NrtNodeModel::pmc_done(TimeNs cost, TimeNs now) {
   // The counters as the callback read them, handed to the middleware now ("published").
   const Pmu& pmu = core_.pmu();
   std::vector<CounterValue> counters;
@@ -139,7 +137,7 @@ void NrtNodeModel::pmc_done(TimeNs start, TimeNs cost, TimeNs now) {
                sample_busy_ = false;
                if (sample_pending_ && node_.state() == NodeState::On) {
                  sample_pending_ = false;
-                 post_pmc(t);
+                 post_pmc();
                }
              });
 }

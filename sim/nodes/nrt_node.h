@@ -51,9 +51,9 @@ class NrtNodeModel : public sc_core::sc_module {
                Core& core, MessageBus& bus, Controller& controller, Runtime& rt, Recorder& rec);
 
   void start(TimeNs now);
-  // A command message from the controller arrived; `origin` is when the sample that caused it
-  // was published / read (THR), or -1.
-  void on_command(Command command, TimeNs origin, TimeNs now);
+  // A command message from the controller arrived (now); `origin` is when the sample that caused
+  // it was published / read (THR), or -1.
+  void on_command(Command command, TimeNs origin);
   // Called once when a `once` run completes.
   void on_done(std::function<void(TimeNs)> fn) { on_done_ = std::move(fn); }
 
@@ -71,8 +71,8 @@ class NrtNodeModel : public sc_core::sc_module {
 
  private:
   void pmc_timer(TimeNs now);
-  void post_pmc(TimeNs now);
-  void pmc_done(TimeNs start, TimeNs cost, TimeNs now);
+  void post_pmc();
+  void pmc_done(TimeNs cost, TimeNs now);
   void apply(Command command, TimeNs origin, TimeNs now);
   void set_state_span(NodeState from, TimeNs now);
   void work_ended(TimeNs now);

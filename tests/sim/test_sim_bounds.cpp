@@ -88,3 +88,42 @@ TEST_CASE(
     if (std::string(c.nrt) != "mser") CHECK(over_budget > 0);  // the bound is not vacuous
   }
 }
+
+TEST_CASE(
+    "several RT and nRT nodes (a periodic RT node, a once nRT node finishing last, group "
+    "scope) run to completion with consistent outcomes",
+    "[sim][nodes]") {
+  test::TempDir dir;
+  const json doc = {
+      {"name", "multi"},
+      {"nodes",
+       {{"controller", {{"core", 0}}},
+        {"rt",
+         {{{"name", "rt0"},
+           {"core", 1},
+           {"workload", "mser"},
+           {"iterations", 3},
+           {"period_us", 200000}},
+          {{"name", "rt1"}, {"core", 4}, {"workload", "tracking"}, {"iterations", 2}}}},
+        {"nrt",
+         {{{"name", "nrt0"}, {"core", 2}, {"workload", "bandwidth_read"}},
+          {{"name", "nrt1"}, {"core", 3}, {"workload", "disparity"}, {"mode", "once"}},
+          {{"name", "nrt2"}, {"core", 5}, {"workload", "bandwidth_write"}}}}}},
+      {"regulation", {{"policy", "interval"}, {"threshold_pct", 15}, {"scope", "group"}}}};
+  const auto points = test::load_points_json(doc, dir.path());
+  const json rep = test::run_point_report(points.at(0));
+  REQUIRE(rep["rt"].size() == 2);
+  CHECK(rep["rt"][0]["jobs"] == 3);
+  CHECK(rep["rt"][1]["jobs"] == 2);
+  REQUIRE(rep["nrt"].size() == 3);
+  // One shared budget: every member is throttled together.
+  const auto throttles = rep["nrt"][0]["throttle_count"].get<int>();
+  CHECK(throttles > 10);
+  CHECK(rep["nrt"][1]["throttle_count"] == throttles);
+  CHECK(rep["nrt"][2]["throttle_count"] == throttles);
+  // The once node ran to its end, after the RT nodes (it was throttled for the group).
+  CHECK(rep["nrt"][1]["runs"] == 1.0);
+  const double rt_end_us = 2 * 200000.0 + rep["rt"][0]["time_us"].get<double>();
+  CHECK(rep["nrt"][1]["time_us"].get<double>() > rt_end_us);
+  CHECK(rep["end_ns"].get<double>() >= rep["nrt"][1]["time_us"].get<double>() * 1e3);
+}

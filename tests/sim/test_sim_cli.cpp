@@ -198,3 +198,24 @@ TEST_CASE(
   CHECK(test::read_text(killed / "points.csv") == expected);
   CHECK(test::read_text(killed / "samples.csv") == test::read_text(clean / "samples.csv"));
 }
+
+TEST_CASE("every shipped scenario is valid for the sim backend, and the examples run",
+          "[sim][cli][scenarios]") {
+  int checked = 0;
+  for (const auto& e : fs::recursive_directory_iterator(test::source_dir() / "scenarios")) {
+    const auto rel = fs::relative(e.path(), test::source_dir()).string();
+    if (e.path().extension() != ".json" || rel.find("/schema/") != std::string::npos ||
+        rel.find("/platforms/") != std::string::npos ||
+        rel.find("/workloads/") != std::string::npos)
+      continue;
+    const auto r = test::run_cli({"check", rel});
+    INFO(rel << ": " << r.output);
+    CHECK(r.code == 0);
+    ++checked;
+    if (rel.find("/examples/") != std::string::npos) {
+      test::TempDir dir;
+      CHECK(test::run_cli({"run", rel, "--out", (dir.path() / "o").string(), "--quiet"}).code == 0);
+    }
+  }
+  CHECK(checked >= 12);
+}

@@ -44,6 +44,12 @@ RunConfig base_config(const Scenario& s, std::uint64_t seed) {
   return cfg;
 }
 
+void record_facts(RunContext& ctx, const RunConfig& cfg) {
+  ctx.fact("sim_model", "SystemC " + std::string(sc_version_string()) +
+                            "; memory model and command chain: sim/README.md");
+  ctx.fact("sim_platform", cfg.platform.name + " (" + cfg.platform.origin + ")");
+}
+
 }  // namespace
 
 RunConfig isolation_config(const Scenario& s, const WorkloadInfo& workload, int core,
@@ -132,6 +138,7 @@ IsolationResult SimBackend::isolation(const Scenario& s, const WorkloadInfo& wor
                                       std::uint64_t seed, RunContext& ctx) {
   RunConfig cfg = isolation_config(s, workload, core, seed);
   cfg.stop_requested = [&ctx] { return ctx.stop_requested(); };
+  record_facts(ctx, cfg);
   const SimReport rep = simulate(cfg);
   return isolation_of(rep, cfg.platform);
 }
@@ -147,6 +154,7 @@ PointOutcome SimBackend::run_point(const Scenario& s, const Baselines& baselines
   RunConfig cfg = point_config(s, window, seed);
   cfg.trace = ctx.trace();
   cfg.stop_requested = [&ctx] { return ctx.stop_requested(); };
+  record_facts(ctx, cfg);
   SimReport report = simulate(cfg);
   return std::move(report.outcome);
 }

@@ -263,6 +263,10 @@ SimReport simulate(const RunConfig& config) {
   return top.run();
 }
 
+std::string sc_version_string() {
+  return SC_VERSION;
+}
+
 IsolationResult isolation_of(const SimReport& report, const SimPlatform& platform) {
   const JobStats& j = report.rt_jobs.at(0).at(0);
   IsolationResult r;

@@ -69,6 +69,9 @@ struct SimReport {
 
 SimReport simulate(const RunConfig& config);
 
+// The SystemC library's version ("2.3.4-Accellera"), for the manifest.
+std::string sc_version_string();
+
 // The unregulated isolation figures (Table 1 quantities) of an isolation report's one job.
 IsolationResult isolation_of(const SimReport& report, const SimPlatform& platform);
 

@@ -28,6 +28,7 @@ run: build
 
 bench: build
 	$(BUILD)/tests/bench/rosguard_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+	tests/bench/time_sweep.sh $(BUILD) 5 $(JOBS)
 
 format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i

@@ -1,5 +1,6 @@
 // The backends compiled into this build.
 #include "commands.h"
+#include "sim/register.h"
 
 #ifdef ROSGUARD_WITH_HW
 #include "hw/register.h"
@@ -8,10 +9,9 @@
 namespace rosguard {
 
 void register_backends(BackendRegistry& registry) {
+  sim::register_builtin(registry);
 #ifdef ROSGUARD_WITH_HW
   hw::register_builtin(registry);
-#else
-  (void)registry;
 #endif
 }
 

@@ -1,0 +1,162 @@
+#include "backend.h"
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace rosguard::sim {
+namespace {
+
+TimeNs us_to_ns(double us) {
+  return static_cast<TimeNs>(std::llround(us * 1e3));
+}
+
+WorkloadProfile profile_of(const Scenario& s, const WorkloadInfo& w, const std::string& node) {
+  const bool inline_doc = w.origin == "inline";
+  try {
+    return parse_profile(w, inline_doc ? s.file : w.origin,
+                         inline_doc ? node + "/workload/sim" : "/sim");
+  } catch (const InputError& e) {
+    if (inline_doc) throw;
+    throw InputError(
+        s.file, node + "/workload",
+        "workload '" + w.name + "' (" + w.origin + "): " + e.json_path() + ": " + e.message());
+  }
+}
+
+SimPlatform platform_of(const Scenario& s) {
+  try {
+    return parse_sim_platform(s.platform);
+  } catch (const InputError& e) {
+    throw InputError(s.file, "/platform",
+                     "platform '" + s.platform.name + "' (" + s.platform.origin +
+                         ") cannot run on the sim backend: " + e.json_path() + ": " + e.message());
+  }
+}
+
+RunConfig base_config(const Scenario& s, std::uint64_t seed) {
+  RunConfig cfg;
+  cfg.platform = platform_of(s);
+  cfg.quantum_ns = std::max<TimeNs>(1, us_to_ns(s.sim.quantum_us));
+  cfg.seed = seed;
+  cfg.controller_core = s.nodes.controller_core;
+  cfg.metric = s.regulation.metric;
+  return cfg;
+}
+
+void record_facts(RunContext& ctx, const RunConfig& cfg) {
+  ctx.fact("sim_model", "SystemC " + std::string(sc_version_string()) +
+                            "; memory model and command chain: sim/README.md");
+  ctx.fact("sim_platform", cfg.platform.name + " (" + cfg.platform.origin + ")");
+}
+
+}  // namespace
+
+RunConfig isolation_config(const Scenario& s, const WorkloadInfo& workload, int core,
+                           std::uint64_t seed) {
+  RunConfig cfg = base_config(s, seed);
+  cfg.isolation = true;
+  RtSpec r;
+  r.name = workload.name;
+  r.core = core;
+  r.profile = profile_of(s, workload, "/nodes");
+  cfg.rt.push_back(std::move(r));
+  return cfg;
+}
+
+RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint64_t seed) {
+  RunConfig cfg = base_config(s, seed);
+  for (std::size_t i = 0; i < s.nodes.rt.size(); ++i) {
+    const RtNodeSpec& n = s.nodes.rt[i];
+    RtSpec r;
+    r.name = n.name;
+    r.core = n.core;
+    r.profile = profile_of(s, n.workload, "/nodes/rt/" + std::to_string(i));
+    r.iterations = n.iterations;
+    if (n.period_us) r.period_ns = *n.period_us * kNsPerUs;
+    cfg.rt.push_back(std::move(r));
+  }
+  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i) {
+    const NrtNodeSpec& n = s.nodes.nrt[i];
+    NrtSpec r;
+    r.name = n.name;
+    r.core = n.core;
+    r.profile = profile_of(s, n.workload, "/nodes/nrt/" + std::to_string(i));
+    r.loop = n.mode == NrtMode::Loop;
+    cfg.nrt.push_back(std::move(r));
+  }
+  const RegulationSpec& reg = s.regulation;
+  cfg.policy = reg.policy;
+  cfg.policy_params.threshold_pct = reg.threshold_pct;
+  cfg.policy_params.reference_mbps = reg.reference_mbps;
+  cfg.policy_params.regulation_period_ns = reg.regulation_period_us * kNsPerUs;
+  cfg.policy_params.monolithic_window_ns = monolithic_window_ns;
+  cfg.sampling = reg.sampling;
+  cfg.sampling_period_ns = reg.sampling_period_us * kNsPerUs;
+  cfg.scope = reg.scope;
+  return cfg;
+}
+
+void SimBackend::validate(const Scenario& s) const {
+  const SimPlatform platform = platform_of(s);
+  for (std::size_t i = 0; i < s.nodes.rt.size(); ++i)
+    profile_of(s, s.nodes.rt[i].workload, "/nodes/rt/" + std::to_string(i));
+  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
+    profile_of(s, s.nodes.nrt[i].workload, "/nodes/nrt/" + std::to_string(i));
+
+  const auto shares = [&](int core) {
+    for (const auto& n : s.nodes.rt)
+      if (n.core == core) return n.name;
+    for (const auto& n : s.nodes.nrt)
+      if (n.core == core) return n.name;
+    return std::string();
+  };
+  if (const std::string other = shares(s.nodes.controller_core); !other.empty())
+    throw InputError(s.file, "/nodes/controller/core",
+                     "the sim backend models the controller on a dedicated core, and core " +
+                         std::to_string(s.nodes.controller_core) + " also runs node '" + other +
+                         "'; give the controller a core of its own");
+
+  const RegulationSpec& r = s.regulation;
+  const bool samples = r.policy != "none" && !s.nodes.nrt.empty();
+  if (samples && r.sampling == Sampling::Self) {
+    const double cost_us =
+        platform.costs.pmc_callback.upper_bound() + platform.costs.publish.upper_bound();
+    if (static_cast<double>(r.sampling_period_us) <= cost_us)
+      throw InputError(s.file, "/regulation/sampling_period_us",
+                       "self-sampling every " + std::to_string(r.sampling_period_us) +
+                           " us leaves the nRT node no time for its work: one sample costs up "
+                           "to " +
+                           std::to_string(static_cast<int>(std::ceil(cost_us))) +
+                           " us on platform " + platform.name +
+                           " (PMC callback + publishing); use a longer period or external "
+                           "sampling");
+  }
+}
+
+IsolationResult SimBackend::isolation(const Scenario& s, const WorkloadInfo& workload, int core,
+                                      std::uint64_t seed, RunContext& ctx) {
+  RunConfig cfg = isolation_config(s, workload, core, seed);
+  cfg.stop_requested = [&ctx] { return ctx.stop_requested(); };
+  record_facts(ctx, cfg);
+  const SimReport rep = simulate(cfg);
+  return isolation_of(rep, cfg.platform);
+}
+
+PointOutcome SimBackend::run_point(const Scenario& s, const Baselines& baselines, int rep,
+                                   std::uint64_t seed, RunContext& ctx) {
+  (void)rep;  // the seed already differs per repetition
+  TimeNs window = 0;
+  if (!s.nodes.rt.empty()) {
+    const auto& first = s.nodes.rt.front();
+    window = us_to_ns(baselines.at(s, first.workload, first.core).time_us);
+  }
+  RunConfig cfg = point_config(s, window, seed);
+  cfg.trace = ctx.trace();
+  cfg.stop_requested = [&ctx] { return ctx.stop_requested(); };
+  record_facts(ctx, cfg);
+  SimReport report = simulate(cfg);
+  return std::move(report.outcome);
+}
+
+}  // namespace rosguard::sim

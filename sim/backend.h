@@ -1,0 +1,31 @@
+// The sim backend: runs scenario points on the SystemC model of the Orin CPU complex.
+//
+// Contract: process_per_task() is true: the runner calls isolation() and run_point() in a fresh
+// worker process each (SystemC elaborates once per process). validate() creates no SystemC
+// object, so the runner may call it in its own process for every point.
+#pragma once
+
+#include "backend/backend.h"
+#include "system.h"
+
+namespace rosguard::sim {
+
+class SimBackend : public Backend {
+ public:
+  std::string_view name() const override { return "sim"; }
+  bool process_per_task() const override { return true; }
+  void validate(const Scenario& point) const override;
+  IsolationResult isolation(const Scenario& scenario, const WorkloadInfo& workload, int core,
+                            std::uint64_t seed, RunContext& ctx) override;
+  PointOutcome run_point(const Scenario& point, const Baselines& baselines, int rep,
+                         std::uint64_t seed, RunContext& ctx) override;
+};
+
+// The simulation a point describes (used by run_point, and by tests that need the full report).
+// `monolithic_window_ns` is the first RT node's isolation time (monolithic policy only).
+RunConfig point_config(const Scenario& point, TimeNs monolithic_window_ns, std::uint64_t seed);
+// The isolation run of `workload` on `core` under `scenario`'s platform and settings.
+RunConfig isolation_config(const Scenario& scenario, const WorkloadInfo& workload, int core,
+                           std::uint64_t seed);
+
+}  // namespace rosguard::sim

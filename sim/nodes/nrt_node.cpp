@@ -1,0 +1,154 @@
+#include "nodes/nrt_node.h"
+
+#include "metric/metric.h"
+#include "nodes/controller.h"
+
+namespace rosguard::sim {
+
+NrtNodeModel::NrtNodeModel(const sc_core::sc_module_name& name, NrtNodeConfig config,
+                           const WorkloadProfile& profile, const CostParams& costs,
+                           std::uint64_t seed, Core& core, MessageBus& bus, Controller& controller,
+                           Runtime& rt, Recorder& rec)
+    : sc_core::sc_module(name),
+      cfg_(std::move(config)),
+      profile_(profile),
+      core_(core),
+      bus_(bus),
+      controller_(controller),
+      rt_(rt),
+      rec_(rec),
+      pmc_cost_(costs.pmc_callback, stream_seed(seed, cfg_.name + "/pmc_callback")),
+      publish_cost_(costs.publish, stream_seed(seed, cfg_.name + "/publish")),
+      cfb_cost_(costs.throttle_activation, stream_seed(seed, cfg_.name + "/cfb")),
+      latency_(costs.message_latency, stream_seed(seed, cfg_.name + "->controller")),
+      link_(bus.add_link()),
+      node_(cfg_.sampling),
+      run_(profile),
+      sample_timer_("sample_timer", rt, [this](TimeNs t) { pmc_timer(t); }),
+      state_track_(cfg_.name + " state"),
+      freq_hz_(cfg_.freq_hz) {}
+
+void NrtNodeModel::start(TimeNs now) {
+  state_since_ = now;
+  run_.restart();
+  core_.start_work(&run_, [this](TimeNs t) { work_ended(t); });
+}
+
+void NrtNodeModel::work_ended(TimeNs now) {
+  if (cfg_.loop) {
+    run_.restart();
+    return;  // the core picks the restarted run up
+  }
+  done_ = true;
+  finished_at_ = now;
+  core_.stop_work();
+  if (on_done_) on_done_(now);
+}
+
+void NrtNodeModel::on_command(Command command, TimeNs origin) {
+  const TimeNs cost = cfb_cost_.draw_ns();
+  core_.post(Core::Prio::Cfb, cost, std::string("CFB ") + std::string(to_string(command)),
+             [this, command, origin](TimeNs t) { apply(command, origin, t); });
+}
+
+void NrtNodeModel::set_state_span(NodeState from, TimeNs now) {
+  if (rec_.trace && now > state_since_)
+    rec_.trace->span(state_since_, now, core_.id(), state_track_, to_string(from));
+  state_since_ = now;
+}
+
+void NrtNodeModel::apply(Command command, TimeNs origin, TimeNs now) {
+  const Transition tr = node_.apply(command);
+  if (tr.changed()) set_state_span(tr.from, now);
+  if (tr.to == NodeState::Thr && tr.from != NodeState::Thr) {
+    core_.set_throttle(true);
+    thr_since_ = now;
+    ++throttles_;
+    if (origin >= 0) rec_.observe("activation_delay", now - origin);
+  }
+  if (tr.from == NodeState::Thr && tr.to != NodeState::Thr) {
+    core_.set_throttle(false);
+    throttled_ns_ += now - thr_since_;
+    if (rec_.trace) rec_.trace->span(thr_since_, now, core_.id(), cfg_.name + " throttle", "THR");
+    thr_since_ = -1;
+  }
+  if (cfg_.sampling != Sampling::Self) return;
+  if (command == Command::On && node_.state() == NodeState::On) {
+    // A new activation: its baseline sample now, then one every sampling period.
+    sample_timer_.set(now + cfg_.sampling_period_ns);
+    sample_pending_ = false;
+    post_pmc();
+  } else if (tr.to == NodeState::Off) {
+    sample_timer_.cancel();
+    sample_pending_ = false;
+  } else if (tr.from == NodeState::Thr && tr.to == NodeState::On && sample_pending_) {
+    sample_pending_ = false;
+    post_pmc();
+  }
+}
+
+void NrtNodeModel::pmc_timer(TimeNs now) {
+  sample_timer_.set(now + cfg_.sampling_period_ns);
+  if (node_.state() == NodeState::On && !sample_busy_)
+    post_pmc();
+  else
+    sample_pending_ = true;
+}
+
+void NrtNodeModel::post_pmc() {
+  if (sample_busy_) {
+    sample_pending_ = true;
+    return;
+  }
+  sample_busy_ = true;
+  const TimeNs cost = pmc_cost_.draw_ns();
+  core_.post(Core::Prio::Pmc, cost, "PMC", [this, cost](TimeNs t) { pmc_done(cost, t); });
+}
+
+void NrtNodeModel::pmc_done(TimeNs cost, TimeNs now) {
+  // The counters as the callback read them, handed to the middleware now ("published").
+  const Pmu& pmu = core_.pmu();
+  std::vector<CounterValue> counters;
+  counters.reserve(cfg_.metric_events.size());
+  for (PmuEvent e : cfg_.metric_events)
+    counters.push_back(pmu.read(e, now));
+  rec_.observe("pmc_callback", cost);
+  if (rec_.trace) {
+    const double l3 = pmu.l3_accesses(), cycles = pmu[PmuEvent::CpuCycles];
+    if (have_last_ && cycles > last_cycles_)
+      rec_.trace->counter(
+          now, core_.id(), "bandwidth_mbps",
+          eq1_mbps(cfg_.line_bytes, freq_hz_, l3 - last_l3_, cycles - last_cycles_));
+    last_l3_ = l3;
+    last_cycles_ = cycles;
+    have_last_ = true;
+  }
+  const TimeNs publish = publish_cost_.draw_ns();
+  const TimeNs published = now;
+  core_.post(Core::Prio::Pmc, publish, "publish",
+             [this, counters = std::move(counters), published, cost, publish](TimeNs t) mutable {
+               rec_.observe("sampling_overhead", cost + publish);
+               const std::size_t e = cfg_.entity;
+               Controller* ctl = &controller_;
+               bus_.send(link_, t, latency_.draw_ns(),
+                         [ctl, e, c = std::move(counters), published](TimeNs at) mutable {
+                           ctl->sample(e, std::move(c), published, at);
+                         });
+               sample_busy_ = false;
+               if (sample_pending_ && node_.state() == NodeState::On) {
+                 sample_pending_ = false;
+                 post_pmc();
+               }
+             });
+}
+
+void NrtNodeModel::finish(TimeNs now) {
+  set_state_span(node_.state(), now);
+  if (thr_since_ >= 0) {
+    throttled_ns_ += now - thr_since_;
+    if (rec_.trace) rec_.trace->span(thr_since_, now, core_.id(), cfg_.name + " throttle", "THR");
+    thr_since_ = -1;
+  }
+}
+
+}  // namespace rosguard::sim

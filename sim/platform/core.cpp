@@ -1,0 +1,225 @@
+#include "platform/core.h"
+
+#include <cmath>
+#include <limits>
+
+namespace rosguard::sim {
+namespace {
+
+constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+// A segment with fewer instructions left than this is finished (rounding of rate x time).
+constexpr double kInstEpsilon = 1e-3;
+// Wake-ups are armed at most this far ahead. SystemC keeps a cancelled timed notification in its
+// event queue until its time comes, so re-arming a far-future wake-up at every preemption would
+// grow the queue for the whole segment (and every queue operation with it). Armed lazily (a
+// later wake-up never replaces a pending earlier one; an early wake-up just re-arms) and within
+// this horizon, the queue holds a handful of entries per core.
+constexpr TimeNs kWakeHorizonNs = 5 * kNsPerMs;
+
+bool same_demand(const CoreDemand& a, const CoreDemand& b) {
+  return a.cluster == b.cluster && a.phase == b.phase && a.resident_phase == b.resident_phase &&
+         a.l3_hit == b.l3_hit && a.footprint_kb == b.footprint_kb && a.resident == b.resident;
+}
+
+}  // namespace
+
+Core::Core(const sc_core::sc_module_name& name, int id, const SimPlatform& platform,
+           MemorySystem& memory, Runtime& rt, TraceSink* trace)
+    : sc_core::sc_module(name),
+      id_(id),
+      cluster_(platform.cluster_of(id)),
+      f_ghz_(platform.freq_ghz()),
+      callback_ipc_(platform.core.callback_ipc),
+      idle_ipc_(platform.core.idle_loop_ipc),
+      memory_(memory),
+      rt_(rt),
+      trace_(trace) {
+  SC_METHOD(wake);
+  sensitive << wake_ev_;
+  dont_initialize();
+  mem_index_ = memory_.attach(this);
+}
+
+void Core::start_work(WorkloadRun* run, Done on_end) {
+  const TimeNs now = now_ns();
+  sync(now);
+  run_ = run;
+  on_end_ = std::move(on_end);
+  dispatch(now);
+}
+
+void Core::stop_work() {
+  const TimeNs now = now_ns();
+  sync(now);
+  run_ = nullptr;
+  on_end_ = nullptr;
+  dispatch(now);
+}
+
+void Core::post(Prio prio, TimeNs cost_ns, std::string label, Done done) {
+  const TimeNs now = now_ns();
+  sync(now);
+  callbacks_.push_back({prio, seq_++, cost_ns, std::move(label), std::move(done)});
+  dispatch(now);
+}
+
+void Core::set_throttle(bool on) {
+  const TimeNs now = now_ns();
+  sync(now);
+  thr_ = on;
+  dispatch(now);
+}
+
+const Pmu& Core::pmu() {
+  sync(now_ns());
+  return pmu_;
+}
+
+double Core::work_retired() {
+  sync(now_ns());
+  return run_ ? run_->retired_total() : 0.0;
+}
+
+CoreDemand Core::demand() const {
+  CoreDemand d;
+  d.cluster = cluster_;
+  if (run_ && !run_->finished()) {
+    d.footprint_kb = run_->profile().footprint_kb;
+    d.l3_hit = run_->profile().l3_hit;
+    d.resident = !thr_;
+    d.resident_phase = &run_->phase();
+    if (running_ == Running::Work) d.phase = &run_->phase();
+  }
+  return d;
+}
+
+void Core::memory_changed() {
+  const TimeNs now = now_ns();
+  sync(now);
+  dispatch(now);
+}
+
+std::size_t Core::top_callback() const {
+  std::size_t best = kNone;
+  for (std::size_t i = 0; i < callbacks_.size(); ++i) {
+    const Pending& p = callbacks_[i];
+    if (best == kNone || p.prio < callbacks_[best].prio ||
+        (p.prio == callbacks_[best].prio && p.seq < callbacks_[best].seq))
+      best = i;
+  }
+  return best;
+}
+
+void Core::sync(TimeNs now) {
+  const TimeNs dt = now - last_;
+  last_ = now;
+  if (dt <= 0) return;
+  const double ns = static_cast<double>(dt);
+  const double cycles = f_ghz_ * ns;
+  switch (running_) {
+    case Running::Idle:
+      break;
+    case Running::Callback:
+      pmu_[PmuEvent::CpuCycles] += cycles;
+      pmu_[PmuEvent::InstRetired] += callback_ipc_ * cycles;
+      callbacks_[running_cb_].remaining -= dt;
+      break;
+    case Running::Thr:
+      pmu_[PmuEvent::CpuCycles] += cycles;
+      pmu_[PmuEvent::InstRetired] += idle_ipc_ * cycles;
+      break;
+    case Running::Work: {
+      const double n = rates_.inst_per_ns * ns;
+      const double left = run_->remaining_in_segment();
+      // The segment may end a fraction of a ns before `now` (wake-ups are whole ns).
+      const double busy = n > left ? ns * left / n : ns;
+      const double refill = rates_.refill_per_ns * busy;
+      const double wb = rates_.wb_per_ns * busy;
+      pmu_[PmuEvent::CpuCycles] += cycles;
+      pmu_[PmuEvent::InstRetired] += rates_.inst_per_ns * busy;
+      pmu_[PmuEvent::L2Refill] += refill;
+      pmu_[PmuEvent::L2Wb] += wb;
+      pmu_[PmuEvent::L3Access] += refill + wb;
+      pmu_[PmuEvent::L3Refill] += rates_.l3_refill_per_ns * busy;
+      run_->retire(rates_.inst_per_ns * busy);
+      break;
+    }
+  }
+}
+
+void Core::dispatch(TimeNs now) {
+  const std::size_t cb = top_callback();
+  Running next = Running::Idle;
+  if (cb != kNone && callbacks_[cb].prio == Prio::Cfb)
+    next = Running::Callback;
+  else if (thr_)
+    next = Running::Thr;
+  else if (cb != kNone)
+    next = Running::Callback;
+  else if (run_ && !run_->finished())
+    next = Running::Work;
+  running_ = next;
+  running_cb_ = cb;
+
+  TimeNs at = -1;
+  if (next == Running::Callback) {
+    Pending& p = callbacks_[cb];
+    if (p.started < 0) p.started = now;
+    at = now + std::max<TimeNs>(0, p.remaining);
+  } else if (next == Running::Work) {
+    rates_ = memory_.rates(mem_index_, run_->phase(), run_->profile().l3_hit, cluster_);
+    const double left = run_->remaining_in_segment();
+    const double ns = std::ceil(left / rates_.inst_per_ns);
+    at = now + std::max<TimeNs>(1, static_cast<TimeNs>(ns));
+  }
+
+  const CoreDemand d = demand();
+  if (!reported_valid_ || !same_demand(d, reported_)) {
+    reported_ = d;
+    reported_valid_ = true;
+    memory_.mark_dirty();
+  }
+
+  wake_at_ = at;
+  arm(now);
+}
+
+void Core::arm(TimeNs now) {
+  if (wake_at_ < 0) return;  // a pending wake-up, if any, will find nothing to do
+  const TimeNs target = std::min(wake_at_, now + kWakeHorizonNs);
+  if (armed_at_ >= 0 && armed_at_ <= target) return;
+  armed_at_ = target;
+  if (target <= now)
+    wake_ev_.notify(sc_core::SC_ZERO_TIME);
+  else
+    wake_ev_.notify(to_sc(target - now));
+}
+
+void Core::wake() {
+  rt_.guarded([&] {
+    const TimeNs now = now_ns();
+    armed_at_ = -1;
+    if (wake_at_ < 0 || now < wake_at_) {  // early (the horizon, or the end moved later)
+      arm(now);
+      return;
+    }
+    wake_at_ = -1;
+    sync(now);
+    if (running_ == Running::Callback && callbacks_[running_cb_].remaining <= 0) {
+      Pending p = std::move(callbacks_[running_cb_]);
+      callbacks_.erase(callbacks_.begin() + static_cast<std::ptrdiff_t>(running_cb_));
+      running_ = Running::Idle;
+      if (trace_) trace_->span(p.started, now, id_, "callbacks", p.label);
+      if (p.done) p.done(now);
+    } else if (running_ == Running::Work && run_->remaining_in_segment() <= kInstEpsilon) {
+      if (!run_->next_segment()) {
+        running_ = Running::Idle;
+        Done on_end = on_end_;  // may restart the run or start another
+        if (on_end) on_end(now);
+      }
+    }
+    dispatch(now);
+  });
+}
+
+}  // namespace rosguard::sim

@@ -1,0 +1,106 @@
+// A simulated core: a priority-preemptive executor of one workload (lowest priority) and of
+// callbacks, with a PMU.
+//
+// What runs, highest priority first: a CFB callback (Prio::Cfb), the THR idle loop while
+// throttled, a PMC / publishing callback (Prio::Pmc), the workload (an RT job or the nRT node's
+// NCT), else nothing (the core idles and its cycle counter stops, as in WFI). Equal priorities
+// run in the order posted. Callbacks take a fixed time and move no data; the THR loop counts
+// cycles and instructions and moves no data; the workload progresses at the rates of the memory
+// model. So a throttled core's nominal work does not progress and it creates no traffic.
+//
+// Contract: a SystemC module, driven from SystemC processes at the current simulated time.
+// Mutators first bring the PMU and the workload up to now, then reschedule; they may be called
+// from any process (including from a callback's `done`). The WorkloadRun passed to start_work()
+// must outlive the core's use of it.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <systemc>
+#include <vector>
+
+#include "backend/trace.h"
+#include "kernel/runtime.h"
+#include "platform/memory_system.h"
+#include "platform/pmu.h"
+#include "workload/profile.h"
+
+namespace rosguard::sim {
+
+class Core : public sc_core::sc_module {
+ public:
+  SC_HAS_PROCESS(Core);
+  enum class Prio : std::uint8_t { Cfb = 0, Pmc = 2 };
+  using Done = std::function<void(TimeNs)>;
+
+  Core(const sc_core::sc_module_name& name, int id, const SimPlatform& platform,
+       MemorySystem& memory, Runtime& rt, TraceSink* trace);
+
+  int id() const { return id_; }
+  int cluster() const { return cluster_; }
+
+  // Runs `run` at the lowest priority from now on; `on_end(t)` is called when it finishes (it
+  // may restart the run, start another or stop).
+  void start_work(WorkloadRun* run, Done on_end);
+  void stop_work();
+  // Queues a callback of `cost_ns` of execution time; `done(t)` is called when it completes.
+  void post(Prio prio, TimeNs cost_ns, std::string label, Done done);
+  // Enters (true) or leaves (false) the THR idle loop.
+  void set_throttle(bool on);
+  bool throttled() const { return thr_; }
+
+  // The PMU and the workload's progress, brought up to now.
+  const Pmu& pmu();
+  double work_retired();
+
+  // What the memory system needs to know of this core.
+  CoreDemand demand() const;
+  // The memory system re-solved: bring counters up to now and take the new rates.
+  void memory_changed();
+
+ private:
+  enum class Running : std::uint8_t { Idle, Callback, Thr, Work };
+  struct Pending {
+    Prio prio;
+    std::uint64_t seq;
+    TimeNs remaining;
+    std::string label;
+    Done done;
+    TimeNs started = -1;
+  };
+
+  void wake();
+  void sync(TimeNs now);
+  void dispatch(TimeNs now);
+  void arm(TimeNs now);
+  std::size_t top_callback() const;  // index of the callback to run, or npos
+
+  int id_;
+  int cluster_;
+  double f_ghz_;
+  double callback_ipc_;
+  double idle_ipc_;
+  MemorySystem& memory_;
+  std::size_t mem_index_ = 0;
+  Runtime& rt_;
+  TraceSink* trace_;
+
+  std::vector<Pending> callbacks_;
+  std::uint64_t seq_ = 0;
+  bool thr_ = false;
+  WorkloadRun* run_ = nullptr;
+  Done on_end_;
+
+  Running running_ = Running::Idle;
+  std::size_t running_cb_ = 0;
+  CoreRates rates_;
+  TimeNs last_ = 0;
+  Pmu pmu_;
+  CoreDemand reported_;
+  bool reported_valid_ = false;
+  sc_core::sc_event wake_ev_;
+  TimeNs wake_at_ = -1;   // when the running callback or workload segment ends (-1: never)
+  TimeNs armed_at_ = -1;  // the notification pending in the kernel (-1: none)
+};
+
+}  // namespace rosguard::sim

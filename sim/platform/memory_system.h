@@ -1,0 +1,66 @@
+// The shared memory system of the simulated CPU complex (per-cluster L3, DRAM) as a SystemC
+// module: it keeps the latencies every running core sees and re-solves them when the set of
+// demands changes.
+//
+// Loosely-timed semantics with a quantum (scenario key sim.quantum_us): a core that changes what
+// it runs (a phase boundary, a callback preempting its work, a throttle) switches its own rates at
+// that exact time, computed with the latencies in force; the memory system re-solves the
+// contention at the next quantum boundary, and only then do the co-runners see the change. So the
+// cores interact through the shared resources at quantum granularity, while every per-core event
+// (PMU reads, throttles, callbacks) keeps its exact time. Nothing is evaluated per cache line, and
+// nothing runs at boundaries where no demand changed.
+//
+// Contract: created during elaboration; attach() every core before the simulation starts. Cores
+// call mark_dirty() when their demand changes; resolve() calls Core::memory_changed() on each.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <systemc>
+#include <vector>
+
+#include "kernel/runtime.h"
+#include "platform/contention.h"
+
+namespace rosguard::sim {
+
+class Core;
+
+class MemorySystem : public sc_core::sc_module {
+ public:
+  SC_HAS_PROCESS(MemorySystem);
+  MemorySystem(const sc_core::sc_module_name& name, const SimPlatform& platform, TimeNs quantum_ns,
+               Runtime& rt);
+
+  // Returns the core's index in the memory state (its capacity factor).
+  std::size_t attach(Core* core);
+  // A core's demand changed: re-solve at the next quantum boundary (now, if on one).
+  void mark_dirty();
+
+  const MemoryState& state() const { return state_; }
+  const ContentionModel& model() const { return model_; }
+  CoreRates rates(std::size_t index, const Phase& phase, double l3_hit, int cluster) const {
+    const double capf = index < state_.capacity_factor.size() ? state_.capacity_factor[index] : 1.0;
+    return model_.rates(phase, l3_hit, cluster, capf, state_);
+  }
+  std::uint64_t solves() const { return solves_; }
+  std::uint64_t resolves() const { return resolves_; }
+
+ private:
+  void resolve();
+
+  ContentionModel model_;
+  TimeNs quantum_ns_;
+  Runtime& rt_;
+  std::vector<Core*> cores_;
+  MemoryState state_;
+  std::map<std::vector<std::uintptr_t>, MemoryState> memo_;
+  std::vector<CoreDemand> demands_;  // scratch of resolve()
+  std::vector<std::uintptr_t> key_;  // scratch of resolve()
+  sc_core::sc_event ev_;
+  bool scheduled_ = false;
+  std::uint64_t solves_ = 0;    // fixed points computed
+  std::uint64_t resolves_ = 0;  // quantum boundaries where something changed
+};
+
+}  // namespace rosguard::sim

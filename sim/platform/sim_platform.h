@@ -1,0 +1,84 @@
+// The sim backend's typed view of a platform document: CPU, caches, the memory model and the
+// middleware / OS cost distributions (scenarios/schema/platform.schema.json, "memory" and
+// "costs").
+//
+// Contract: pure C++ (no SystemC). parse_sim_platform() reads a platform that already passed its
+// JSON Schema; it throws InputError naming the platform file and the JSON path for what the
+// schema cannot check (a missing section the sim needs, a median below its minimum, ...).
+// Immutable once built.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scenario/scenario.h"
+
+namespace rosguard::sim {
+
+// One cost distribution, in microseconds (see the "distribution" definition in the schema).
+struct Distribution {
+  enum class Kind : std::uint8_t { Constant, Uniform, Normal, Lognormal };
+  Kind kind = Kind::Constant;
+  double value_us = 0.0;       // constant
+  double mean_us = 0.0;        // normal: mean; lognormal: median
+  double spread = 0.0;         // normal: sd (us); lognormal: sigma
+  double min_us = 0.0;         // uniform / truncation / lognormal location
+  double max_us = -1.0;        // uniform / truncation / clip; < 0: none
+  double mean() const;         // approximate mean (for checks and messages)
+  double upper_bound() const;  // max_us when bounded, else a far tail quantile
+};
+
+struct L3Params {
+  double capacity_kb = 2048.0;
+  double latency_ns = 20.0;
+  double queue_ns = 8.0;
+  double bandwidth_mbps = 60000.0;
+  double capacity_exponent = 0.35;
+};
+
+struct DramParams {
+  double latency_ns = 95.0;
+  double queue_ns = 25.0;
+  double bandwidth_mbps = 90000.0;
+};
+
+struct CoreParams {
+  double callback_ipc = 1.0;
+  double idle_loop_ipc = 1.0;
+};
+
+struct CostParams {
+  Distribution pmc_callback;
+  Distribution publish;
+  Distribution message_latency;
+  Distribution controller_callback;
+  Distribution throttle_activation;
+  Distribution external_read;
+};
+
+struct SimPlatform {
+  std::string name;
+  std::string origin;
+  int clusters = 1;
+  int cores_per_cluster = 1;
+  double freq_mhz = 1000.0;
+  std::uint32_t line_bytes = 64;
+  std::vector<std::string> pmu_events;
+  L3Params l3;
+  DramParams dram;
+  CoreParams core;
+  CostParams costs;
+
+  int cores() const { return clusters * cores_per_cluster; }
+  int cluster_of(int core_id) const { return core_id / cores_per_cluster; }
+  double freq_ghz() const { return freq_mhz / 1000.0; }  // cycles per ns
+};
+
+// The PMU events the simulated core counts (sim/platform/pmu.h); a platform may list a subset.
+const std::vector<std::string>& sim_pmu_events();
+
+// Throws InputError(platform.origin, path, message) when the platform lacks what sim needs.
+SimPlatform parse_sim_platform(const PlatformInfo& platform);
+
+}  // namespace rosguard::sim

@@ -1,0 +1,279 @@
+#include "system.h"
+
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <systemc>
+
+#include "core/error.h"
+#include "kernel/runtime.h"
+#include "metric/metric.h"
+#include "nodes/controller.h"
+#include "nodes/nrt_node.h"
+#include "nodes/rt_node.h"
+#include "platform/core.h"
+#include "platform/memory_system.h"
+
+namespace rosguard::sim {
+namespace {
+
+bool g_elaborated = false;
+
+constexpr TimeNs kStopPollNs = 5 * kNsPerMs;
+
+std::vector<PmuEvent> metric_events(const MetricSpec& m) {
+  std::vector<PmuEvent> out;
+  for (const auto& e : m.events) {
+    const auto ev = pmu_event(e.name);
+    if (!ev) throw RunError("the sim PMU does not count event '" + e.name + "'");
+    out.push_back(*ev);
+  }
+  return out;
+}
+
+// The top of the model: every module of one run, and the end-of-run logic.
+class Top : public sc_core::sc_module {
+ public:
+  SC_HAS_PROCESS(Top);
+  Top(const sc_core::sc_module_name& name, const RunConfig& cfg)
+      : sc_core::sc_module(name),
+        cfg_(cfg),
+        memory_("memory", cfg.platform, cfg.quantum_ns, rt_),
+        bus_("bus", rt_),
+        watchdog_("watchdog", rt_, [this](TimeNs t) { poll_stop(t); }) {
+    rec_.trace = cfg.trace;
+    const std::vector<PmuEvent> events = metric_events(cfg.metric);
+
+    if (!cfg.isolation) {
+      RegulatorConfig rc;
+      rc.rt_count = std::max<std::size_t>(1, cfg.rt.size());
+      rc.account_of_entity = accounts_for_scope(cfg.scope, cfg.nrt.size());
+      rc.metric = cfg.metric;
+      PolicyRegistry policies;
+      register_builtin(policies);
+      auto regulator =
+          std::make_unique<Regulator>(std::move(rc), policies.make(cfg.policy, cfg.policy_params));
+      ControllerConfig cc;
+      cc.core = cfg.controller_core;
+      cc.sampling = cfg.sampling;
+      cc.sampling_period_ns = cfg.sampling_period_ns;
+      cc.regulation_period_ns = cfg.policy_params.regulation_period_ns;
+      cc.periodic_windows = regulator->policy().window_end(0).has_value();
+      cc.line_bytes = cfg.metric.line_bytes;
+      cc.metric_events = events;
+      controller_ = std::make_unique<Controller>("controller", std::move(cc), std::move(regulator),
+                                                 cfg.platform.costs, cfg.seed, bus_, rt_, rec_);
+      controller_->on_inactive([this](TimeNs t) { maybe_finish(t); });
+    }
+
+    for (std::size_t i = 0; i < cfg.nrt.size(); ++i) {
+      const NrtSpec& n = cfg.nrt[i];
+      NrtNodeConfig nc;
+      nc.entity = i;
+      nc.name = n.name;
+      nc.loop = n.loop;
+      nc.sampling = cfg.sampling;
+      nc.sampling_period_ns = cfg.sampling_period_ns;
+      nc.metric_events = events;
+      nc.line_bytes = cfg.metric.line_bytes;
+      nc.freq_hz = cfg.platform.freq_mhz * 1e6;
+      nrt_.push_back(std::make_unique<NrtNodeModel>(n.name.c_str(), std::move(nc), n.profile,
+                                                    cfg.platform.costs, cfg.seed, core(n.core),
+                                                    bus_, *controller_, rt_, rec_));
+      controller_->add_nrt(nrt_.back().get());
+      nrt_.back()->on_done([this](TimeNs t) { nrt_done(t); });
+    }
+    for (std::size_t i = 0; i < cfg.rt.size(); ++i) {
+      const RtSpec& r = cfg.rt[i];
+      RtNodeConfig rc{i, r.name, r.iterations, r.period_ns};
+      rt_nodes_.push_back(std::make_unique<RtNodeModel>(r.name.c_str(), std::move(rc), r.profile,
+                                                        cfg.platform.costs, cfg.seed, core(r.core),
+                                                        bus_, controller_.get(), rt_, rec_));
+      rt_nodes_.back()->on_job_start([this](TimeNs t) { rt_job_started(t); });
+      rt_nodes_.back()->on_done([this](TimeNs t) { rt_done(t); });
+      if (cfg.isolation) break;
+    }
+    SC_METHOD(begin);
+  }
+
+  SimReport run() {
+    const bool finished = rt_.run(cfg_.limit_ns);
+    if (interrupted_) throw Interrupted();
+    if (!finished || !ended_)
+      throw RunError("the simulation did not finish within " +
+                     std::to_string(cfg_.limit_ns / kNsPerS) +
+                     " s of simulated time (a node that never progresses? e.g. a sampling period "
+                     "shorter than the sampling cost)");
+    return report();
+  }
+
+ private:
+  Core& core(int id) {
+    auto it = cores_.find(id);
+    if (it != cores_.end()) return *it->second;
+    auto c = std::make_unique<Core>(("core" + std::to_string(id)).c_str(), id, cfg_.platform,
+                                    memory_, rt_, cfg_.trace);
+    return *cores_.emplace(id, std::move(c)).first->second;
+  }
+
+  void begin() {
+    rt_.guarded([&] {
+      const TimeNs now = now_ns();
+      for (auto& n : nrt_)
+        n->start(now);
+      if (rt_nodes_.empty() && controller_) {
+        // No RT node: regulation is active for the whole run (a virtual RT node 0).
+        rt_window_start_ = now;
+        controller_->enable(0, now);
+      }
+      for (auto& r : rt_nodes_)
+        r->start(now);
+      if (cfg_.stop_requested) watchdog_.set(now + kStopPollNs);
+    });
+  }
+
+  void poll_stop(TimeNs now) {
+    if (cfg_.stop_requested && cfg_.stop_requested()) {
+      interrupted_ = true;
+      rt_.stop();
+      return;
+    }
+    watchdog_.set(now + kStopPollNs);
+  }
+
+  void rt_job_started(TimeNs now) {
+    if (rt_window_start_ < 0) {
+      rt_window_start_ = now;
+      for (auto& n : nrt_)
+        retired_start_.push_back(n->retired());
+    }
+  }
+
+  void rt_done(TimeNs now) {
+    for (auto& r : rt_nodes_)
+      if (!r->done()) return;
+    rt_window_end_ = now;
+    for (auto& n : nrt_)
+      retired_end_.push_back(n->retired());
+    maybe_finish(now);
+  }
+
+  // A `once` nRT node finished. (`loop` nodes never finish: the RT nodes end the run.)
+  void nrt_done(TimeNs now) {
+    for (auto& n : nrt_)
+      if (!n->config().loop && !n->done()) return;
+    if (rt_nodes_.empty() && controller_) {
+      rt_window_end_ = now;
+      controller_->disable(0, now);
+      return;  // finishes when the controller has deactivated
+    }
+    maybe_finish(now);
+  }
+
+  void maybe_finish(TimeNs now) {
+    if (ended_) return;
+    for (auto& r : rt_nodes_)
+      if (!r->done()) return;
+    for (auto& n : nrt_)
+      if (!n->config().loop && !n->done()) return;
+    if (controller_ && controller_->active()) return;
+    if (rt_nodes_.empty() && controller_ && controller_->activations() == 0) return;
+    ended_ = true;
+    end_ns_ = now;
+    for (auto& n : nrt_)
+      n->finish(now);
+    if (controller_) controller_->finish(now);
+    rt_.stop();
+  }
+
+  SimReport report() {
+    SimReport rep;
+    rep.end_ns = end_ns_;
+    const double f_hz = cfg_.platform.freq_mhz * 1e6;
+    const double line = cfg_.platform.line_bytes;
+    for (auto& r : rt_nodes_) {
+      RtOutcome o;
+      o.name = r->config().name;
+      double sum = 0.0;
+      for (const auto& j : r->jobs())
+        sum += static_cast<double>(j.end - j.start);
+      o.jobs = static_cast<int>(r->jobs().size());
+      o.time_us = o.jobs ? sum / o.jobs / 1e3 : 0.0;
+      rep.outcome.rt.push_back(o);
+      rep.rt_jobs.push_back(r->jobs());
+    }
+    for (std::size_t i = 0; i < nrt_.size(); ++i) {
+      NrtNodeModel& n = *nrt_[i];
+      NrtOutcome o;
+      o.name = n.config().name;
+      const double instructions = n.profile().instructions;
+      if (n.config().loop) {
+        const double window = static_cast<double>(rt_window_end_ - rt_window_start_);
+        o.runs = (retired_end_.at(i) - retired_start_.at(i)) / instructions;
+        o.time_us = o.runs > 0 ? window / o.runs / 1e3 : HUGE_VAL;
+      } else {
+        o.runs = 1.0;
+        o.time_us = static_cast<double>(n.finished_at()) / 1e3;
+      }
+      if (controller_ && controller_->activations() > 0) {
+        o.bandwidth_mbps =
+            eq1_mbps(line, f_hz, controller_->active_l3(i), controller_->active_cycles(i));
+      } else {
+        const Pmu& p = n.core().pmu();
+        o.bandwidth_mbps = eq1_mbps(line, f_hz, p.l3_accesses(), p[PmuEvent::CpuCycles]);
+      }
+      o.throttle_count = n.throttles();
+      o.throttled_us = static_cast<double>(n.throttled_ns()) / 1e3;
+      rep.outcome.nrt.push_back(o);
+    }
+    rep.outcome.samples = std::move(rec_.samples);
+    rep.windows = std::move(rec_.windows);
+    rep.activations = rt_.activations();
+    rep.memory_resolves = memory_.resolves();
+    rep.memory_solves = memory_.solves();
+    return rep;
+  }
+
+  const RunConfig& cfg_;
+  Runtime rt_;
+  Recorder rec_;
+  MemorySystem memory_;
+  MessageBus bus_;
+  Timer watchdog_;
+  std::map<int, std::unique_ptr<Core>> cores_;
+  std::unique_ptr<Controller> controller_;
+  std::vector<std::unique_ptr<NrtNodeModel>> nrt_;
+  std::vector<std::unique_ptr<RtNodeModel>> rt_nodes_;
+  TimeNs rt_window_start_ = -1, rt_window_end_ = -1;
+  std::vector<double> retired_start_, retired_end_;
+  bool ended_ = false;
+  bool interrupted_ = false;
+  TimeNs end_ns_ = 0;
+};
+
+}  // namespace
+
+SimReport simulate(const RunConfig& config) {
+  if (g_elaborated)
+    throw RunError(
+        "SystemC can elaborate only once per process; run each simulation in its own process");
+  g_elaborated = true;
+  ::setenv("SC_COPYRIGHT_MESSAGE", "DISABLE", 1);
+  Top top("rosguard", config);
+  return top.run();
+}
+
+std::string sc_version_string() {
+  return SC_VERSION;
+}
+
+IsolationResult isolation_of(const SimReport& report, const SimPlatform& platform) {
+  const JobStats& j = report.rt_jobs.at(0).at(0);
+  IsolationResult r;
+  r.time_us = static_cast<double>(j.end - j.start) / 1e3;
+  r.ipc = j.cycles > 0 ? j.instructions / j.cycles : 0.0;
+  r.mbps = eq1_mbps(platform.line_bytes, platform.freq_mhz * 1e6, j.l3_accesses, j.cycles);
+  return r;
+}
+
+}  // namespace rosguard::sim

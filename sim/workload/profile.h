@@ -1,0 +1,85 @@
+// Workload profiles of the sim backend (the "sim" object of a workload document) and the
+// progress of one run through them.
+//
+// A run retires `instructions` instructions. The phases, each a share of them, follow one another
+// `repeat` times (segment s runs phase s % phases.size() for fraction / repeat of the run). A
+// phase's L2 misses (refills, write-backs per kilo-instruction) go to the cluster's L3; the
+// profile's l3_hit of them hit there in isolation. base_ipc is the IPC the phase would reach if
+// every L2 refill were served at the unloaded L3 latency; the memory model slows it down as the
+// miss latency grows (sim/platform/contention.h).
+//
+// Contract: pure C++. parse_profile() reads a document that passed the workload schema (defaults
+// applied) and throws InputError(file, path, message) for what the schema cannot check.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scenario/scenario.h"
+
+namespace rosguard::sim {
+
+struct Phase {
+  double fraction = 1.0;
+  double base_ipc = 1.0;
+  double refill_pki = 0.0;
+  double wb_pki = 0.0;
+  double mlp = 1.0;
+};
+
+struct WorkloadProfile {
+  std::string name;
+  double instructions = 0.0;
+  double footprint_kb = 0.0;
+  double l3_hit = 1.0;
+  int repeat = 1;
+  std::vector<Phase> phases;
+
+  std::size_t segments() const { return phases.size() * static_cast<std::size_t>(repeat); }
+  std::size_t phase_index(std::size_t segment) const { return segment % phases.size(); }
+  double segment_instructions(std::size_t segment) const {
+    return instructions * phases[phase_index(segment)].fraction / repeat;
+  }
+};
+
+// `file` and `base` name the document in errors: a workload file and "/sim", or a scenario file
+// and "/nodes/rt/0/workload/sim" for an inline workload.
+WorkloadProfile parse_profile(const WorkloadInfo& workload, const std::string& file,
+                              const std::string& base);
+
+// Progress of one run of a profile. Instructions are doubles: rates are fractional per ns.
+class WorkloadRun {
+ public:
+  explicit WorkloadRun(const WorkloadProfile& profile) : profile_(&profile) { restart(); }
+
+  const WorkloadProfile& profile() const { return *profile_; }
+  const Phase& phase() const { return profile_->phases[profile_->phase_index(segment_)]; }
+  std::size_t phase_index() const { return profile_->phase_index(segment_); }
+  bool finished() const { return segment_ >= profile_->segments(); }
+  double remaining_in_segment() const { return remaining_; }
+  double retired_in_run() const { return retired_in_run_; }
+  std::uint64_t runs_completed() const { return runs_completed_; }
+  // Instructions retired over every run so far (completed runs plus the current one).
+  double retired_total() const {
+    return static_cast<double>(runs_completed_) * profile_->instructions + retired_in_run_;
+  }
+
+  // Retires `n` instructions of the current segment (at most what it has left).
+  void retire(double n);
+  // Moves past a finished segment; returns false when that was the run's last one (the run is
+  // then counted as completed).
+  bool next_segment();
+  // Starts the run over (loop mode).
+  void restart();
+
+ private:
+  const WorkloadProfile* profile_;
+  std::size_t segment_ = 0;
+  double remaining_ = 0.0;
+  double retired_in_run_ = 0.0;
+  std::uint64_t runs_completed_ = 0;
+};
+
+}  // namespace rosguard::sim

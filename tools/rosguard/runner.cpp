@@ -575,8 +575,8 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   std::unique_ptr<Backend> backend = info->make();
   for (const auto& p : loaded.points)
     backend->validate(p.scenario);
-  for (const auto& w : loaded.warnings)
-    std::cerr << "warning: " << w << "\n";
+  // The loader's warnings (e.g. a controller sharing a core) go to the manifest; the backend
+  // says what they mean for this run (as a fallback), so they are not printed twice.
 
   const Scenario& first = loaded.points.front().scenario;
   const fs::path out = opt.out.empty() ? fs::path("results") / first.name : opt.out;
@@ -873,10 +873,13 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
               << " (continue with --resume)\n";
     return g_stop_signal == SIGTERM ? 143 : 130;
   }
-  if (!opt.quiet)
+  if (!opt.quiet) {
+    char elapsed[32];
+    std::snprintf(elapsed, sizeof elapsed, "%.2f s", progress.seconds());
     std::cout << "rosguard: " << rows << " run(s) of " << loaded.points.size() << " point(s) x "
-              << reps << " repetition(s) written to " << out.string() << " in "
-              << progress.seconds() << " s\n";
+              << reps << " repetition(s) written to " << out.string() << " in " << elapsed
+              << "\n";
+  }
   return 0;
 }
 

@@ -66,18 +66,21 @@ void Controller::send(const Commands& out, TimeNs cause) {
   }
 }
 
-void Controller::sample_entity(std::size_t e, TimeNs t, const CounterValue* values, TimeNs cause) {
-  t = std::max(t, last_t_);
+void Controller::sample_entity(std::size_t e, TimeNs measured, const CounterValue* values,
+                               TimeNs cause) {
+  // Processed now (monotonic for the regulator); charged by when it was measured.
+  const TimeNs t = std::max({now_ns(), measured, last_t_});
   last_t_ = t;
   out_.clear();
   const double before = reg_->entity(e).bytes_active;
-  reg_->sample(t, e, std::span(values, cfg_.metric_events), out_);
+  reg_->sample(t, e, std::span(values, cfg_.metric_events), out_, measured);
   if (cfg_.trace) {
     const double bytes = reg_->entity(e).bytes_active - before;
-    if (last_sample_t_[e] > 0 && t > last_sample_t_[e] && bytes > 0.0)
-      trace_.counter(t - origin_, cfg_.entity_cores[e], counter_names_[e].c_str(),
-                     bytes / kBytesPerMb / (static_cast<double>(t - last_sample_t_[e]) / 1e9));
-    last_sample_t_[e] = t;
+    if (last_sample_t_[e] > 0 && measured > last_sample_t_[e] && bytes > 0.0)
+      trace_.counter(
+          measured - origin_, cfg_.entity_cores[e], counter_names_[e].c_str(),
+          bytes / kBytesPerMb / (static_cast<double>(measured - last_sample_t_[e]) / 1e9));
+    last_sample_t_[e] = measured;
   }
   send(out_, cause);
 }

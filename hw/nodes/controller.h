@@ -74,7 +74,7 @@ class Controller {
  private:
   void main();
   void send(const Commands& out, TimeNs cause);
-  void sample_entity(std::size_t e, TimeNs t, const CounterValue* values, TimeNs cause);
+  void sample_entity(std::size_t e, TimeNs measured, const CounterValue* values, TimeNs cause);
   void external_round();
 
   ControllerConfig cfg_;

@@ -122,22 +122,36 @@ void Regulator::advance(TimeNs t, Commands& out) {
 }
 
 void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValue> counters,
-                       Commands& out) {
+                       Commands& out, std::optional<TimeNs> measured_at) {
   Entity& ent = entities_.at(entity);
   if (counters.size() != ent.last.size())
     throw std::invalid_argument("sample has " + std::to_string(counters.size()) +
                                 " counters, the metric has " + std::to_string(ent.last.size()));
+  const TimeNs measured = measured_at.value_or(t);
+  if (measured > t)
+    throw std::invalid_argument("sample measured at t=" + std::to_string(measured) +
+                                " ns, after it is processed at " + std::to_string(t));
+  if (ent.has_baseline && active() && measured < ent.last_measured)
+    throw std::invalid_argument("sample of entity " + std::to_string(entity) + " measured at t=" +
+                                std::to_string(measured) + " ns, before its previous reading at " +
+                                std::to_string(ent.last_measured));
   check_time(t);
   if (!active() || !policy_->regulates()) return;
   advance(t, out);
 
   if (ent.has_baseline) {
-    // Usage counts in the window the sample arrives in, as the paper's controller accumulates
-    // it: the first sample of a window may carry traffic from the end of the previous one.
     const double bytes = metric_.delta_bytes(ent.last, counters);
     ent.view.bytes_active += bytes;
     Account& acc = accounts_[ent.view.account];
-    acc.used_bytes += bytes;
+    // Charged to the window it occurred in: spread evenly between the two readings, only the
+    // part after the window opened counts (every window starts fresh).
+    double charged = bytes;
+    if (ent.last_measured < acc.window_start)
+      charged = measured <= acc.window_start
+                    ? 0.0
+                    : bytes * static_cast<double>(measured - acc.window_start) /
+                          static_cast<double>(measured - ent.last_measured);
+    acc.used_bytes += charged;
     if (!acc.throttled && policy_->over_budget(acc)) {
       acc.throttled = true;
       for (std::size_t member : members_[ent.view.account])
@@ -145,6 +159,7 @@ void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValu
     }
   }
   std::copy(counters.begin(), counters.end(), ent.last.begin());
+  ent.last_measured = measured;
   ent.has_baseline = true;
 }
 

@@ -11,8 +11,12 @@
 // - The first sample of an entity after an activation starts is its baseline (no usage); the
 //   host takes it as soon as the entity is switched ON. Later samples are cumulative readings of
 //   the same counter group; their increase is the entity's usage.
-// - A sample's usage counts in the window it arrives in (no pro-rating across a boundary).
-//   Boundaries are processed before any input at or after them, so the order in which the host
+// - Usage is charged to the window in which it occurred, as MemGuard does: a sample's increase
+//   is spread evenly over the time between the entity's two readings (their measurement times),
+//   and only the part after the window opened is charged to it. Traffic of a closed window
+//   (e.g. the overshoot during the activation delay, measured by the first sample after
+//   REPLENISH) is not carried into the next one: every window starts fresh.
+// - Boundaries are processed before any input at or after them, so the order in which the host
 //   calls tick() and sample() for the same t does not matter.
 #pragma once
 
@@ -65,8 +69,11 @@ class Regulator {
   void rt_started(TimeNs t, std::size_t rt, Commands& out);
   // An RT node's disable signal. When the last running RT node finishes, every entity gets OFF.
   void rt_finished(TimeNs t, std::size_t rt, Commands& out);
-  // Cumulative counter values of one entity, in the metric's event order.
-  void sample(TimeNs t, std::size_t entity, std::span<const CounterValue> counters, Commands& out);
+  // Cumulative counter values of one entity, in the metric's event order, processed at `t` and
+  // read at `measured_at` (default: t). Per entity, measurement times must not decrease and a
+  // reading cannot be measured after it is processed.
+  void sample(TimeNs t, std::size_t entity, std::span<const CounterValue> counters, Commands& out,
+              std::optional<TimeNs> measured_at = std::nullopt);
   // Timer expiry the regulator asked for through next_tick().
   void tick(TimeNs t, Commands& out);
 
@@ -84,6 +91,7 @@ class Regulator {
   struct Entity {
     EntityView view;
     bool has_baseline = false;
+    TimeNs last_measured = 0;
     std::vector<CounterValue> last;
   };
 

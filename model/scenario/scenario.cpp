@@ -194,7 +194,12 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
     fail("/regulation/sampling_period_us",
          "sampling period " + std::to_string(r.sampling_period_us) +
              " us is longer than the regulation period " + std::to_string(r.regulation_period_us) +
-             " us: a budget would be replenished " + "before it could be checked");
+             " us: a budget would be replenished before it could be checked");
+  if (r.policy == "interval" && r.sampling_period_us == r.regulation_period_us)
+    fail("/regulation/sampling_period_us",
+         "sampling period equals the regulation period (" + std::to_string(r.sampling_period_us) +
+             " us): each window's usage would only be seen as it closes, so nothing would ever "
+             "be throttled; sample more often");
   if (r.policy == "monolithic" && s.nodes.rt.empty())
     fail("/regulation/policy",
          "monolithic regulation budgets the RT node's execution, and there is no RT node");

@@ -115,7 +115,9 @@ void Controller::decide(Work& w, TimeNs now) {
       break;
     case Work::Kind::Sample:
     case Work::Kind::Read:
-      reg.sample(now, w.index, w.counters, out_);
+      // Charged by when the counters were read (published / read), processed now.
+      reg.sample(now, w.index, w.counters, out_,
+                 w.origin >= 0 ? std::optional<TimeNs>(w.origin) : std::nullopt);
       if (rec_.trace && reg.active()) {
         const auto& acc = reg.accounts()[reg.entity(w.index).account];
         if (acc.budget_bytes > 0)

@@ -285,7 +285,7 @@ TEST_CASE("validate rejects what this host cannot run, naming file and path", "[
   }
 }
 
-TEST_CASE("auto picks a source and records why; software gives a time-based budget",
+TEST_CASE("auto picks a source and records why - software gives a time-based budget",
           "[hw][validate]") {
   auto loaded = load("rt-vs-nrt-bandwidth-read.json");
   PmcSourceRegistry sources;

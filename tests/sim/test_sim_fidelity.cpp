@@ -79,7 +79,7 @@ TEST_CASE("exp1: the PMC callback takes about 15 us, with little variation, at e
 
 TEST_CASE(
     "exp2: self-sampling costs bandwidth_read ~5.9 % at 1 ms, less at longer periods, "
-    "too much below 100 us; external sampling costs nothing noticeable",
+    "too much below 100 us - external sampling costs nothing noticeable",
     "[sim][fidelity]") {
   test::TempDir dir;
   const auto rows = run_scenario("scenarios/paper/exp2-sampling-overhead.json", dir);
@@ -230,37 +230,28 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "exp5: looser sampling (regulation 5x sampling) lowers the nRT overhead at thresholds "
-    "of 20 % and above",
+    "exp5: looser sampling (regulation 5x sampling) lowers the nRT overhead, but only "
+    "for thresholds above ~10 %",
     "[sim][fidelity]") {
-  // The paper adds "but only for thresholds above ~10 %". Here looser sampling also helps at
-  // 5-10 %: the regulator charges the traffic of the activation delay (measured by the first
-  // sample after REPLENISH) to the next window, and with budgets that small this carried
-  // overshoot decides whether a window throttles after one sample or two (README, "paper vs
-  // sim"). The finding is pinned where it holds.
   test::TempDir dir;
   const auto rows = run_scenario("scenarios/paper/exp5-sampling-period.json", dir);
   const auto nrt = [&](int period, const std::string& t) {
     return mean(rows, {{"sampling_period_us", std::to_string(period)}, {"threshold_pct", t}},
                 "nrt_slowdown");
   };
-  for (const std::string t : {"20", "25", "30"}) {
+  for (const std::string t : {"15", "20", "25", "30"}) {
     INFO("threshold " << t << " %");
-    CHECK(nrt(500, t) < nrt(250, t));
     CHECK(nrt(1000, t) < nrt(500, t));
     CHECK(nrt(2000, t) < nrt(1000, t));
     CHECK(nrt(2000, t) < 0.95 * nrt(500, t));
   }
-  // The RT node is protected alike at every sampling period (within 5 %).
-  for (const std::string t : {"5", "15", "30"})
-    CHECK(mean(rows, {{"sampling_period_us", "250"}, {"threshold_pct", t}}, "rt_slowdown") ==
-          Approx(mean(rows, {{"sampling_period_us", "2000"}, {"threshold_pct", t}}, "rt_slowdown"))
-              .epsilon(0.05));
+  // At 5 % the budget is gone after the first sample whatever the period: no gain.
+  CHECK(std::abs(nrt(2000, "5") / nrt(500, "5") - 1.0) < 0.05);
 }
 
 TEST_CASE(
     "exp6: longer regulation periods penalise a bandwidth_read nRT node and protect the "
-    "RT node more; for mser they change little",
+    "RT node more - for mser they change little",
     "[sim][fidelity]") {
   test::TempDir dir;
   const auto rows = run_scenario("scenarios/paper/exp6-regulation-period.json", dir);
@@ -282,8 +273,8 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "exp7: the RT node stays close to isolation everywhere; the nRT impact is limited "
-    "except for high-bandwidth nRT nodes; external sampling penalises the nRT node less",
+    "exp7: the RT node stays close to isolation everywhere - the nRT impact is limited "
+    "except for high-bandwidth nRT nodes - external sampling penalises the nRT node less",
     "[sim][fidelity]") {
   test::TempDir dir;
   const auto rows = run_scenario("scenarios/paper/exp7-grid.json", dir);
@@ -327,7 +318,7 @@ TEST_CASE(
 
 TEST_CASE(
     "unregulated co-runs: two bandwidth_read copies on one cluster slow each other, on two "
-    "clusters barely; two mser copies moderately",
+    "clusters barely - two mser copies moderately",
     "[sim][fidelity]") {
   test::TempDir dir;
   const nlohmann::json doc = {

@@ -169,39 +169,43 @@ TEST_CASE("interval: the first sample of an activation is a baseline and gives n
   CHECK(rig.out == Commands{{0, 0, On}, {ms(3), 0, Thr}, {ms(4), 0, Off}, {ms(10), 0, On}});
 }
 
-TEST_CASE("interval: a sample's usage counts wholly in the window it arrives in",
+TEST_CASE("interval: usage straddling a window boundary counts only its share after it",
           "[regulator][interval]") {
-  // Baseline at 3 ms, boundary at 5 ms, sample at 7 ms: all the lines it brings count against
-  // the window that opened at 5 ms, as the paper's controller accumulates them.
+  // Baseline at 3 ms, boundary at 5 ms, sample at 7 ms: half the time the sample covers lies in
+  // the new window, so half its lines count against it.
   Rig rig(make_interval_policy(params()), 1);
   rig.reg.rt_started(0, 0, rig.out);
   rig.sample(ms(3), 0, 0);
   rig.reg.tick(ms(5), rig.out);
 
-  SECTION("10 000 lines: under the 16 384-line budget") {
-    rig.sample(ms(7), 0, 10000);
+  SECTION("20 000 lines over 3-7 ms: 10 000 after the boundary, under the budget") {
+    rig.sample(ms(7), 0, 20000);
     CHECK(rig.reg.accounts()[0].used_bytes == 10000.0 * 64);
     CHECK(rig.out == Commands{{0, 0, On}});
   }
-  SECTION("20 000 lines: over the budget, THR at once") {
-    rig.sample(ms(7), 0, 20000);
+  SECTION("40 000 lines over 3-7 ms: 20 000 after the boundary, over the budget") {
+    rig.sample(ms(7), 0, 40000);
     CHECK(rig.reg.accounts()[0].used_bytes == 20000.0 * 64);
     CHECK(rig.out == Commands{{0, 0, On}, {ms(7), 0, Thr}});
   }
+  SECTION("unequal shares: 30 000 lines over 3-8 ms, 3/5 of them after the boundary") {
+    rig.sample(ms(8), 0, 30000);
+    CHECK(rig.reg.accounts()[0].used_bytes == Approx(18000.0 * 64).epsilon(1e-12));
+    CHECK(rig.out == Commands{{0, 0, On}, {ms(8), 0, Thr}});
+  }
 }
 
-TEST_CASE("interval: a sample taken at a boundary counts in the window that opens there",
+TEST_CASE("interval: a sample taken at a boundary belongs wholly to the closed window",
           "[regulator][interval]") {
   Rig rig(make_interval_policy(params()), 1);
   rig.reg.rt_started(0, 0, rig.out);
   rig.sample(ms(4), 0, 0);
-  rig.sample(ms(5), 0, 10000);  // covers 4-5 ms, arrives as window 1 opens
+  rig.sample(ms(5), 0, 1'000'000);  // covers 4-5 ms: nothing of it lies after 5 ms
   CHECK(rig.reg.accounts()[0].window == 1);
-  CHECK(rig.reg.accounts()[0].used_bytes == 10000.0 * 64);
+  CHECK(rig.reg.accounts()[0].used_bytes == 0.0);
+  rig.sample(ms(6), 0, 16384);  // covers 5-6 ms only: wholly in the new window
+  CHECK(rig.reg.accounts()[0].used_bytes == 1048576.0);
   CHECK(rig.out == Commands{{0, 0, On}});
-  rig.sample(ms(6), 0, 10000);  // 20 000 lines in window 1: over the budget
-  CHECK(rig.reg.accounts()[0].used_bytes == 20000.0 * 64);
-  CHECK(rig.out == Commands{{0, 0, On}, {ms(6), 0, Thr}});
 }
 
 TEST_CASE("interval: several missed boundaries are caught up in one call",
@@ -212,19 +216,15 @@ TEST_CASE("interval: several missed boundaries are caught up in one call",
   rig.sample(ms(2), 0, 20000);
   REQUIRE(rig.reg.next_tick() == ms(5));
 
-  SECTION("by a sample: one REPLENISH, then its usage counts in the window holding t") {
-    // Boundaries at 5, 10 and 15 ms were not ticked; the sample at 17 ms opens the window
-    // that started at 15 ms and its 4 000 lines count there.
-    rig.sample(ms(17), 0, 4000);
+  SECTION("by a sample: one REPLENISH, the window holding t counts") {
+    // Boundaries at 5, 10 and 15 ms were not ticked. 30 000 lines over 2-17 ms: 2/15 of them
+    // (4 000 lines) lie in the window that opened at 15 ms.
+    rig.sample(ms(17), 0, 30000);
     CHECK(rig.out == Commands{{0, 0, On}, {ms(2), 0, Thr}, {ms(17), 0, Rep}});
     CHECK(rig.reg.accounts()[0].window == 3);
     CHECK(rig.reg.accounts()[0].window_start == ms(15));
-    CHECK(rig.reg.accounts()[0].used_bytes == 4000.0 * 64);
+    CHECK(rig.reg.accounts()[0].used_bytes == Approx(4000.0 * 64).epsilon(1e-12));
     CHECK(rig.reg.next_tick() == ms(20));
-  }
-  SECTION("by a sample over the budget: REPLENISH, then THR again at the same t") {
-    rig.sample(ms(17), 0, 30000);
-    CHECK(rig.out == Commands{{0, 0, On}, {ms(2), 0, Thr}, {ms(17), 0, Rep}, {ms(17), 0, Thr}});
   }
   SECTION("by a late tick") {
     rig.reg.tick(ms(12), rig.out);
@@ -243,9 +243,8 @@ TEST_CASE("interval: several missed boundaries are caught up in one call",
 
 TEST_CASE("interval: tick() and sample() at the same t give the same commands in either order",
           "[regulator][interval]") {
-  // Window 0 holds 10 000 lines; at 5 ms a sample brings 10 000 more. The boundary is processed
-  // first whatever the call order, so they count in window 1 (were they counted in window 0,
-  // the entity would get THR at 5 ms and REPLENISH at once).
+  // Window 0 holds 10 000 lines; at 5 ms a sample brings 10 000 more. Were the sample accounted
+  // before the boundary, the entity would get THR at 5 ms (and REPLENISH at once).
   const auto run = [](bool tick_first, bool throttle_first) {
     Rig rig(make_interval_policy(params()), 2);
     rig.reg.rt_started(0, 0, rig.out);
@@ -257,7 +256,7 @@ TEST_CASE("interval: tick() and sample() at the same t give the same commands in
     rig.sample(ms(5), 0, 10000);
     rig.sample(ms(5), 1, 0);
     if (!tick_first) rig.reg.tick(ms(5), rig.out);
-    rig.sample(ms(6), 0, 5000);
+    rig.sample(ms(6), 0, 10000);
     return std::pair{rig.out, rig.reg.accounts()[0].used_bytes};
   };
   SECTION("nothing throttled") {
@@ -265,7 +264,7 @@ TEST_CASE("interval: tick() and sample() at the same t give the same commands in
     const auto b = run(false, false);
     CHECK(a.first == Commands{{0, 0, On}, {0, 1, On}});
     CHECK(a.first == b.first);
-    CHECK(a.second == 15000.0 * 64);
+    CHECK(a.second == 10000.0 * 64);
     CHECK(a.second == b.second);
   }
   SECTION("one entity throttled") {
@@ -275,6 +274,36 @@ TEST_CASE("interval: tick() and sample() at the same t give the same commands in
     CHECK(a.first == b.first);
     CHECK(a.second == b.second);
   }
+}
+
+TEST_CASE("interval: usage is charged by when it was measured, not when it arrives",
+          "[regulator][interval]") {
+  // Read at 4.9 ms (before the 5 ms boundary), processed at 5.1 ms: all its lines occurred in
+  // the closed window, none is charged to the window that opened at 5 ms.
+  Rig rig(make_interval_policy(params()), 1);
+  rig.reg.rt_started(0, 0, rig.out);
+  rig.sample(ms(4), 0, 0);
+  auto& c = rig.counters[0];
+  c[0].value += 20000;
+  rig.reg.sample(us(5100), 0, c, rig.out, us(4900));
+  CHECK(rig.reg.accounts()[0].window == 1);
+  CHECK(rig.reg.accounts()[0].used_bytes == 0.0);
+  CHECK(rig.reg.entity(0).bytes_active == 20000.0 * 64);
+  // The next reading, at 6 ms, covers 4.9-6 ms: 1/1.1 of it lies after the boundary.
+  c[0].value += 11000;
+  rig.reg.sample(ms(6), 0, c, rig.out, ms(6));
+  CHECK(rig.reg.accounts()[0].used_bytes == Approx(10000.0 * 64).epsilon(1e-12));
+  CHECK(rig.out == Commands{{0, 0, On}});
+}
+
+TEST_CASE("regulator: measurement times must be consistent", "[regulator][errors]") {
+  Rig rig(make_interval_policy(params()), 1);
+  rig.reg.rt_started(0, 0, rig.out);
+  rig.sample(ms(2), 0, 0);
+  const auto& c = rig.counters[0];
+  CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, c, rig.out, ms(4)), std::invalid_argument);  // future
+  CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, c, rig.out, ms(1)), std::invalid_argument);  // older
+  CHECK_NOTHROW(rig.reg.sample(ms(3), 0, c, rig.out, ms(2)));  // same instant again is fine
 }
 
 TEST_CASE("interval: next_tick() is the next window boundary while active, else none",
@@ -327,7 +356,7 @@ TEST_CASE("activation: ON to every entity at the first RT start, OFF when the la
   CHECK(rig.out.back() == CommandOut{ms(6), 2, On});
 }
 
-TEST_CASE("activation: OFF on finish also releases throttled entities; inactive is silent",
+TEST_CASE("activation: OFF on finish also releases throttled entities - inactive is silent",
           "[regulator][activation]") {
   Rig rig(make_interval_policy(params()), 2);
   rig.reg.rt_started(0, 0, rig.out);
@@ -422,7 +451,7 @@ TEST_CASE("none: the regulator emits nothing at all", "[regulator][none]") {
 
 // --- scope ---------------------------------------------------------------------------------
 
-TEST_CASE("group scope: one shared budget; exhausting it throttles every ON member",
+TEST_CASE("group scope: one shared budget - exhausting it throttles every ON member",
           "[regulator][scope]") {
   SECTION("one member alone exhausts it") {
     Rig rig(make_interval_policy(params()), 3, Scope::Group);

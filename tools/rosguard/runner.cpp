@@ -653,6 +653,19 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
                                                        {"doc", p.scenario.platform.doc}});
     }
     manifest["scenario"]["points"] = points_json;
+    // Every workload the run uses, with the isolation figures it is calibrated against (the
+    // paper's Table 1), so that analysis can show measured next to reference.
+    json workloads = json::object();
+    for (const auto& p : loaded.points) {
+      const auto add = [&](const WorkloadInfo& w) {
+        json entry{{"origin", w.origin}};
+        if (w.doc.contains("reference")) entry["reference"] = w.doc["reference"];
+        workloads[w.name] = entry;
+      };
+      for (const auto& n : p.scenario.nodes.rt) add(n.workload);
+      for (const auto& n : p.scenario.nodes.nrt) add(n.workload);
+    }
+    manifest["workloads"] = workloads;
     manifest["platform"] = platforms.size() == 1 ? platforms.begin()->second : json(platforms);
     manifest["backend"] = backend_name;
     manifest["seed"] = first.seed;

@@ -1,0 +1,289 @@
+"""``compare A B [--out DIR]``: two results folders point by point (e.g. hw vs sim).
+
+Points are matched by their stable id (it depends only on the sweep parameters, so a sim
+run and a hw run of the same scenario share ids). Each point's RT and nRT slowdowns are
+averaged over its repetitions first. A is the reference (e.g. measured), B the folder
+compared with it (e.g. simulated); errors are B - A.
+
+Writes into the output folder (default ``B/compare``):
+
+* ``compare.csv``: one row per point (common, only in A, only in B) with the settings, the
+  repetitions on each side, RT / nRT slowdown in A and B, difference (B - A) and error in %
+  of A;
+* ``summary.json``: per node (RT, nRT) the number of pairs, mean absolute percentage error,
+  max absolute error (and where), mean error (bias), Spearman rank correlation of the
+  configurations' slowdowns; the points only in A / only in B; settings that differ between
+  matched points;
+* ``compare_scatter.png`` / ``.pdf``: B vs A slowdown per point, RT and nRT in different
+  markers, with the identity line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from analysis import style
+from analysis.results import InvalidInput, load_results
+from analysis.tables import write_csv
+
+NODES = (("rt", "RT"), ("nrt", "nRT"))
+SETTINGS = ("rt_workload", "nrt_workload", "policy", "sampling", "scope", "threshold_pct",
+            "sampling_period_us", "regulation_period_us")
+NODE_STYLE = {"rt": {"marker": "o", "color": "tab:blue"},
+              "nrt": {"marker": "^", "color": "tab:orange"}}
+LISTED_IDS = 8   # ids printed per "only in" list; summary.json has them all
+
+
+@dataclass
+class ErrorSummary:
+    """Agreement of one node's mean slowdowns over the common points."""
+
+    pairs: int
+    mape_pct: float
+    max_abs_error: float
+    max_abs_error_point: str | None
+    mean_error: float
+    spearman: float
+
+
+@dataclass
+class Comparison:
+    """Two folders matched point by point."""
+
+    a: object
+    b: object
+    common: list          # [(Point in A, Point in B)]
+    only_a: list          # [Point]
+    only_b: list          # [Point]
+    mismatches: list      # [(point id, {column: (value in A, value in B)})]
+    errors: dict          # {"rt" | "nrt": ErrorSummary}
+
+
+def rank(values) -> np.ndarray:
+    """Ranks 1..n, ties sharing their average rank."""
+    v = np.asarray(values, dtype=float)
+    order = np.argsort(v, kind="mergesort")
+    ranks = np.empty(len(v))
+    i = 0
+    while i < len(v):
+        j = i
+        while j + 1 < len(v) and v[order[j + 1]] == v[order[i]]:
+            j += 1
+        ranks[order[i:j + 1]] = (i + j) / 2.0 + 1.0
+        i = j + 1
+    return ranks
+
+
+def spearman(x, y) -> float:
+    """Spearman rank correlation; NaN for fewer than 2 pairs or a constant side."""
+    if len(x) < 2:
+        return math.nan
+    rx, ry = rank(x), rank(y)
+    if np.all(rx == rx[0]) or np.all(ry == ry[0]):
+        return math.nan
+    return float(np.corrcoef(rx, ry)[0, 1])
+
+
+def error_summary(pairs) -> ErrorSummary:
+    """Errors of B against A over [(point id, a, b)] with finite a and b."""
+    if not pairs:
+        return ErrorSummary(0, math.nan, math.nan, None, math.nan, math.nan)
+    ids = [p for p, _, _ in pairs]
+    a = np.array([x for _, x, _ in pairs])
+    b = np.array([y for _, _, y in pairs])
+    diff = b - a
+    nonzero = a != 0
+    mape = float(np.mean(np.abs(diff[nonzero]) / np.abs(a[nonzero])) * 100) \
+        if nonzero.any() else math.nan
+    worst = int(np.argmax(np.abs(diff)))
+    return ErrorSummary(len(pairs), mape, float(abs(diff[worst])), ids[worst],
+                        float(diff.mean()), spearman(a, b))
+
+
+def compare_results(a, b) -> Comparison:
+    """Matches two loaded folders by point id and computes the error summaries."""
+    in_b = {p.id: p for p in b.points}
+    in_a = {p.id for p in a.points}
+    common = [(p, in_b[p.id]) for p in a.points if p.id in in_b]
+    if not common:
+        raise InvalidInput(f"{a.folder} and {b.folder} share no point: their sweep parameters "
+                           "differ (compare runs of the same scenario)")
+    only_a = [p for p in a.points if p.id not in in_b]
+    only_b = [p for p in b.points if p.id not in in_a]
+    mismatches = []
+    for pa, pb in common:
+        diff = {c: (pa.config.get(c), pb.config.get(c)) for c in SETTINGS
+                if pa.config.get(c) != pb.config.get(c)}
+        if diff:
+            mismatches.append((pa.id, diff))
+    errors = {}
+    for node, _ in NODES:
+        metric = f"{node}_slowdown"
+        pairs = [(pa.id, pa.mean(metric), pb.mean(metric)) for pa, pb in common]
+        errors[node] = error_summary([t for t in pairs
+                                      if math.isfinite(t[1]) and math.isfinite(t[2])])
+    return Comparison(a, b, common, only_a, only_b, mismatches, errors)
+
+
+def run(folder_a, folder_b, out=None, stream=sys.stdout, err=sys.stderr) -> int:
+    """Compares two results folders and writes the outputs; returns the exit code (0)."""
+    a, b = load_results(folder_a), load_results(folder_b)
+    comp = compare_results(a, b)
+    out = Path(out) if out else b.folder / "compare"
+    out.mkdir(parents=True, exist_ok=True)
+    written = [write_table(comp, out / "compare.csv"),
+               write_summary(comp, out / "summary.json")]
+    written += style.save(scatter(comp), out, "compare_scatter")
+    print_summary(comp, stream)
+    if comp.mismatches:
+        pid, diff = comp.mismatches[0]
+        example = "; ".join(f"{c} {va} vs {vb}" for c, (va, vb) in diff.items())
+        print(f"warning: {len(comp.mismatches)} matched point(s) differ in their settings "
+              f"(e.g. {pid}: {example}); did A and B run the same scenario?", file=err)
+    print("written: " + ", ".join(str(p) for p in written), file=stream)
+    return 0
+
+
+def write_table(comp: Comparison, path: Path) -> Path:
+    """compare.csv: one row per point, common ones first (in A's order)."""
+    header = ["point", "status", *SETTINGS, "reps_a", "reps_b"]
+    for node, _ in NODES:
+        header += [f"{node}_slowdown_a", f"{node}_slowdown_b", f"{node}_diff",
+                   f"{node}_error_pct"]
+    rows = [_row(pa.id, "both", pa, pb) for pa, pb in comp.common]
+    rows += [_row(p.id, "only_a", p, None) for p in comp.only_a]
+    rows += [_row(p.id, "only_b", None, p) for p in comp.only_b]
+    return write_csv(path, header, rows)
+
+
+def _row(pid, status, pa, pb) -> list:
+    ref = pa or pb
+    row = [pid, status, *(ref.config.get(c) for c in SETTINGS),
+           pa.reps if pa else None, pb.reps if pb else None]
+    for node, _ in NODES:
+        metric = f"{node}_slowdown"
+        va = pa.mean(metric) if pa else math.nan
+        vb = pb.mean(metric) if pb else math.nan
+        diff = vb - va
+        pct = 100.0 * diff / va if va else math.nan
+        row += [va, vb, diff, pct]
+    return row
+
+
+def _json_number(value):
+    return value if not (isinstance(value, float) and not math.isfinite(value)) else None
+
+
+def _side(results) -> dict:
+    return {"folder": str(results.folder), "backend": results.backend,
+            "platform": results.platform, "status": results.status,
+            "points": len(results.points)}
+
+
+def write_summary(comp: Comparison, path: Path) -> Path:
+    """summary.json: the error summaries, unmatched points and settings mismatches."""
+    doc = {
+        "a": _side(comp.a),
+        "b": _side(comp.b),
+        "common_points": len(comp.common),
+        "only_in_a": [p.id for p in comp.only_a],
+        "only_in_b": [p.id for p in comp.only_b],
+        "settings_mismatch": [{"point": pid, "columns": {c: list(v) for c, v in d.items()}}
+                              for pid, d in comp.mismatches],
+        "definitions": {
+            "error": "B - A, in slowdown units (x isolation), on means over repetitions",
+            "mape_pct": "mean over points of |B - A| / |A| x 100",
+            "max_abs_error": "largest |B - A| (max_abs_error_point says where)",
+            "mean_error": "mean of B - A (positive: B predicts more slowdown)",
+            "spearman": "Spearman rank correlation of the points' slowdowns in A and B",
+        },
+    }
+    for node, _ in NODES:
+        doc[node] = {k: _json_number(v) for k, v in asdict(comp.errors[node]).items()}
+    path.write_text(json.dumps(doc, indent=2, default=str) + "\n", encoding="utf-8")
+    return path
+
+
+def print_summary(comp: Comparison, stream) -> None:
+    """The human-readable summary on stdout."""
+    for tag, r in (("A", comp.a), ("B", comp.b)):
+        print(f"{tag}: {r.folder} ({r.backend}, {r.platform}, {len(r.points)} points, "
+              f"status {r.status})", file=stream)
+    print(f"common points: {len(comp.common)}; only in A: {_ids(comp.only_a)}; "
+          f"only in B: {_ids(comp.only_b)}", file=stream)
+    print(f"{'':5}{'pairs':>6}{'MAPE':>10}{'max |B-A|':>11}  {'at point':<13}"
+          f"{'bias B-A':>9}{'Spearman':>10}", file=stream)
+    for node, name in NODES:
+        e = comp.errors[node]
+        if not e.pairs:
+            print(f"{name:<5}{0:>6}  (no {name} slowdowns on both sides)", file=stream)
+            continue
+        print(f"{name:<5}{e.pairs:>6}{_fmt(e.mape_pct, ' %'):>10}{_fmt(e.max_abs_error):>11}"
+              f"  {e.max_abs_error_point:<13}{_fmt(e.mean_error, signed=True):>9}"
+              f"{_fmt(e.spearman):>10}", file=stream)
+
+
+def _ids(points) -> str:
+    if not points:
+        return "0"
+    shown = ", ".join(p.id for p in points[:LISTED_IDS])
+    more = f", ... ({len(points) - LISTED_IDS} more in summary.json)" \
+        if len(points) > LISTED_IDS else ""
+    return f"{len(points)} ({shown}{more})"
+
+
+def _fmt(value, unit: str = "", signed: bool = False) -> str:
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    return f"{value:+.3f}{unit}" if signed else f"{value:.3f}{unit}"
+
+
+def scatter(comp: Comparison):
+    """B vs A mean slowdown per common point, RT and nRT markers, identity line."""
+    fig, axes = style.new_figure(1, 1, width=7.4, row_height=5.4)
+    ax = axes[0][0]
+    lows, highs = [], []
+    for node, name in NODES:
+        metric = f"{node}_slowdown"
+        pairs = [(pa.stat(metric), pb.stat(metric)) for pa, pb in comp.common
+                 if pa.stat(metric) and pb.stat(metric)]
+        if not pairs:
+            continue
+        sa = [p for p, _ in pairs]
+        sb = [q for _, q in pairs]
+        xa = np.array([s.mean for s in sa])
+        yb = np.array([s.mean for s in sb])
+        ax.errorbar(xa, yb, xerr=[xa - [s.min for s in sa], np.array([s.max for s in sa]) - xa],
+                    yerr=[yb - [s.min for s in sb], np.array([s.max for s in sb]) - yb],
+                    linestyle="none", markersize=6, markerfacecolor="none", elinewidth=0.7,
+                    capsize=2, label=f"{name} node ({len(pairs)} points)", **NODE_STYLE[node])
+        lows += [min(s.min for s in sa), min(s.min for s in sb)]
+        highs += [max(s.max for s in sa), max(s.max for s in sb)]
+    lo, hi = (min(lows), max(highs)) if lows else (1.0, 1.0)
+    pad = 0.05 * ((hi - lo) or 1.0)
+    lim = (lo - pad, hi + pad)
+    ax.plot(lim, lim, color="0.35", linestyle="--", linewidth=1.0, label="identity (B = A)")
+    ax.set_xlim(lim)
+    ax.set_ylim(lim)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel(f"A: {_name(comp.a)} — {style.SLOWDOWN_LABEL}")
+    ax.set_ylabel(f"B: {_name(comp.b)} — {style.SLOWDOWN_LABEL}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper left", fontsize=8)
+    e_rt, e_nrt = comp.errors["rt"], comp.errors["nrt"]
+    head = (f"Slowdown per point, B vs A ({len(comp.common)} common points)\n"
+            f"MAPE RT {_fmt(e_rt.mape_pct, ' %')}, nRT {_fmt(e_nrt.mape_pct, ' %')}; "
+            f"Spearman RT {_fmt(e_rt.spearman)}, nRT {_fmt(e_nrt.spearman)}")
+    style.finish(fig, head, "markers: mean over repetitions; error bars: min–max over "
+                 "repetitions on each side")
+    return fig
+
+
+def _name(results) -> str:
+    return f"{results.folder.name} [{results.backend}]"

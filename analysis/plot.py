@@ -1,0 +1,97 @@
+"""``plot DIR [--out DIR]``: every figure a results folder supports, and the numbers behind.
+
+Writes into the output folder (default ``DIR/figures``):
+
+* one PNG (150 dpi) and one PDF per figure the registry plans (``analysis.figures``);
+* ``summary.csv``: per point, its configuration and the mean / min / max / std over
+  repetitions of the slowdowns, times, bandwidth, throttling and per-point delay columns;
+* ``distributions.csv``: per sample kind, sampling mode and sampling period, the count,
+  min / median / max / mean of the samples (what the ▽ × △ figures show).
+
+Prints the files written with a one-line summary each, and a one-line reason per figure
+kind the data do not support.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from analysis import style
+from analysis.configs import group_by
+from analysis.figures import plan_figures
+from analysis.results import InvalidInput, load_results
+from analysis.tables import write_csv
+
+SUMMARY_METRICS = (
+    "rt_slowdown", "nrt_slowdown", "rt_time_us", "nrt_time_us", "nrt_bandwidth_mbps",
+    "throttle_count", "throttled_us", "activation_delay_p50_us", "activation_delay_max_us",
+    "pmc_callback_p50_us", "pmc_callback_max_us", "sampling_overhead_p50_us",
+)
+SAMPLE_KINDS = ("activation_delay", "pmc_callback", "sampling_overhead")
+STATS = ("mean", "min", "max", "std")
+
+
+def run(folder, out=None, stream=sys.stdout) -> int:
+    """Draws every supported figure of a results folder; returns the exit code (0)."""
+    results = load_results(folder)
+    if not results.rows:
+        raise InvalidInput(f"{results.folder / 'points.csv'} holds no rows yet "
+                           f"(run status: {results.status}): nothing to plot")
+    out = Path(out) if out else results.folder / "figures"
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"{results.folder}: {results.backend} backend, {results.platform}, "
+          f"{len(results.points)} point(s) x up to {results.repetitions} repetition(s) "
+          f"(status {results.status})", file=stream)
+    if results.status != "complete":
+        print("note: the run is not complete; figures show the rows written so far",
+              file=stream)
+
+    plans, skipped = plan_figures(results)
+    print(f"figures in {out}:" if plans else "no figure applies to these results", file=stream)
+    for plan in plans:
+        png, pdf = style.save(plan.draw(), out, plan.stem)
+        print(f"  {png.name}, {pdf.name}: {plan.summary}", file=stream)
+    for s in skipped:
+        print(f"  skipped {s.kind}: {s.reason}", file=stream)
+
+    tables = [write_summary(results, out / "summary.csv")]
+    if any(kind in results.sample_kinds() for kind in SAMPLE_KINDS):
+        tables.append(write_distributions(results, out / "distributions.csv"))
+    print("tables: " + ", ".join(str(t) for t in tables), file=stream)
+    return 0
+
+
+def write_summary(results, path: Path) -> Path:
+    """Per point: configuration, repetitions, and mean/min/max/std of each metric."""
+    metrics = [m for m in SUMMARY_METRICS if m in results.columns]
+    header = (["point", *results.config_columns, "reps"]
+              + [f"{m}_{s}" for m in metrics for s in STATS])
+    rows = []
+    for p in results.points:
+        row = [p.id, *(p.config[c] for c in results.config_columns), p.reps]
+        for m in metrics:
+            st = p.stat(m)
+            row += [getattr(st, s) if st else None for s in STATS]
+        rows.append(row)
+    return write_csv(path, header, rows)
+
+
+def write_distributions(results, path: Path) -> Path:
+    """Per sample kind, sampling mode and sampling period: pooled sample statistics."""
+    header = ["kind", "sampling", "sampling_period_us", "points", "samples",
+              "min_us", "median_us", "max_us", "mean_us"]
+    rows = []
+    groups = group_by(results.points, ["sampling", "sampling_period_us"])
+    for kind in SAMPLE_KINDS:
+        for (mode, period), points in groups.items():
+            arrays = [results.samples_of(p.id, kind) for p in points]
+            arrays = [a for a in arrays if a.size]
+            if not arrays:
+                continue
+            v = np.concatenate(arrays)
+            rows.append([kind, mode, period, len(arrays), int(v.size), float(v.min()),
+                         float(np.median(v)), float(v.max()), float(v.mean())])
+    return write_csv(path, header, rows)

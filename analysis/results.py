@@ -1,0 +1,331 @@
+"""Loading a results folder (DESIGN.md section 7) into a clean structure.
+
+``load_results(folder)`` reads ``manifest.json``, ``points.csv`` and the optional
+``samples.csv``. Cells are typed: known text columns stay strings, every other column is a
+float; an empty cell ("not applicable") becomes ``None`` in text columns and NaN in numeric
+ones. Rows are aggregated per point over repetitions (``Point``), and samples are grouped by
+(point, kind) over all repetitions.
+
+Invalid input raises ``InvalidInput`` (or its subclass ``NotAResultsFolder``) with a one-line
+message naming the file and what is wrong; the CLI maps it to exit code 2.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+SCHEMA_VERSION = 1
+
+# The columns DESIGN.md fixes, in order (model/results/results.cpp writes them first).
+FIXED_COLUMNS = (
+    "point", "rep", "backend", "rt_workload", "nrt_workload", "policy", "sampling", "scope",
+    "threshold_pct", "sampling_period_us", "regulation_period_us", "rt_time_us",
+    "rt_isolation_us", "rt_slowdown", "nrt_time_us", "nrt_isolation_us", "nrt_slowdown",
+    "nrt_bandwidth_mbps", "throttle_count", "throttled_us", "activation_delay_p50_us",
+    "activation_delay_max_us", "pmc_callback_p50_us", "rt_isolation_ipc", "rt_isolation_mbps",
+    "nrt_isolation_ipc", "nrt_isolation_mbps",
+)
+SAMPLES_COLUMNS = ("point", "rep", "kind", "value_us")
+
+_TEXT_COLUMNS = {"point", "backend", "rt_workload", "nrt_workload", "policy", "sampling",
+                 "scope", "platform", "nrt_mode"}
+_NODE_WORKLOAD = re.compile(r"^n?rt\d+_workload$")
+PARAM_PREFIX = "param:"
+
+# Columns that describe a point's configuration (as opposed to what was measured), in the
+# order titles and tables mention them. Per-node workloads and sweep parameters that add a
+# dimension of their own are appended per folder (Results.config_columns).
+BASE_CONFIG_COLUMNS = (
+    "platform", "rt_workload", "nrt_workload", "policy", "sampling", "sampling_period_us",
+    "regulation_period_us", "threshold_pct", "scope", "nrt_mode", "reference_mbps",
+)
+
+
+class InvalidInput(Exception):
+    """Input the analysis cannot use; the message names the file and the problem."""
+
+
+class NotAResultsFolder(InvalidInput):
+    """The folder does not exist or lacks manifest.json / points.csv."""
+
+
+@dataclass(frozen=True)
+class Stat:
+    """Summary of one metric over the repetitions of a point (NaN cells ignored)."""
+
+    n: int
+    mean: float
+    min: float
+    max: float
+    std: float
+
+    @classmethod
+    def of(cls, values) -> "Stat | None":
+        """Stat of the finite values, or None when there is none."""
+        v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+        if v.size == 0:
+            return None
+        return cls(int(v.size), float(v.mean()), float(v.min()), float(v.max()),
+                   float(v.std(ddof=1)) if v.size > 1 else 0.0)
+
+
+@dataclass
+class Point:
+    """One point of the sweep, aggregated over its repetitions."""
+
+    id: str
+    config: dict
+    reps: int
+    stats: dict = field(default_factory=dict)
+
+    def stat(self, metric: str) -> Stat | None:
+        """Stat of a metric column, None when every repetition left it empty."""
+        return self.stats.get(metric)
+
+    def mean(self, metric: str) -> float:
+        """Mean of a metric over repetitions, NaN when not applicable."""
+        s = self.stats.get(metric)
+        return s.mean if s else math.nan
+
+    @property
+    def has_rt(self) -> bool:
+        """True when the point has an RT node."""
+        return self.config.get("rt_workload") is not None
+
+    @property
+    def has_nrt(self) -> bool:
+        """True when the point has an nRT node."""
+        return self.config.get("nrt_workload") is not None
+
+
+@dataclass
+class Results:
+    """A loaded results folder."""
+
+    folder: Path
+    manifest: dict
+    columns: list
+    rows: list
+    samples: dict
+    points: list
+    config_columns: list
+
+    @property
+    def backend(self) -> str:
+        """'sim' or 'hw' (from the manifest, else from the rows)."""
+        b = self.manifest.get("backend")
+        if not b and self.rows:
+            b = self.rows[0].get("backend")
+        return str(b or "?")
+
+    @property
+    def platform(self) -> str:
+        """Platform name of the rows (several joined with '+')."""
+        names = sorted({r["platform"] for r in self.rows if r.get("platform")})
+        return "+".join(names) if names else "?"
+
+    @property
+    def status(self) -> str:
+        """Run status from the manifest ('complete', 'interrupted', ...)."""
+        return str(self.manifest.get("status", "unknown"))
+
+    @property
+    def repetitions(self) -> int:
+        """Largest number of repetitions of any point."""
+        return max((p.reps for p in self.points), default=0)
+
+    def samples_of(self, point_id: str, kind: str) -> np.ndarray:
+        """All values (us) of one kind for one point, over every repetition."""
+        return self.samples.get((point_id, kind), np.empty(0))
+
+    def sample_kinds(self) -> set:
+        """Kinds present in samples.csv."""
+        return {kind for _, kind in self.samples}
+
+
+def load_results(folder) -> Results:
+    """Reads a results folder; raises InvalidInput / NotAResultsFolder with a clear message."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise NotAResultsFolder(f"{folder}: no such folder")
+    missing = [n for n in ("manifest.json", "points.csv") if not (folder / n).is_file()]
+    if missing:
+        raise NotAResultsFolder(
+            f"{folder} is not a results folder (missing {', '.join(missing)}); "
+            f"create one with: rosguard run SCENARIO.json --out {folder}")
+    manifest = _read_manifest(folder / "manifest.json")
+    columns, rows = _read_points(folder / "points.csv")
+    samples = _read_samples(folder / "samples.csv")
+    config_columns = _config_columns(columns, rows)
+    points = _aggregate(rows, columns, config_columns)
+    return Results(folder, manifest, columns, rows, samples, points, config_columns)
+
+
+def _read_manifest(path: Path) -> dict:
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise InvalidInput(f"{path}: invalid JSON (line {e.lineno}: {e.msg})") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise InvalidInput(f"{path}: cannot read: {e}") from None
+    if not isinstance(manifest, dict):
+        raise InvalidInput(f"{path}: expected a JSON object")
+    version = manifest.get("schema_version", SCHEMA_VERSION)
+    if version != SCHEMA_VERSION:
+        raise InvalidInput(f"{path}: schema_version {version} is not supported "
+                           f"(this analysis reads version {SCHEMA_VERSION})")
+    return manifest
+
+
+def _read_csv(path: Path) -> list:
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            return list(csv.reader(f))
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise InvalidInput(f"{path}: cannot read: {e}") from None
+
+
+def _is_text_column(name: str) -> bool:
+    return name in _TEXT_COLUMNS or bool(_NODE_WORKLOAD.match(name))
+
+
+def _parse_float(cell: str) -> float | None:
+    try:
+        return float(cell)
+    except ValueError:
+        return None
+
+
+def _read_points(path: Path):
+    lines = _read_csv(path)
+    if not lines:
+        raise InvalidInput(f"{path}: empty file (no header)")
+    header = lines[0]
+    missing = [c for c in FIXED_COLUMNS if c not in header]
+    if missing:
+        raise InvalidInput(f"{path}: not a rosguard points.csv (missing columns: "
+                           f"{', '.join(missing)})")
+    body = [line for line in lines[1:] if line]
+    for number, line in enumerate(body, start=2):
+        if len(line) != len(header):
+            raise InvalidInput(f"{path}: line {number} has {len(line)} fields, "
+                               f"the header has {len(header)}")
+    raw_rows = [dict(zip(header, line)) for line in body]
+    kinds = {c: _column_kind(c, raw_rows) for c in header}
+    rows = []
+    for number, raw in enumerate(raw_rows, start=2):
+        rows.append({c: _typed(path, number, c, raw[c], kinds[c]) for c in header})
+    return header, rows
+
+
+def _column_kind(name: str, raw_rows) -> str:
+    """'text', 'int' (rep), 'number' (fixed numeric) or 'lenient' (unknown columns)."""
+    if _is_text_column(name):
+        return "text"
+    if name == "rep":
+        return "int"
+    if name in FIXED_COLUMNS:
+        return "number"
+    cells = [r[name] for r in raw_rows if r[name] != ""]
+    return "lenient" if all(_parse_float(c) is not None for c in cells) else "text"
+
+
+def _typed(path: Path, line: int, column: str, cell: str, kind: str):
+    if kind == "text":
+        return cell if cell != "" else None
+    if cell == "":
+        if kind == "int":
+            raise InvalidInput(f"{path}: line {line}: column {column} is empty")
+        return math.nan
+    value = _parse_float(cell)
+    if value is None or (kind == "int" and not value.is_integer()):
+        raise InvalidInput(f"{path}: line {line}: column {column}: '{cell}' is not a number")
+    return int(value) if kind == "int" else value
+
+
+def _read_samples(path: Path) -> dict:
+    if not path.is_file():
+        return {}
+    lines = _read_csv(path)
+    if not lines:
+        return {}
+    header = lines[0]
+    missing = [c for c in SAMPLES_COLUMNS if c not in header]
+    if missing:
+        raise InvalidInput(f"{path}: not a rosguard samples.csv (missing columns: "
+                           f"{', '.join(missing)})")
+    at = {c: header.index(c) for c in SAMPLES_COLUMNS}
+    grouped: dict = {}
+    for number, line in enumerate(lines[1:], start=2):
+        if not line:
+            continue
+        if len(line) != len(header):
+            raise InvalidInput(f"{path}: line {number} has {len(line)} fields, "
+                               f"the header has {len(header)}")
+        value = _parse_float(line[at["value_us"]])
+        if value is None:
+            raise InvalidInput(f"{path}: line {number}: value_us "
+                               f"'{line[at['value_us']]}' is not a number")
+        grouped.setdefault((line[at["point"]], line[at["kind"]]), []).append(value)
+    return {key: np.asarray(values) for key, values in grouped.items()}
+
+
+def _config_columns(columns, rows) -> list:
+    """Columns that identify a configuration in this folder.
+
+    The base columns, the workloads of second and later nodes, and each ``param:`` column
+    that is not already determined by those (a sweep over ``regulation.threshold_pct`` is
+    the ``threshold_pct`` column again; a sweep over ``sim.quantum_us`` is a dimension of
+    its own).
+    """
+    known = [c for c in BASE_CONFIG_COLUMNS if c in columns]
+    known += [c for c in columns if _NODE_WORKLOAD.match(c)]
+    extra = []
+    for c in columns:
+        if c.startswith(PARAM_PREFIX) and not _determined_by(rows, known, c):
+            extra.append(c)
+    return known + extra
+
+
+def _determined_by(rows, keys, column) -> bool:
+    seen: dict = {}
+    for r in rows:
+        k = tuple(_hashable(r[c]) for c in keys)
+        v = _hashable(r[column])
+        if seen.setdefault(k, v) != v:
+            return False
+    return True
+
+
+def _hashable(value):
+    """NaN compares unequal to itself; map it to None so it can be grouped."""
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    return value
+
+
+def _aggregate(rows, columns, config_columns) -> list:
+    """Points in the order of their first row, with Stat per numeric measured column."""
+    metrics = [c for c in columns
+               if c not in config_columns and c not in ("point", "rep")
+               and not _is_text_column(c) and not c.startswith(PARAM_PREFIX)]
+    by_point: dict = {}
+    for r in rows:
+        by_point.setdefault(r["point"], []).append(r)
+    points = []
+    for pid, prow in by_point.items():
+        config = {c: _hashable(prow[0][c]) for c in config_columns}
+        stats = {}
+        for m in metrics:
+            s = Stat.of(r[m] for r in prow if isinstance(r[m], float))
+            if s:
+                stats[m] = s
+        points.append(Point(pid, config, len({r["rep"] for r in prow}), stats))
+    return points

@@ -23,8 +23,14 @@ test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 run: build
-	$(ROSGUARD) run scenarios/quickstart.json --out results/quickstart
+	$(ROSGUARD) run scenarios/quickstart.json --out results/quickstart --overwrite
 	$(ROSGUARD) plot results/quickstart --out results/quickstart/figures
+	@echo "Figures (PNG and PDF): results/quickstart/figures/   data: results/quickstart/points.csv"
+
+# Every experiment of the paper on the sim backend, plotted into results/paper/<experiment>/,
+# then the README gallery (docs/figures/) and the paper-vs-sim table regenerated from them.
+reproduce: build
+	@tools/reproduce.sh $(ROSGUARD)
 
 bench: build
 	$(BUILD)/tests/bench/rosguard_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true

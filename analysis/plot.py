@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis import style
-from analysis.configs import group_by
+from analysis.configs import column_words, group_by, varying
 from analysis.figures import plan_figures
 from analysis.results import InvalidInput, load_results
 from analysis.tables import write_csv
@@ -61,7 +61,37 @@ def run(folder, out=None, stream=sys.stdout) -> int:
     if any(kind in results.sample_kinds() for kind in SAMPLE_KINDS):
         tables.append(write_distributions(results, out / "distributions.csv"))
     print("tables: " + ", ".join(str(t) for t in tables), file=stream)
+    print_digest(results, stream)
     return 0
+
+
+DIGEST_ROWS = 24
+
+
+def print_digest(results, stream) -> None:
+    """A short table of what the figures show: per point, the settings that vary and the mean
+    RT / nRT slowdown (the full table is summary.csv)."""
+    metrics = [m for m in ("rt_slowdown", "nrt_slowdown")
+               if any(p.stat(m) for p in results.points)]
+    if not metrics:
+        return
+    settings = varying(results.points, results.config_columns)
+    unit = {"_pct": " (%)", "_us": " (us)", "_mbps": " (MB/s)"}
+    header = [column_words(c) + next((u for k, u in unit.items() if c.endswith(k)), "")
+              for c in settings] + [m.replace("_", " ") for m in metrics]
+    rows = []
+    for p in results.points:
+        cells = [style.number(p.config[c]) if isinstance(p.config[c], float) else
+                 str(p.config[c]) for c in settings]
+        rows.append(cells + [f"{p.mean(m):.3f}" if p.stat(m) else "-" for m in metrics])
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
+    print("what the figures show (mean over repetitions; slowdown = time / isolation time):",
+          file=stream)
+    print("  " + "  ".join(h.ljust(w) for h, w in zip(header, widths)).rstrip(), file=stream)
+    for r in rows[:DIGEST_ROWS]:
+        print("  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip(), file=stream)
+    if len(rows) > DIGEST_ROWS:
+        print(f"  ... {len(rows) - DIGEST_ROWS} more rows in summary.csv", file=stream)
 
 
 def write_summary(results, path: Path) -> Path:

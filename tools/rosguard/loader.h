@@ -34,8 +34,8 @@ struct LoadedPoint {
 
 struct LoadedScenario {
   std::string file;
-  nlohmann::json given;     // as written
-  nlohmann::json expanded;  // defaults applied, sweep still in place
+  nlohmann::json given;                  // as written
+  nlohmann::json expanded;               // defaults applied, sweep still in place
   std::vector<std::string> sweep_keys;   // as written (a key may join paths with '+')
   std::vector<std::string> sweep_paths;  // every swept path, in key order
   std::vector<LoadedPoint> points;

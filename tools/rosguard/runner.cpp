@@ -662,8 +662,10 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
         if (w.doc.contains("reference")) entry["reference"] = w.doc["reference"];
         workloads[w.name] = entry;
       };
-      for (const auto& n : p.scenario.nodes.rt) add(n.workload);
-      for (const auto& n : p.scenario.nodes.nrt) add(n.workload);
+      for (const auto& n : p.scenario.nodes.rt)
+        add(n.workload);
+      for (const auto& n : p.scenario.nodes.nrt)
+        add(n.workload);
     }
     manifest["workloads"] = workloads;
     manifest["platform"] = platforms.size() == 1 ? platforms.begin()->second : json(platforms);
@@ -890,8 +892,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     char elapsed[32];
     std::snprintf(elapsed, sizeof elapsed, "%.2f s", progress.seconds());
     std::cout << "rosguard: " << rows << " run(s) of " << loaded.points.size() << " point(s) x "
-              << reps << " repetition(s) written to " << out.string() << " in " << elapsed
-              << "\n";
+              << reps << " repetition(s) written to " << out.string() << " in " << elapsed << "\n";
   }
   return 0;
 }

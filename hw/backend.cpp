@@ -28,6 +28,7 @@
 #include "hw/nodes/nrt_node.h"
 #include "hw/nodes/rt_node.h"
 #include "policy/policy.h"
+#include "results/results.h"
 
 namespace rosguard::hw {
 namespace {
@@ -43,13 +44,6 @@ std::string cpu_list(const std::vector<int>& cpus) {
 
 SchedClass sched_of(const Scenario& s) {
   return s.hw.scheduler == SchedulerKind::Fifo ? SchedClass::Fifo : SchedClass::Other;
-}
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 // Waits on `waker` until pred() holds. SIGINT / SIGTERM interrupt the futex wait (the runner's
@@ -309,7 +303,7 @@ class HwBackend : public Backend {
       ipcs.push_back(r.ipc);
     }
     check_no_realtime_threads(rt_before);
-    return {median_of(times), median_of(ipcs), median_of(mbps)};
+    return {median(times), median(ipcs), median(mbps)};
   }
 
   PointOutcome run_point(const Scenario& s, const Baselines& baselines, int, std::uint64_t,

@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "hw/common/clock.h"
 #include "hw/workload/workload.h"
+#include "results/results.h"
 
 namespace rosguard::hw {
 namespace {
@@ -134,11 +135,6 @@ class ProxyKernel : public BuiltinWorkload {
   volatile std::uint64_t sink_ = 0;
 };
 
-double median_of(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 }  // namespace
 
 ProxyCalibration calibrate_proxy(double target_mbps, std::uint32_t working_set_kb) {
@@ -171,8 +167,8 @@ ProxyCalibration calibrate_proxy(double target_mbps, std::uint32_t working_set_k
   volatile std::uint64_t sink = x;
   (void)sink;
   ProxyCalibration c;
-  c.ns_per_line = median_of(mem);
-  c.ns_per_alu = median_of(alu);
+  c.ns_per_line = median(mem);
+  c.ns_per_alu = median(alu);
   c.achievable_mbps = 1e9 / c.ns_per_line * kLine / kBytesPerMb;
   const double target_ns = 1e9 / (target_mbps * kBytesPerMb / kLine);
   if (target_ns > c.ns_per_line)

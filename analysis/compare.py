@@ -245,16 +245,31 @@ def _fmt(value, unit: str = "", signed: bool = False) -> str:
 
 
 def scatter(comp: Comparison):
-    """B vs A mean slowdown per common point, RT and nRT markers, identity line."""
-    fig, axes = style.new_figure(1, 1, width=7.4, row_height=5.4)
-    ax = axes[0][0]
-    lows, highs = [], []
-    for node, name in NODES:
-        metric = f"{node}_slowdown"
-        pairs = [(pa.stat(metric), pb.stat(metric)) for pa, pb in comp.common
-                 if pa.stat(metric) and pb.stat(metric)]
-        if not pairs:
-            continue
+    """B vs A mean slowdown per common point: one panel per node (RT, nRT), each with its
+    own limits (RT slowdowns sit near 1.0, nRT ones spread far wider) and the identity line."""
+    nodes = [(node, name, _pairs(comp, f"{node}_slowdown")) for node, name in NODES]
+    nodes = [n for n in nodes if n[2]] or [("rt", "RT", [])]
+    fig, axes = style.new_figure(1, len(nodes), width=5.0 * len(nodes), row_height=4.8)
+    for ax, (node, name, pairs) in zip(axes[0], nodes):
+        _scatter_panel(ax, node, name, pairs, comp.errors[node])
+        ax.set_xlabel(f"A: {_name(comp.a)}\n{style.SLOWDOWN_LABEL}")
+        ax.set_ylabel(f"B: {_name(comp.b)}\n{style.SLOWDOWN_LABEL}")
+    head = (f"Slowdown per point, B vs A ({len(comp.common)} common points, "
+            f"{len(comp.only_a)} only in A, {len(comp.only_b)} only in B)")
+    style.finish(fig, head, "markers: mean over repetitions; error bars: min–max over "
+                 "repetitions on each side; dashed: identity (B = A)")
+    return fig
+
+
+def _pairs(comp: Comparison, metric: str) -> list:
+    return [(pa.stat(metric), pb.stat(metric)) for pa, pb in comp.common
+            if pa.stat(metric) and pb.stat(metric)]
+
+
+def _scatter_panel(ax, node: str, name: str, pairs, errors: ErrorSummary) -> None:
+    """One node's points with min-max error bars, identity line and square limits."""
+    lo, hi = 1.0, 1.0
+    if pairs:
         sa = [p for p, _ in pairs]
         sb = [q for _, q in pairs]
         xa = np.array([s.mean for s in sa])
@@ -263,27 +278,23 @@ def scatter(comp: Comparison):
                     yerr=[yb - [s.min for s in sb], np.array([s.max for s in sb]) - yb],
                     linestyle="none", markersize=6, markerfacecolor="none", elinewidth=0.7,
                     capsize=2, label=f"{name} node ({len(pairs)} points)", **NODE_STYLE[node])
-        lows += [min(s.min for s in sa), min(s.min for s in sb)]
-        highs += [max(s.max for s in sa), max(s.max for s in sb)]
-    lo, hi = (min(lows), max(highs)) if lows else (1.0, 1.0)
-    pad = 0.05 * ((hi - lo) or 1.0)
+        lo = min(min(s.min for s in sa), min(s.min for s in sb))
+        hi = max(max(s.max for s in sa), max(s.max for s in sb))
+    else:
+        ax.text(0.5, 0.5, "no slowdowns on both sides", transform=ax.transAxes,
+                ha="center", va="center", color="0.5")
+    pad = 0.06 * ((hi - lo) or 0.1)
     lim = (lo - pad, hi + pad)
     ax.plot(lim, lim, color="0.35", linestyle="--", linewidth=1.0, label="identity (B = A)")
     ax.set_xlim(lim)
     ax.set_ylim(lim)
     ax.set_aspect("equal", adjustable="box")
-    ax.set_xlabel(f"A: {_name(comp.a)} — {style.SLOWDOWN_LABEL}")
-    ax.set_ylabel(f"B: {_name(comp.b)} — {style.SLOWDOWN_LABEL}")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper left", fontsize=8)
-    e_rt, e_nrt = comp.errors["rt"], comp.errors["nrt"]
-    head = (f"Slowdown per point, B vs A ({len(comp.common)} common points)\n"
-            f"MAPE RT {_fmt(e_rt.mape_pct, ' %')}, nRT {_fmt(e_nrt.mape_pct, ' %')}; "
-            f"Spearman RT {_fmt(e_rt.spearman)}, nRT {_fmt(e_nrt.spearman)}")
-    style.finish(fig, head, "markers: mean over repetitions; error bars: min–max over "
-                 "repetitions on each side")
-    return fig
+    ax.set_title(f"{name} node: MAPE {_fmt(errors.mape_pct, ' %')}, "
+                 f"Spearman {_fmt(errors.spearman)}", fontsize=9)
 
 
 def _name(results) -> str:
-    return f"{results.folder.name} [{results.backend}]"
+    role = {"hw": ", measured", "sim": ", simulated"}.get(results.backend, "")
+    return f"{results.folder.name} [{results.backend}{role}]"

@@ -9,8 +9,6 @@ title). These helpers do the splitting and write the words a reader of the paper
 from __future__ import annotations
 
 import math
-import textwrap
-
 from analysis.style import number, period
 
 POLICY_WORDS = {
@@ -105,8 +103,7 @@ def describe(config: dict, short: bool = False) -> str:
         reg = period(config["regulation_period_us"])
         parts.append(f"reg. {reg}" if short else f"regulation {reg}")
     if "threshold_pct" in config:
-        th = f"{number(config['threshold_pct'])} %"
-        parts.append(th if short else f"threshold {th}")
+        parts.append(f"threshold {number(config['threshold_pct'])} %")
     for c, v in config.items():
         if c in ("scope", "nrt_mode", "platform", "reference_mbps") or c.startswith("param:"):
             parts.append(_other(c, v))
@@ -134,7 +131,7 @@ def _sampling(config: dict, short: bool) -> str:
     words = []
     if "sampling" in config:
         words.append(str(mode) if short else f"{mode}-sampling")
-    elif not short:
+    else:
         words.append("sampling")
     if "sampling_period_us" in config:
         words.append(period(sp))
@@ -165,11 +162,14 @@ def held_fixed(points, columns) -> dict:
 
 
 def title(what: str, fixed: dict, results) -> str:
-    """Figure title: what it shows, what is held fixed, and the backend (wrapped)."""
-    shown = {c: v for c, v in fixed.items() if c not in ("reference_mbps",)}
+    """Figure title: what it shows, what is held fixed, and the backend."""
+    hidden = {"reference_mbps", "nrt_mode"}
+    if fixed.get("policy") in ("monitor", "none"):
+        hidden |= {"threshold_pct", "regulation_period_us"}   # no budget to speak of
+    shown = {c: v for c, v in fixed.items() if c not in hidden}
     context = describe(shown)
     head = f"{what} — {context}" if context else what
-    return "\n".join(textwrap.wrap(f"{head} [{results.backend}]", width=95))
+    return f"{head} [{results.backend}]"
 
 
 def finite(value) -> bool:

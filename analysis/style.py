@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import re
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -13,6 +15,9 @@ import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator  # noqa: E402
 
 DPI = 150
+MAX_LINEAR_TICKS = 12
+TITLE_CHARS_PER_IN = 11     # wrapping widths for the 10.5 pt title and 7.5 pt note
+NOTE_CHARS_PER_IN = 16
 
 SLOWDOWN_LABEL = "slowdown (× isolation)"
 AXIS_LABELS = {
@@ -78,9 +83,10 @@ def period_axis(ax, values) -> None:
 
 
 def linear_axis(ax, values) -> None:
-    """Linear x axis with a tick at every value that occurs."""
+    """Linear x axis with a tick at every value that occurs (automatic ticks beyond 12)."""
     ticks = sorted(set(values))
-    ax.xaxis.set_major_locator(FixedLocator(ticks))
+    if len(ticks) <= MAX_LINEAR_TICKS:
+        ax.xaxis.set_major_locator(FixedLocator(ticks))
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: number(float(v))))
     span = (ticks[-1] - ticks[0]) or 1.0
     ax.set_xlim(ticks[0] - 0.06 * span, ticks[-1] + 0.06 * span)
@@ -114,16 +120,32 @@ def distribution_legend_proxies(ax) -> None:
         ax.plot([], [], color="0.3", markersize=7, label=name, **kw)
 
 
+def wrap(text: str, width: int) -> str:
+    """Wraps at list separators (', ', '; ', ' — ') so '30 %' or '5 ms' never split;
+    a single part longer than the width is wrapped at spaces."""
+    lines = []
+    for paragraph in text.split("\n"):
+        line = ""
+        for part in re.split(r"(?<=, )|(?<=; )|(?<= — )", paragraph):
+            if line and len(line) + len(part.rstrip()) > width:
+                lines.append(line.rstrip())
+                line = ""
+            line += part
+        lines.extend(textwrap.wrap(line.rstrip(), width) or [""])
+    return "\n".join(lines)
+
+
 def finish(fig, title: str, note: str | None = None, right: float = 1.0) -> None:
-    """Suptitle on top, an optional note at the bottom, a tight layout left of ``right``."""
-    fig.suptitle(title, fontsize=10.5)
-    height = fig.get_figheight()
+    """Suptitle on top, an optional note at the bottom (both wrapped to the figure width),
+    then a tight layout left of ``right``."""
+    width = fig.get_figwidth()
+    fig.suptitle(wrap(title, int(width * TITLE_CHARS_PER_IN)), fontsize=10.5)
     bottom = 0.0
     if note:
+        note = wrap(note, int(width * NOTE_CHARS_PER_IN))
         fig.text(0.01, 0.008, note, fontsize=7.5, color="0.3", ha="left", va="bottom")
-        bottom = 0.3 / height
-    # tight_layout already keeps the axes clear of the suptitle: the rect only reserves the
-    # note (bottom) and the legend column (right).
+        bottom = (0.1 + 0.14 * (note.count("\n") + 1)) / fig.get_figheight()
+    # tight_layout leaves room for the suptitle itself (matplotlib >= 3.3).
     fig.tight_layout(rect=(0, bottom, right, 1.0))
 
 

@@ -93,16 +93,17 @@ class DistributionKind:
                 f"{results.repetitions} repetition(s)")
         if pooled:
             note += "; pooled over " + "; ".join(
-                f"{column_words(c)} {_values_words(distinct(points, c))}" for c in pooled)
+                f"{column_words(c)} {_values_words(c, distinct(points, c))}" for c in pooled)
         return note
 
 
-def _values_words(values) -> str:
-    """'5–30' for numbers, 'a, b' for a few words, 'N values' otherwise."""
+def _values_words(column: str, values) -> str:
+    """'5–30 %' for numbers (with the unit), 'a / b' for a few words, '(N values)' else."""
     if all(isinstance(v, float) for v in values):
-        return f"{number(min(values))}–{number(max(values))}"
+        unit = " %" if column.endswith("_pct") else " µs" if column.endswith("_us") else ""
+        return f"{number(min(values))}–{number(max(values))}{unit}"
     if len(values) <= 4:
-        return ", ".join(str(v) for v in values)
+        return " / ".join(str(v) for v in values)
     return f"({len(values)} values)"
 
 

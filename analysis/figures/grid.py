@@ -78,12 +78,13 @@ def _draw(results, points, conf_cols, conf_keys, fixed):
     fig, axes = style.new_figure(len(rts), len(nrts), width=width, row_height=CELL_HEIGHT_IN,
                                  sharey=True)
     cells = group_by(points, WORKLOADS)
+    extremes = [1.0]
     for r, rt in enumerate(rts):
         for c, nrt in enumerate(nrts):
             ax = axes[r][c]
             cell = cells.get((rt, nrt))
             if cell:
-                _draw_cell(ax, cell, conf_cols, conf_keys)
+                extremes += _draw_cell(ax, cell, conf_cols, conf_keys)
             else:
                 ax.text(0.5, 0.5, "no data", transform=ax.transAxes, ha="center",
                         va="center", fontsize=8, color="0.5")
@@ -92,24 +93,29 @@ def _draw(results, points, conf_cols, conf_keys, fixed):
                 ax.set_title(f"nRT {nrt}", fontsize=9)
             if c == 0:
                 ax.set_ylabel(f"RT {rt}\nslowdown (×)", fontsize=9)
+    lo, hi = min(extremes), max(extremes)
+    axes[0][0].set_ylim(min(lo, 1.0) - 0.02 * (hi - lo), hi + 0.22 * (hi - lo or 1.0))
     handles = [Patch(color=style.colour(i), label=_conf_label(conf_cols, k))
                for i, k in enumerate(conf_keys)]
     handles.append(Line2D([], [], label=style.ISOLATION_LABEL, **style.ISOLATION_STYLE))
     right = 1.0 - LEGEND_WIDTH_IN / width
     fig.legend(handles=handles, loc="center left", bbox_to_anchor=(right, 0.5), fontsize=8,
                frameon=False, title="configuration", title_fontsize=8)
-    note = ("bars: mean slowdown over "
+    note = ("bars (value on top): mean slowdown over "
             f"{results.repetitions} repetitions, drawn from isolation (1.0); "
             "error bars: min–max over repetitions; rows: RT workload, columns: nRT workload")
     style.finish(fig, title("RT x nRT slowdowns", fixed, results), note, right=right)
     return fig
 
 
-def _draw_cell(ax, cell, conf_cols, conf_keys) -> None:
-    """Two clusters (RT, nRT) of bars, one bar per configuration."""
+def _draw_cell(ax, cell, conf_cols, conf_keys) -> list:
+    """Two clusters (RT, nRT) of bars, one bar per configuration, each labelled with its
+    value (the y axis is shared, so small RT slowdowns stay readable); returns the min and
+    max slowdowns drawn."""
     by_conf = group_by(cell, conf_cols)
     n = len(conf_keys)
     width = 0.8 / n
+    extremes = []
     for node, metric in enumerate(("rt_slowdown", "nrt_slowdown")):
         for i, key in enumerate(conf_keys):
             stats = [p.stat(metric) for p in by_conf.get(key, []) if p.stat(metric)]
@@ -120,9 +126,14 @@ def _draw_cell(ax, cell, conf_cols, conf_keys) -> None:
             ax.bar(x, s.mean - 1.0, width=width, bottom=1.0, color=style.colour(i),
                    yerr=np.array([[s.mean - s.min], [s.max - s.mean]]),
                    error_kw={"elinewidth": 0.8, "capsize": 1.5, "ecolor": "0.2"})
+            ax.annotate(f"{s.mean:.2f}", (x, max(s.max, 1.0)), xytext=(0, 1.5),
+                        textcoords="offset points", rotation=90, ha="center", va="bottom",
+                        fontsize=5.5)
+            extremes += [s.min, s.max]
     ax.axhline(1.0, **style.ISOLATION_STYLE)
     ax.set_xticks([0, 1])
     ax.set_xticklabels(["RT", "nRT"], fontsize=8)
     ax.set_xlim(-0.55, 1.55)
     ax.tick_params(axis="y", labelsize=8)
     ax.grid(True, axis="y", alpha=0.3)
+    return extremes

@@ -176,7 +176,7 @@ class LineKind:
         handles: dict = {}
         for r, (key, points) in enumerate(chunk):
             row_words = describe(as_config(lay.group_cols, key))
-            series = [(lay.series_keys.index(k), self._series_label(lay, k, results), pts)
+            series = [(lay.series_keys.index(k), self._series_label(lay, k), pts)
                       for k, pts in group_by(points, lay.series_cols).items()]
             for c, panel in enumerate(lay.panels):
                 ax = axes[r][c]
@@ -200,7 +200,7 @@ class LineKind:
             style.linear_axis(ax, values)
         ax.set_xlabel(style.AXIS_LABELS[self.x])
 
-    def _series_label(self, lay, key, results) -> str:
+    def _series_label(self, lay, key) -> str:
         if lay.series_cols:
             return describe(as_config(lay.series_cols, key), short=True)
         policy = lay.fixed.get("policy")

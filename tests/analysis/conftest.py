@@ -1,4 +1,6 @@
-"""Fixtures for the analysis tests: generated results folders in a temporary directory."""
+"""Shared fixtures: results folders generated into a temporary directory (never the tree)."""
+
+from __future__ import annotations
 
 import os
 import sys
@@ -8,30 +10,49 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.dont_write_bytecode = True
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-import resultgen  # noqa: E402
+import resultgen  # noqa: E402  (beside this file; pytest puts its folder on sys.path)
+
+# name -> (points function, write_results options)
+FIXTURES = {
+    "threshold": (resultgen.threshold_points, {}),
+    "regulation": (resultgen.regulation_points, {"with_samples": False}),
+    "sampling": (resultgen.sampling_points, {}),
+    "delay": (resultgen.delay_points, {}),
+    "overhead": (resultgen.overhead_points, {}),
+    "grid": (resultgen.grid_points, {"reps": 2}),
+    "memguard": (resultgen.memguard_points, {}),
+    "rt_alone": (resultgen.rt_alone_points, {}),
+}
 
 
-@pytest.fixture
-def make_results(tmp_path):
-    """make_results(name, points, **options) -> a results folder written by resultgen."""
-    def make(name, points, **options):
-        return resultgen.write_results(tmp_path / name, points, **options)
+@pytest.fixture(scope="session")
+def results_dir(tmp_path_factory):
+    """results_dir(name) -> a generated results folder (written once per session)."""
+    made = {}
+
+    def make(name: str) -> Path:
+        if name not in made:
+            points, options = FIXTURES[name]
+            made[name] = resultgen.write_results(
+                tmp_path_factory.mktemp("results") / name, points(), **options)
+        return made[name]
+
     return make
 
 
-def png_size(path: Path):
-    """(width, height) of a PNG file; fails the test when it is not a PNG."""
-    data = path.read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n", f"{path} is not a PNG"
-    assert data[12:16] == b"IHDR"
-    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+@pytest.fixture(scope="session")
+def loaded(results_dir):
+    """loaded(name) -> the Results of a generated folder."""
+    from analysis.results import load_results
+    cache = {}
 
+    def load(name: str):
+        if name not in cache:
+            cache[name] = load_results(results_dir(name))
+        return cache[name]
 
-def assert_pdf(path: Path):
-    """Fails the test unless the file is a complete PDF."""
-    data = path.read_bytes()
-    assert data.startswith(b"%PDF-"), f"{path} is not a PDF"
-    assert b"%%EOF" in data[-64:], f"{path} is truncated"
+    return load
+

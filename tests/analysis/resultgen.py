@@ -271,12 +271,12 @@ def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: fl
 
 
 def write_results(folder, points, *, reps=3, backend="sim", with_samples=True, seed=1,
-                  bias=1.0, status="complete", drop=(), references=False) -> Path:
+                  bias=1.0, status="complete", drop=(), references=True) -> Path:
     """Writes manifest.json, points.csv and (optionally) samples.csv; returns the folder.
 
     ``bias`` scales every slowdown excess (slowdown - 1), e.g. to fake a model that
     over-predicts; ``drop`` lists point indexes to leave out (points missing on one side);
-    ``references`` lists every workload's Table 1 figures in the manifest, as the runner does.
+    ``references`` lists the workloads' Table 1 figures in the manifest, as the runner does.
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

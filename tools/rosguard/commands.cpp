@@ -130,6 +130,7 @@ int run_analysis(const Home& home, const std::vector<std::string>& args) {
     const std::string path = home.root.string() + (old && *old ? ":" + std::string(old) : "");
     ::setenv("PYTHONPATH", path.c_str(), 1);
     ::setenv("MPLBACKEND", "Agg", 0);
+    ::setenv("PYTHONDONTWRITEBYTECODE", "1", 0);  // no __pycache__ inside the source tree
     ::execv(argv[0], argv.data());
     std::cerr << "error: cannot start " << python << ": " << std::strerror(errno)
               << " (install python3-matplotlib and python3-numpy, or set ROSGUARD_PYTHON)\n";

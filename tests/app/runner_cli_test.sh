@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runner mechanics through the real CLI (main.cpp) with the fake backend (app/fake/):
-# determinism over --jobs and shards, crash safety, SIGINT, resume, failures, folders.
+# determinism over --jobs and shards, crash safety, SIGINT, resume, failures, folders, list.
 # Usage: runner_cli_test.sh ROSGUARD_FAKE CASE   (from the source root)
 set -u
 bin=$1
@@ -130,6 +130,20 @@ assert m["scenario"]["expanded"]["regulation"]["sampling"] == "self"  # a schema
 assert len(m["scenario"]["points"]) == 12
 assert m["counts"]["rows"] == 24 and m["status"] == "complete"
 PY
+  ;;
+list)
+  # `list` alone shows every catalogue; `list KIND` one; an unknown kind is a usage error.
+  "$bin" list > "$tmp/all" || fail "list"
+  for section in workloads platforms policies backends "pmc sources"; do
+    grep -q "^$section" "$tmp/all" || fail "list without a kind lacks '$section'"
+  done
+  grep -q "^  bandwidth_read " "$tmp/all" || fail "list lacks the workload bandwidth_read"
+  "$bin" list policies > "$tmp/one" || fail "list policies"
+  [[ $(grep -c '^[a-z]' "$tmp/one") -eq 1 ]] || fail "list policies printed other sections"
+  grep -q "^  monolithic " "$tmp/one" || fail "list policies lacks monolithic"
+  "$bin" list bogus > /dev/null 2> "$tmp/err"
+  [[ $? -eq 2 ]] || fail "list bogus should exit 2"
+  grep -q "bogus" "$tmp/err" || fail "list bogus does not name the bad kind"
   ;;
 *)
   fail "unknown case $case"

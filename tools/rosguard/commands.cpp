@@ -59,6 +59,13 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
 
 int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
                    const BackendRegistry& backends, const std::string& what) {
+  if (what.empty()) {  // everything, one section after the other
+    for (const char* kind : {"workloads", "platforms", "policies", "backends", "pmc-sources"}) {
+      if (std::string(kind) != "workloads") std::cout << "\n";
+      list_catalogue(loader, policies, backends, kind);
+    }
+    return 0;
+  }
   const auto print = [](const std::string& name, const std::string& text) {
     std::cout << "  " << std::left << std::setw(18) << name << text << "\n";
   };

@@ -83,8 +83,8 @@ int main(int argc, char** argv) {
   std::string list_what;
   auto* list =
       app.add_subcommand("list", "List workloads, platforms, policies, backends or pmc-sources.");
-  list->add_option("what", list_what, "workloads | platforms | policies | backends | pmc-sources")
-      ->required()
+  list->add_option("kind", list_what,
+                   "workloads | platforms | policies | backends | pmc-sources (default: all)")
       ->check(CLI::IsMember({"workloads", "platforms", "policies", "backends", "pmc-sources"}));
 
   try {

@@ -82,14 +82,7 @@ class PerfSource : public PmcSource {
  public:
   std::string_view name() const override { return "perf"; }
 
-  std::optional<std::string> unavailable_reason() const override {
-    try {
-      open({"cpu_cycles"}, PmcTarget{});
-      return std::nullopt;
-    } catch (const RunError& e) {
-      return std::string(e.what());
-    }
-  }
+  std::optional<std::string> unavailable_reason() const override { return probe("cpu_cycles"); }
 
   std::vector<std::string> events() const override {
     if (unavailable_reason()) return {};

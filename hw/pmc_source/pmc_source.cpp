@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "core/error.h"
+
 namespace rosguard::hw {
 
 std::string PmcTarget::describe() const {
@@ -15,6 +17,15 @@ std::string PmcTarget::describe() const {
       return "cpu " + std::to_string(cpu);
   }
   return "?";
+}
+
+std::optional<std::string> PmcSource::probe(const std::string& event) const {
+  try {
+    open({event}, PmcTarget{});
+    return std::nullopt;
+  } catch (const RunError& e) {
+    return std::string(e.what());
+  }
 }
 
 bool PmcSource::provides(std::string_view event) const {

@@ -64,6 +64,11 @@ class PmcSource {
   // Opens `events` on `target` as one group. Throws RunError naming the event and errno.
   virtual std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
                                              const PmcTarget& target) const = 0;
+
+ protected:
+  // unavailable_reason() by trial: opens `event` on the calling thread; empty if that works,
+  // else the open's error.
+  std::optional<std::string> probe(const std::string& event) const;
 };
 
 struct PmcSourceInfo {

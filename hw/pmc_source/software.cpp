@@ -13,14 +13,7 @@ class SoftwareSource : public PmcSource {
  public:
   std::string_view name() const override { return "software"; }
 
-  std::optional<std::string> unavailable_reason() const override {
-    try {
-      open({"task_clock"}, PmcTarget{});
-      return std::nullopt;
-    } catch (const RunError& e) {
-      return std::string(e.what());
-    }
-  }
+  std::optional<std::string> unavailable_reason() const override { return probe("task_clock"); }
 
   std::vector<std::string> events() const override {
     return unavailable_reason() ? std::vector<std::string>{} : software_event_names();

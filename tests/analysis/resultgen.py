@@ -20,6 +20,8 @@ import json
 import random
 from pathlib import Path
 
+# Written out here, not imported from analysis.results: the fixtures mirror DESIGN.md, so a
+# drift of the reader's column list fails the tests instead of following it silently.
 FIXED_COLUMNS = [
     "point", "rep", "backend", "rt_workload", "nrt_workload", "policy", "sampling", "scope",
     "threshold_pct", "sampling_period_us", "regulation_period_us", "rt_time_us",

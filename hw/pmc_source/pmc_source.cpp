@@ -33,17 +33,6 @@ bool PmcSource::provides(std::string_view event) const {
   return std::find(e.begin(), e.end(), event) != e.end();
 }
 
-void PmcSourceRegistry::add(PmcSourceInfo info) {
-  if (find(info.name)) throw std::logic_error("pmc source registered twice: " + info.name);
-  sources_.push_back(std::move(info));
-}
-
-const PmcSourceInfo* PmcSourceRegistry::find(std::string_view name) const {
-  for (const auto& s : sources_)
-    if (s.name == name) return &s;
-  return nullptr;
-}
-
 void register_builtin(PmcSourceRegistry& r) {
   r.add({"perf",
          "hardware PMU events through perf_event_open groups (ARMv8 PMUv3 raw codes on aarch64, "

@@ -22,6 +22,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/registry.h"
 #include "metric/metric.h"
 
 namespace rosguard::hw {
@@ -77,15 +78,10 @@ struct PmcSourceInfo {
   std::function<std::unique_ptr<PmcSource>()> make;
 };
 
-// Sources by name, filled explicitly by register_builtin() (no static self-registration).
-class PmcSourceRegistry {
+// PMC sources by name.
+class PmcSourceRegistry : public Registry<PmcSourceInfo> {
  public:
-  void add(PmcSourceInfo info);
-  const PmcSourceInfo* find(std::string_view name) const;
-  const std::vector<PmcSourceInfo>& all() const { return sources_; }
-
- private:
-  std::vector<PmcSourceInfo> sources_;
+  PmcSourceRegistry() : Registry("pmc source") {}
 };
 
 // Adds perf, software and instrumented.

@@ -24,17 +24,6 @@ const IsolationResult& Baselines::at(const Scenario& s, const WorkloadInfo& work
   return it->second;
 }
 
-void BackendRegistry::add(BackendInfo info) {
-  if (find(info.name) != nullptr) throw std::logic_error("backend registered twice: " + info.name);
-  backends_.push_back(std::move(info));
-}
-
-const BackendInfo* BackendRegistry::find(std::string_view name) const {
-  for (const auto& b : backends_)
-    if (b.name == name) return &b;
-  return nullptr;
-}
-
 std::uint64_t task_seed(std::uint64_t scenario_seed, std::string_view id, int rep) {
   // splitmix64 over FNV-1a of the id: well spread, and stable across runs and machines.
   std::uint64_t z =

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "backend/trace.h"
+#include "core/registry.h"
 #include "scenario/scenario.h"
 
 namespace rosguard {
@@ -110,14 +111,9 @@ struct BackendInfo {
   std::function<std::unique_ptr<Backend>()> make;
 };
 
-class BackendRegistry {
+class BackendRegistry : public Registry<BackendInfo> {
  public:
-  void add(BackendInfo info);
-  const BackendInfo* find(std::string_view name) const;
-  const std::vector<BackendInfo>& all() const { return backends_; }
-
- private:
-  std::vector<BackendInfo> backends_;
+  BackendRegistry() : Registry("backend") {}
 };
 
 // Seed of one task, independent of the order tasks run in: mixes the scenario seed with the

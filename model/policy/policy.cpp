@@ -13,22 +13,11 @@ void open_accounts(std::span<Account> accounts, TimeNs start, double budget) {
   }
 }
 
-void PolicyRegistry::add(PolicyInfo info) {
-  if (find(info.name) != nullptr) throw std::logic_error("policy registered twice: " + info.name);
-  policies_.push_back(std::move(info));
-}
-
-const PolicyInfo* PolicyRegistry::find(std::string_view name) const {
-  for (const auto& p : policies_)
-    if (p.name == name) return &p;
-  return nullptr;
-}
-
 std::unique_ptr<Policy> PolicyRegistry::make(std::string_view name,
                                              const PolicyParams& params) const {
   if (const PolicyInfo* info = find(name)) return info->make(params);
   std::string known;
-  for (const auto& p : policies_)
+  for (const auto& p : all())
     known += (known.empty() ? "" : ", ") + p.name;
   throw std::out_of_range("unknown policy '" + std::string(name) + "' (known: " + known + ")");
 }

@@ -13,6 +13,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/registry.h"
 #include "core/types.h"
 
 namespace rosguard {
@@ -60,17 +61,12 @@ struct PolicyInfo {
   PolicyFactory make;
 };
 
-// Policies by name, filled explicitly by register_builtin() (no static self-registration).
-class PolicyRegistry {
+// Policies by name.
+class PolicyRegistry : public Registry<PolicyInfo> {
  public:
-  void add(PolicyInfo info);
-  const PolicyInfo* find(std::string_view name) const;
-  const std::vector<PolicyInfo>& all() const { return policies_; }
+  PolicyRegistry() : Registry("policy") {}
   // Throws std::out_of_range naming the known policies.
   std::unique_ptr<Policy> make(std::string_view name, const PolicyParams& params) const;
-
- private:
-  std::vector<PolicyInfo> policies_;
 };
 
 // Adds interval, monolithic, monitor and none.

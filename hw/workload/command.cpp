@@ -122,13 +122,7 @@ bool CommandProcess::wait(int stop_fd) {
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) throw RunError("poll on command '" + argv_[0] + "': " + errno_text(errno));
     if (fds[0].revents) {
-      int st = 0;
-      pid_t r;
-      do {
-        r = ::waitpid(pid_, &st, 0);
-      } while (r < 0 && errno == EINTR);
-      reaped_ = true;
-      status_ = st;
+      reap();
       return true;
     }
     if (stop_fd >= 0 && fds[1].revents) return false;
@@ -137,8 +131,15 @@ bool CommandProcess::wait(int stop_fd) {
 
 void CommandProcess::kill() {
   if (pid_ <= 0 || reaped_) return;
-  ::kill(-pid_, SIGKILL);  // the whole group: the command's own workers too
   ::kill(pid_, SIGKILL);
+  reap();
+}
+
+// Kills what is left of the group (workers the command forked may outlive its main process),
+// then collects the main process. In this order: until it is reaped, the main process (alive
+// or a zombie) keeps its pid, so -pid_ cannot name another program's recycled process group.
+void CommandProcess::reap() {
+  ::kill(-pid_, SIGKILL);
   int st = 0;
   while (::waitpid(pid_, &st, 0) < 0 && errno == EINTR) {
   }
@@ -148,8 +149,6 @@ void CommandProcess::kill() {
 
 CommandProcess::~CommandProcess() {
   kill();
-  // Workers the command forked may outlive its main process: the group is killed again.
-  if (pid_ > 0) ::kill(-pid_, SIGKILL);
 }
 
 }  // namespace rosguard::hw

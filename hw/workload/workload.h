@@ -61,13 +61,16 @@ class CommandProcess {
   pid_t pid() const { return pid_; }
   // Lets the child exec. Throws RunError when exec fails (command not found, ...).
   void start();
-  // Blocks until the child exits (true) or `stop_fd` becomes readable (false).
+  // Blocks until the child exits (true; what it forked is killed with it) or `stop_fd` becomes
+  // readable (false).
   bool wait(int stop_fd);
   // Exit status as waitpid gives it (valid after wait() returned true).
   int status() const { return status_; }
   void kill();
 
  private:
+  void reap();
+
   std::vector<std::string> argv_;
   pid_t pid_ = -1;
   Fd go_;   // write end: one byte lets the child exec

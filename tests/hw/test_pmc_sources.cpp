@@ -1,10 +1,13 @@
 // PMC sources: the named-event table per architecture, the perf path with software events (per
-// thread, per process, per CPU), the hardware path where a PMU exists, the instrumented source.
+// thread, per process, per CPU), the hardware path where a PMU exists, the instrumented source,
+// and the external command's process group.
 #include <linux/perf_event.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
+#include <fstream>
+#include <string>
 #include <thread>
 
 #include "core/error.h"
@@ -150,6 +153,30 @@ TEST_CASE("software source counts a process and its children from exec", "[hw][p
   CHECK(WIFEXITED(proc.status()));
   const auto v = read_all(*g);
   CHECK(v[0].value > 1'000'000);  // the shell ran for more than a millisecond
+}
+
+TEST_CASE("what a command forks does not outlive it", "[hw][command]") {
+  char path[] = "/tmp/rosguard-worker-XXXXXX";
+  const int fd = ::mkstemp(path);
+  REQUIRE(fd >= 0);
+  ::close(fd);
+  CommandProcess proc({"sh", "-c", std::string("sleep 30 & echo $! > ") + path},
+                      ThreadSpec{"t", -1, SchedClass::Other, prio::kNct});
+  proc.start();
+  REQUIRE(proc.wait(-1));  // the shell exited, its background worker did not on its own
+  pid_t worker = 0;
+  std::ifstream(path) >> worker;
+  ::unlink(path);
+  REQUIRE(worker > 0);
+  // Killed with the group when wait() returned: gone, or a zombie until init reaps it.
+  bool dead = false;
+  for (int i = 0; i < 200 && !dead; ++i) {
+    std::string stat;
+    std::getline(std::ifstream("/proc/" + std::to_string(worker) + "/stat"), stat);
+    dead = stat.empty() || stat.find(") Z ") != std::string::npos;
+    if (!dead) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  CHECK(dead);
 }
 
 TEST_CASE("an event that cannot be opened is a RunError naming it and the errno", "[hw][pmc]") {

@@ -200,7 +200,7 @@ class IdleCores {
       threads_.push_back(std::make_unique<RtThread>(
           ThreadSpec{"idle" + std::to_string(c), c, sched, prio::kNct}, [this] {
             while (!stop_.load(std::memory_order_relaxed))
-              cpu_pause();
+              cpu_relax();
           }));
   }
   ~IdleCores() {
@@ -218,13 +218,6 @@ class IdleCores {
   }
 
  private:
-  static void cpu_pause() {
-#if defined(__x86_64__) || defined(__i386__)
-    __builtin_ia32_pause();
-#elif defined(__aarch64__)
-    asm volatile("yield" ::: "memory");
-#endif
-  }
   std::atomic<bool> stop_{false};
   std::vector<std::unique_ptr<RtThread>> threads_;
 };

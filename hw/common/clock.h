@@ -16,6 +16,13 @@ inline TimeNs now_ns() {
   return static_cast<TimeNs>(ts.tv_sec) * kNsPerS + ts.tv_nsec;
 }
 
+// CPU time of the calling thread (a system call, not vDSO: about 1 us on a VM).
+inline TimeNs thread_cpu_ns() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerS + ts.tv_nsec;
+}
+
 inline timespec to_timespec(TimeNs t) {
   return {static_cast<time_t>(t / kNsPerS), static_cast<long>(t % kNsPerS)};
 }

@@ -45,6 +45,16 @@ inline constexpr int kNct = 20;
 int nice_for(int fifo_priority);
 }  // namespace prio
 
+// One step of a spin loop (THR, idle spinners): tells the core, and a hypervisor, that this
+// thread only waits.
+inline void cpu_relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield" ::: "memory");
+#endif
+}
+
 struct ThreadSpec {
   std::string name;  // at most 15 characters are kept (pthread_setname_np); empty: unchanged
   int core = -1;     // -1: not pinned

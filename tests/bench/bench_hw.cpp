@@ -1,9 +1,11 @@
 // hw backend micro-benchmarks: the PMC read (a 4-event perf software group, the instrumented
-// source) and a topic wake-up round trip between two SCHED_FIFO threads on two cores.
+// source), a topic wake-up round trip between two SCHED_FIFO threads on two cores, and the host's
+// floor for self-sampling (a bare periodic thread, no node code).
 // Targets on the 2-vCPU VM (issue 4): 4-event software group read median <= 2 us.
 #include <benchmark/benchmark.h>
 
 #include <atomic>
+#include <optional>
 #include <thread>
 
 #include "hw/common/clock.h"
@@ -85,7 +87,10 @@ void BM_InstrumentedRead(benchmark::State& state) {
 BENCHMARK(BM_InstrumentedRead);
 
 // Publish -> the subscriber on the other core wakes (futex) -> it publishes back -> we wake.
-// Manual time: one round trip, so the one-way wake-up is about half of it.
+// Manual time: one round trip, so the one-way wake-up is about half of it. Arg busy 1: the
+// subscriber's core runs a spinner at the NCT priority meanwhile, as the nRT core does when the
+// controller publishes THR to it (external sampling): the wake-up must then interrupt a running
+// core, which on a VM can cost far more than waking an idle one.
 void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
   const auto cpus = usable_cpus();
   if (cpus.size() < 2) {
@@ -99,6 +104,12 @@ void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
   const auto pong_pub = pong.add_publisher();
   const auto pong_sub = pong.subscribe(pong_waker);
   std::atomic<bool> stop{false};
+  std::optional<RtThread> spinner;
+  if (state.range(0) != 0)
+    spinner.emplace(ThreadSpec{"spinner", cpus[1], SchedClass::Fifo, prio::kNct}, [&] {
+      while (!stop.load(std::memory_order_relaxed))
+        cpu_relax();
+    });
   RtThread echo(ThreadSpec{"echo", cpus[1], SchedClass::Fifo, prio::kCfb}, [&] {
     while (!stop.load()) {
       const auto e = ping_waker.epoch();
@@ -124,6 +135,71 @@ void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
   stop = true;
   ping_waker.notify();
 }
-BENCHMARK(BM_TopicRoundTrip_TwoCores)->UseManualTime()->Iterations(2000);
+BENCHMARK(BM_TopicRoundTrip_TwoCores)
+    ->ArgName("busy")
+    ->Arg(0)
+    ->Arg(1)
+    ->UseManualTime()
+    ->Iterations(2000);
+
+// The host's floor for self-sampling at 1 ms: a bare SCHED_FIFO thread at the PMC priority on the
+// nRT core, preempting a spinner at the NCT priority, wakes at an absolute deadline every period
+// and goes back to sleep (the Waker's futex, as the PMC thread does). Arg 0: nothing else; arg 1:
+// plus one notify() of a thread sleeping on the other core (the publish to the controller); arg
+// 2: of a thread sleeping on the same core. Counter cpu_us_per_period: the sampler's CPU time per
+// period, i.e. what the spinner loses to it. rosguard's `sampling_overhead` (PMC thread CPU time
+// per period) cannot be below arg 1 on the same host: it adds only the group read to it.
+void BM_HostFloor_PeriodicSampler(benchmark::State& state) {
+  const auto cpus = usable_cpus();
+  if (cpus.size() < 2) {
+    state.SkipWithError("needs two CPUs");
+    return;
+  }
+  const int nrt_core = cpus[1];
+  const auto publish = state.range(0);
+  std::atomic<bool> stop{false};
+  Waker sleeper_waker;
+  RtThread spinner(ThreadSpec{"spinner", nrt_core, SchedClass::Fifo, prio::kNct}, [&] {
+    while (!stop.load(std::memory_order_relaxed))
+      cpu_relax();
+  });
+  std::optional<RtThread> sleeper;
+  if (publish != 0)
+    sleeper.emplace(ThreadSpec{"sleeper", publish == 1 ? cpus[0] : nrt_core, SchedClass::Fifo,
+                               prio::kController},
+                    [&] {
+                      while (!stop.load()) {
+                        const auto e = sleeper_waker.epoch();
+                        if (stop.load()) break;
+                        sleeper_waker.wait(e, -1);
+                      }
+                    });
+  Waker timer;  // nobody notifies it: the sampler sleeps until its deadline
+  TimeNs periods = 0;
+  TimeNs cpu = 0;
+  {
+    ScopedSched me(ThreadSpec{"sampler", nrt_core, SchedClass::Fifo, prio::kPmc});
+    TimeNs next = now_ns() + kNsPerMs;
+    const TimeNs cpu0 = thread_cpu_ns();
+    for (auto _ : state) {
+      timer.wait(timer.epoch(), next);
+      next += kNsPerMs;
+      if (publish != 0) sleeper_waker.notify();
+      ++periods;
+    }
+    cpu = thread_cpu_ns() - cpu0;
+  }
+  stop = true;
+  sleeper_waker.notify();
+  state.counters["cpu_us_per_period"] =
+      static_cast<double>(cpu) / 1e3 / static_cast<double>(periods);
+}
+BENCHMARK(BM_HostFloor_PeriodicSampler)
+    ->ArgName("publish")
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Iterations(1000)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -131,8 +131,7 @@ bool CommandProcess::wait(int stop_fd) {
 
 void CommandProcess::kill() {
   if (pid_ <= 0 || reaped_) return;
-  ::kill(pid_, SIGKILL);
-  reap();
+  reap();  // the group includes the main process: setpgid in both parent and child
 }
 
 // Kills what is left of the group (workers the command forked may outlive its main process),

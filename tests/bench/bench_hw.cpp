@@ -86,6 +86,14 @@ void BM_InstrumentedRead(benchmark::State& state) {
 }
 BENCHMARK(BM_InstrumentedRead);
 
+// The body of a thread that keeps its core busy, as the NCT thread does, without memory traffic.
+auto spin_until(const std::atomic<bool>& stop) {
+  return [&stop] {
+    while (!stop.load(std::memory_order_relaxed))
+      cpu_relax();
+  };
+}
+
 // Publish -> the subscriber on the other core wakes (futex) -> it publishes back -> we wake.
 // Manual time: one round trip, so the one-way wake-up is about half of it. Arg busy 1: the
 // subscriber's core runs a spinner at the NCT priority meanwhile, as the nRT core does when the
@@ -106,10 +114,7 @@ void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
   std::atomic<bool> stop{false};
   std::optional<RtThread> spinner;
   if (state.range(0) != 0)
-    spinner.emplace(ThreadSpec{"spinner", cpus[1], SchedClass::Fifo, prio::kNct}, [&] {
-      while (!stop.load(std::memory_order_relaxed))
-        cpu_relax();
-    });
+    spinner.emplace(ThreadSpec{"spinner", cpus[1], SchedClass::Fifo, prio::kNct}, spin_until(stop));
   RtThread echo(ThreadSpec{"echo", cpus[1], SchedClass::Fifo, prio::kCfb}, [&] {
     while (!stop.load()) {
       const auto e = ping_waker.epoch();
@@ -159,10 +164,7 @@ void BM_HostFloor_PeriodicSampler(benchmark::State& state) {
   const auto publish = state.range(0);
   std::atomic<bool> stop{false};
   Waker sleeper_waker;
-  RtThread spinner(ThreadSpec{"spinner", nrt_core, SchedClass::Fifo, prio::kNct}, [&] {
-    while (!stop.load(std::memory_order_relaxed))
-      cpu_relax();
-  });
+  RtThread spinner(ThreadSpec{"spinner", nrt_core, SchedClass::Fifo, prio::kNct}, spin_until(stop));
   std::optional<RtThread> sleeper;
   if (publish != 0)
     sleeper.emplace(ThreadSpec{"sleeper", publish == 1 ? cpus[0] : nrt_core, SchedClass::Fifo,
@@ -175,7 +177,6 @@ void BM_HostFloor_PeriodicSampler(benchmark::State& state) {
                       }
                     });
   Waker timer;  // nobody notifies it: the sampler sleeps until its deadline
-  TimeNs periods = 0;
   TimeNs cpu = 0;
   {
     ScopedSched me(ThreadSpec{"sampler", nrt_core, SchedClass::Fifo, prio::kPmc});
@@ -185,14 +186,13 @@ void BM_HostFloor_PeriodicSampler(benchmark::State& state) {
       timer.wait(timer.epoch(), next);
       next += kNsPerMs;
       if (publish != 0) sleeper_waker.notify();
-      ++periods;
     }
     cpu = thread_cpu_ns() - cpu0;
   }
   stop = true;
   sleeper_waker.notify();
   state.counters["cpu_us_per_period"] =
-      static_cast<double>(cpu) / 1e3 / static_cast<double>(periods);
+      static_cast<double>(cpu) / 1e3 / static_cast<double>(state.iterations());
 }
 BENCHMARK(BM_HostFloor_PeriodicSampler)
     ->ArgName("publish")

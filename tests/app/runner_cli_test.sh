@@ -132,8 +132,14 @@ folders)
   grep -q "different scenario" "$tmp/err" || fail "message: $(cat "$tmp/err")"
   "$bin" run $scenario --out "$tmp/o" --resume --overwrite 2>/dev/null
   [[ $? -eq 2 ]] || fail "--resume with --overwrite should exit 2"
-  "$bin" run $scenario --out "$tmp/o2" --shard 2/2 2>/dev/null
-  [[ $? -eq 2 ]] || fail "--shard 2/2 should exit 2"
+  for bad in "--shard 2/2" "--shard 1/99999999999" "--shard 99999999999/2" "--shard -1/2" \
+             "--shard 1/2/3" "--jobs 99999999999" "--jobs 0"; do
+    "$bin" run $scenario --out "$tmp/o2" $bad 2> "$tmp/err"
+    rc=$?
+    [[ $rc -eq 2 ]] || fail "$bad should exit 2, got $rc"
+    grep -q "internal" "$tmp/err" && fail "$bad: $(cat "$tmp/err")"
+    grep -q -- "${bad%% *}" "$tmp/err" || fail "$bad: the message does not name the option"
+  done
   [[ ! -e "$tmp/o2" ]] || fail "a usage error created the results folder"
   ;;
 trace)

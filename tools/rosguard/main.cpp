@@ -2,9 +2,12 @@
 // mixed-criticality applications. Only this file turns errors into exit codes:
 // 0 success, 1 runtime failure, 2 invalid input (usage or scenario), 130 / 143 interrupted.
 #include <CLI/CLI.hpp>
+#include <charconv>
+#include <climits>
 #include <iostream>
 #include <optional>
-#include <regex>
+#include <tuple>
+#include <utility>
 
 #include "commands.h"
 #include "core/error.h"
@@ -20,6 +23,25 @@ Start here:
   rosguard run scenarios/quickstart.json      sweep it on the sim backend
   rosguard plot results/quickstart            draw its figures
 Run 'rosguard <command> --help' for the options of a command.)";
+
+// "I/N" with 0 <= I < N <= INT_MAX, digits only; throws InputError otherwise.
+std::pair<int, int> parse_shard(const std::string& text) {
+  const auto slash = text.find('/');
+  const auto number = [&](std::size_t begin, std::size_t end, int& value) {
+    const char* first = text.data() + begin;
+    const char* last = text.data() + end;
+    const auto [ptr, ec] = std::from_chars(first, last, value);
+    return first != last && *first != '-' && *first != '+' && ec == std::errc() && ptr == last;
+  };
+  int index = 0, count = 0;
+  if (slash == std::string::npos || !number(0, slash, index) ||
+      !number(slash + 1, text.size(), count) || count < 1 || index >= count)
+    throw rosguard::InputError("", "",
+                               "--shard must be I/N with 0 <= I < N <= " + std::to_string(INT_MAX) +
+                                   ", e.g. 0/2 (got '" +
+                                   (text.size() > 40 ? text.substr(0, 40) + "..." : text) + "')");
+  return {index, count};
+}
 
 std::string joined_args(int argc, char** argv) {
   std::string s;
@@ -49,7 +71,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"sim", "hw"}));
   run->add_option("--out", run_opt.out, "Results folder (default: results/<scenario name>)");
   run->add_option("--jobs", run_opt.jobs, "Worker processes for sim (default: all CPUs)")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 65536));
   run->add_option("--shard", shard,
                   "Run only shard I of N (points with index % N == I); shards may share --out");
   run->add_flag("--resume", run_opt.resume, "Continue a run in --out, skipping finished points");
@@ -57,7 +79,7 @@ int main(int argc, char** argv) {
   run->add_flag("--trace", run_opt.trace,
                 "Also write trace.json (Chrome trace, opens in Perfetto)");
   run->add_flag("--quiet", run_opt.quiet, "No progress or summary");
-  run->footer("Writes manifest.json, points.csv and samples.csv (DESIGN.md section 7).");
+  run->footer("Writes manifest.json, points.csv and samples.csv (docs/design.md, results format).");
 
   std::string check_file, check_backend;
   bool check_points = false;
@@ -103,16 +125,7 @@ int main(int argc, char** argv) {
 
     if (*run) {
       if (!backend_opt.empty()) run_opt.backend = backend_opt;
-      if (!shard.empty()) {
-        std::smatch m;
-        const std::regex re(R"((\d+)/(\d+))");
-        if (!std::regex_match(shard, m, re) || std::stoi(m[2]) < 1 ||
-            std::stoi(m[1]) >= std::stoi(m[2]))
-          throw InputError("", "",
-                           "--shard must be I/N with 0 <= I < N, e.g. 0/2 (got '" + shard + "')");
-        run_opt.shard_index = std::stoi(m[1]);
-        run_opt.shard_count = std::stoi(m[2]);
-      }
+      if (!shard.empty()) std::tie(run_opt.shard_index, run_opt.shard_count) = parse_shard(shard);
       if (run_opt.resume && run_opt.overwrite)
         throw InputError("", "", "--resume and --overwrite contradict each other; choose one");
       run_opt.command_line = joined_args(argc, argv);

@@ -1,6 +1,7 @@
 #include "results_store.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <tuple>
@@ -44,7 +45,8 @@ CsvFile read_csv(const fs::path& path, const std::map<std::string, std::size_t>&
     const auto cells = csv_split(lines[i]);
     if (cells.size() < 2) continue;
     const auto it = order.find(cells[0]);
-    const int rep = std::atoi(cells[1].c_str());
+    int rep = -1;  // a rep that is not a number matches no run
+    std::from_chars(cells[1].data(), cells[1].data() + cells[1].size(), rep);
     out.rows.push_back(
         {it == order.end() ? order.size() : it->second, rep, {cells[0], rep}, lines[i]});
   }

@@ -106,6 +106,39 @@ sigint)
     [[ $(rows "$out") -eq 24 ]] || fail "$backend: $(rows "$out") rows after resume"
   done
   ;;
+resume_errors)
+  # A value that was not measured (NaN, null in baselines.json) survives --resume; a resume that
+  # fails leaves the manifest's status truthful (never "running").
+  out="$tmp/r"
+  ROSGUARD_FAKE_SLEEP_MS=100 "$bin" run $scenario --backend hw --out "$out" --quiet 2>/dev/null &
+  pid=$!
+  wait_rows "$out" 2
+  kill -INT $pid
+  wait $pid
+  [[ $? -eq 130 ]] || fail "SIGINT did not give exit 130"
+  set_ipc() {
+    /usr/bin/python3 - "$out/baselines.json" "$1" <<'PY'
+import json, sys
+b = json.load(open(sys.argv[1]))
+for v in b.values():
+    v["ipc"] = json.loads(sys.argv[2])
+json.dump(b, open(sys.argv[1], "w"))
+PY
+  }
+  set_ipc '"fast"'
+  "$bin" run $scenario --backend hw --out "$out" --resume --quiet 2> "$tmp/err"
+  rc=$?
+  [[ $rc -eq 1 ]] || fail "a corrupt baselines.json: exit $rc, expected 1"
+  grep -q "baselines.json" "$tmp/err" || fail "the error does not name baselines.json: $(cat "$tmp/err")"
+  grep -q "internal" "$tmp/err" && fail "$(cat "$tmp/err")"
+  [[ $(status "$out") == interrupted ]] || fail "status after a failed resume: $(status "$out")"
+  set_ipc null
+  "$bin" run $scenario --backend hw --out "$out" --resume --quiet 2> "$tmp/err" ||
+    fail "resume with ipc null: $(cat "$tmp/err")"
+  [[ $(rows "$out") -eq 24 ]] || fail "$(rows "$out") rows after resume"
+  [[ $(status "$out") == complete ]] || fail "status after resume: $(status "$out")"
+  grep -q '"ipc": null' "$out/baselines.json" || fail "null ipc not kept in baselines.json"
+  ;;
 failure)
   # A failing point: exit 1, status failed, the error in the manifest, complete rows kept.
   ROSGUARD_FAKE_FAIL_AT=15 "$bin" run $scenario --out "$tmp/f" --jobs 1 --quiet 2> "$tmp/err"

@@ -104,17 +104,8 @@ AppendFile::~AppendFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-AppendFile::AppendFile(AppendFile&& other) noexcept
-    : path_(std::move(other.path_)), fd_(other.fd_) {
-  other.fd_ = -1;
-}
-
 void AppendFile::append(const std::string& data) {
   write_all(fd_, data, path_);
-}
-
-void AppendFile::sync() {
-  if (::fsync(fd_) != 0) fail("cannot sync", path_);
 }
 
 FileLock::FileLock(const fs::path& path) {

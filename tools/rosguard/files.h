@@ -29,13 +29,10 @@ class AppendFile {
  public:
   explicit AppendFile(const std::filesystem::path& path);
   ~AppendFile();
-  AppendFile(AppendFile&& other) noexcept;
-  AppendFile& operator=(AppendFile&&) = delete;
   AppendFile(const AppendFile&) = delete;
   AppendFile& operator=(const AppendFile&) = delete;
 
   void append(const std::string& data);
-  void sync();
 
  private:
   std::filesystem::path path_;

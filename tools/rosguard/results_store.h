@@ -1,4 +1,4 @@
-// The results folder of a run (DESIGN section 7): manifest.json, points.csv, samples.csv,
+// The results folder of a run (docs/design.md, results): manifest.json, points.csv, samples.csv,
 // baselines.json and, with --trace, trace.json.
 //
 // Several writers may use one folder at the same time: shards of one scenario, on one machine

@@ -50,6 +50,44 @@ std::string joined_args(int argc, char** argv) {
   return s;
 }
 
+struct RunArgs {
+  rosguard::RunOptions options;
+  std::string shard;    // "I/N", parsed by run_command
+  std::string backend;  // empty: the scenario's
+};
+
+CLI::App* add_run_command(CLI::App& app, RunArgs& args) {
+  rosguard::RunOptions& opt = args.options;
+  auto* run = app.add_subcommand("run", "Run every point of a scenario and write results.");
+  run->add_option("scenario", opt.scenario_file, "Scenario JSON file")->required();
+  run->add_option("--backend", args.backend, "Backend to run on (default: the scenario's)")
+      ->check(CLI::IsMember({"sim", "hw"}));
+  run->add_option("--out", opt.out, "Results folder (default: results/<scenario name>)");
+  run->add_option("--jobs", opt.jobs, "Worker processes for sim (default: all CPUs)")
+      ->check(CLI::Range(1, 65536));
+  run->add_option("--shard", args.shard,
+                  "Run only shard I of N (points with index % N == I); shards may share --out, "
+                  "also at the same time");
+  run->add_flag("--resume", opt.resume, "Continue a run in --out, skipping finished points");
+  run->add_flag("--overwrite", opt.overwrite, "Replace the results already in --out");
+  run->add_flag("--trace", opt.trace, "Also write trace.json (Chrome trace, opens in Perfetto)");
+  run->add_flag("--quiet", opt.quiet, "No progress or summary");
+  run->footer("Writes manifest.json, points.csv and samples.csv (docs/design.md, results format).");
+  return run;
+}
+
+int run_command(RunArgs& args, const std::string& command_line, rosguard::Loader& loader,
+                const rosguard::BackendRegistry& backends) {
+  rosguard::RunOptions& opt = args.options;
+  if (!args.backend.empty()) opt.backend = args.backend;
+  if (!args.shard.empty()) std::tie(opt.shard_index, opt.shard_count) = parse_shard(args.shard);
+  if (opt.resume && opt.overwrite)
+    throw rosguard::InputError("", "",
+                               "--resume and --overwrite contradict each other; choose one");
+  opt.command_line = command_line;
+  return rosguard::run_scenario(opt, loader, backends);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -62,24 +100,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("rosguard ") + kVersion);
 
-  RunOptions run_opt;
-  std::string shard;
-  std::string backend_opt;
-  auto* run = app.add_subcommand("run", "Run every point of a scenario and write results.");
-  run->add_option("scenario", run_opt.scenario_file, "Scenario JSON file")->required();
-  run->add_option("--backend", backend_opt, "Backend to run on (default: the scenario's)")
-      ->check(CLI::IsMember({"sim", "hw"}));
-  run->add_option("--out", run_opt.out, "Results folder (default: results/<scenario name>)");
-  run->add_option("--jobs", run_opt.jobs, "Worker processes for sim (default: all CPUs)")
-      ->check(CLI::Range(1, 65536));
-  run->add_option("--shard", shard,
-                  "Run only shard I of N (points with index % N == I); shards may share --out");
-  run->add_flag("--resume", run_opt.resume, "Continue a run in --out, skipping finished points");
-  run->add_flag("--overwrite", run_opt.overwrite, "Replace the results already in --out");
-  run->add_flag("--trace", run_opt.trace,
-                "Also write trace.json (Chrome trace, opens in Perfetto)");
-  run->add_flag("--quiet", run_opt.quiet, "No progress or summary");
-  run->footer("Writes manifest.json, points.csv and samples.csv (docs/design.md, results format).");
+  RunArgs run_args;
+  auto* run = add_run_command(app, run_args);
 
   std::string check_file, check_backend;
   bool check_points = false;
@@ -123,14 +145,7 @@ int main(int argc, char** argv) {
     register_backends(backends);
     Loader loader(Home::locate());
 
-    if (*run) {
-      if (!backend_opt.empty()) run_opt.backend = backend_opt;
-      if (!shard.empty()) std::tie(run_opt.shard_index, run_opt.shard_count) = parse_shard(shard);
-      if (run_opt.resume && run_opt.overwrite)
-        throw InputError("", "", "--resume and --overwrite contradict each other; choose one");
-      run_opt.command_line = joined_args(argc, argv);
-      return run_scenario(run_opt, loader, backends);
-    }
+    if (*run) return run_command(run_args, joined_args(argc, argv), loader, backends);
     if (*check)
       return check_scenario(
           loader, backends, check_file,

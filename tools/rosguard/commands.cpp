@@ -22,35 +22,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Lower bound of one run of a sim workload, in seconds: every phase at its base IPC (every L2
-// miss at the unloaded L3 latency), no contention.
-double sim_run_seconds(const WorkloadInfo& w, double freq_mhz) {
-  const auto& sim = w.doc.at("sim");
-  const double instructions = sim.at("instructions").get<double>();
-  double cycles = 0.0;
-  for (const auto& phase : sim.at("phases"))
-    cycles +=
-        instructions * phase.at("fraction").get<double>() / phase.at("base_ipc").get<double>();
-  return cycles / (freq_mhz * 1e6);
-}
-
-// Simulated time of one point (not counting its isolation runs), as a lower bound: the RT
-// nodes' jobs (or their periods) one after the other, or the nRT nodes' single runs.
-std::optional<double> simulated_seconds(const Scenario& s) {
-  if (s.backend != "sim") return std::nullopt;
-  double longest = 0.0;
-  for (const auto& rt : s.nodes.rt) {
-    const double job = sim_run_seconds(rt.workload, s.platform.freq_mhz);
-    const double slot =
-        rt.period_us ? std::max(job, static_cast<double>(*rt.period_us) * 1e-6) : job;
-    longest = std::max(longest, slot * rt.iterations);
-  }
-  if (s.nodes.rt.empty())
-    for (const auto& nrt : s.nodes.nrt)
-      longest = std::max(longest, sim_run_seconds(nrt.workload, s.platform.freq_mhz));
-  return longest;
-}
-
 std::string seconds_text(double s) {
   std::ostringstream os;
   os << std::setprecision(3);
@@ -94,7 +65,8 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
             << "  repetitions  " << first.repetitions << " (" << runs << " runs)\n";
   std::optional<double> lo, hi;
   for (const auto& p : s.points)
-    if (const auto t = simulated_seconds(p.scenario)) {
+    if (const auto t = p.scenario.backend == "sim" ? min_simulated_seconds(p.scenario)
+                                                   : std::optional<double>()) {
       lo = std::min(lo.value_or(*t), *t);
       hi = std::max(hi.value_or(*t), *t);
     }

@@ -35,7 +35,7 @@ struct LoadedPoint {
 
 // A sweep may have at most this many points: each is validated and held in memory (some tens
 // of KB) before the first runs.
-inline constexpr std::uint64_t kMaxSweepPoints = 100000;
+inline constexpr std::uint64_t kMaxSweepPoints = 50000;
 // `check` builds every point of a sweep up to this size, and a sample of a larger one.
 inline constexpr std::uint64_t kCheckAllPoints = 2000;
 

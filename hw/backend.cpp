@@ -705,6 +705,20 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
     out.samples.push_back({"pmc_callback", v});
     out.samples.push_back({"pmc_read", v});
   }
+  // A round of reads longer than the sampling period leaves regulation late or inert.
+  const auto& reads = controller.external_reads_us();
+  const double round_budget_us = static_cast<double>(s.regulation.sampling_period_us) /
+                                 static_cast<double>(std::max<std::size_t>(n_nrt, 1));
+  if (const auto slow =
+          std::count_if(reads.begin(), reads.end(), [&](double v) { return v >= round_budget_us; });
+      slow > 0)
+    ctx.fallback("external_sampling_lag",
+                 std::to_string(slow) + " of " + std::to_string(reads.size()) +
+                     " counter reads took longer than one sampling period allows (" +
+                     std::to_string(s.regulation.sampling_period_us) + " us for " +
+                     std::to_string(n_nrt) +
+                     " nRT core(s)): samples arrive late and regulation may never act; use a "
+                     "longer sampling period");
   emit_trace(ctx.trace(), controller.trace(), "controller");
   return out;
 }

@@ -5,11 +5,16 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 
 #include "fuzz_target.h"
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  rosguard::fuzz::fuzz_setup();
+  static const std::filesystem::path work = rosguard::fuzz::fuzz_setup();
+  std::atexit([] {
+    std::error_code ec;
+    std::filesystem::remove_all(work, ec);
+  });
   const int null = ::open("/dev/null", O_WRONLY);  // check's summary is noise here
   if (null >= 0) ::dup2(null, STDOUT_FILENO);
   return 0;

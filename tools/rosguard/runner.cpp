@@ -427,19 +427,6 @@ std::string iso_time_now() {
   return buf;
 }
 
-std::string run_capture(const std::string& cmd) {
-  std::string out;
-  if (FILE* p = ::popen(cmd.c_str(), "r")) {
-    char buf[256];
-    while (std::fgets(buf, sizeof buf, p))
-      out += buf;
-    ::pclose(p);
-  }
-  while (!out.empty() && (out.back() == '\n' || out.back() == ' '))
-    out.pop_back();
-  return out;
-}
-
 json host_facts() {
   json h;
   utsname u{};
@@ -460,17 +447,12 @@ json host_facts() {
   return h;
 }
 
-json tool_facts(const Home& home) {
-  const std::string dir = "'" + home.root.string() + "'";
-  std::string rev = run_capture("git -C " + dir + " rev-parse --short=12 HEAD 2>/dev/null");
-  if (rev.empty())
-    rev = "unknown";
-  else if (!run_capture("git -C " + dir + " status --porcelain --untracked-files=no 2>/dev/null")
-                .empty())
-    rev += "-dirty";
+// The revision is the one baked in when the build was configured: an installed rosguard has no
+// source tree to ask, and a results folder must not depend on where it was written from.
+json tool_facts() {
   return {{"name", "rosguard"},
           {"version", kVersion},
-          {"git_revision", rev},
+          {"git_revision", kGitRevision},
           {"build_type", kBuildType}};
 }
 
@@ -637,7 +619,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
                                              : json::object();
     if (!manifest.is_object()) manifest = json::object();
     manifest["schema_version"] = 1;
-    manifest["tool"] = tool_facts(loader.home());
+    manifest["tool"] = tool_facts();
     manifest["command"] = opt.command_line;
     manifest["scenario_file"] = loaded.file;
     manifest["scenario_hash"] = hash;

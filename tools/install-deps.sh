@@ -2,15 +2,17 @@
 # Installs the Debian packages rosguard needs, and only those that are missing.
 # Called by `make deps` (and so by `make run` / `make test`). One `apt-get update`, then one
 # `apt-get install -y`; nothing when everything is present. Needs root or sudo to install.
+# ROSGUARD_WITH_SIM=OFF (as `make test-nosim` sets it): without SystemC (libsystemc-dev).
 set -euo pipefail
 
 packages=(
   cmake g++ make pkg-config
-  libsystemc-dev libeigen3-dev catch2 nlohmann-json3-dev libvalijson-dev libcli11-dev
+  libeigen3-dev catch2 nlohmann-json3-dev libvalijson-dev libcli11-dev
   libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pytest
   linux-perf stress-ng
 )
+[[ "${ROSGUARD_WITH_SIM:-ON}" == OFF ]] || packages+=(libsystemc-dev)
 
 missing=()
 for p in "${packages[@]}"; do

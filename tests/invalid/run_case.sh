@@ -12,6 +12,12 @@ status=0
 
 out=$("$rosguard" check "$case" 2>&1)
 rc=$?
+# A case for a backend this build leaves out (-DROSGUARD_WITH_SIM=OFF) loads, but the backend's
+# own checks cannot run: skipped, not passed.
+if [[ $rc -eq 0 ]] && grep -q "(not built into this rosguard)" <<<"$out"; then
+  echo "SKIPPED: the case's backend is not built: $out"
+  exit 0
+fi
 if [[ $rc -ne 2 ]]; then
   echo "FAIL: 'rosguard check' exited $rc, expected 2"
   status=1

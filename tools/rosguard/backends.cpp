@@ -1,15 +1,19 @@
-// The backends compiled into this build.
+// The backends compiled into this build (ROSGUARD_WITH_SIM / ROSGUARD_WITH_HW).
 #include "commands.h"
-#include "sim/register.h"
 
+#ifdef ROSGUARD_WITH_SIM
+#include "sim/register.h"
+#endif
 #ifdef ROSGUARD_WITH_HW
 #include "hw/register.h"
 #endif
 
 namespace rosguard {
 
-void register_backends(BackendRegistry& registry) {
+void register_backends([[maybe_unused]] BackendRegistry& registry) {
+#ifdef ROSGUARD_WITH_SIM
   sim::register_builtin(registry);
+#endif
 #ifdef ROSGUARD_WITH_HW
   hw::register_builtin(registry);
 #endif

@@ -4,7 +4,6 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cstdio>
 #include <ctime>
 #include <fstream>
 
@@ -12,24 +11,6 @@
 
 namespace rosguard {
 using json = nlohmann::json;
-
-namespace {
-
-// stdout of a shell command, trailing newlines and spaces cut; empty when it cannot run.
-std::string run_capture(const std::string& cmd) {
-  std::string out;
-  if (FILE* p = ::popen(cmd.c_str(), "r")) {
-    char buf[256];
-    while (std::fgets(buf, sizeof buf, p))
-      out += buf;
-    ::pclose(p);
-  }
-  while (!out.empty() && (out.back() == '\n' || out.back() == ' '))
-    out.pop_back();
-  return out;
-}
-
-}  // namespace
 
 std::string iso_time_now() {
   const auto now = std::chrono::system_clock::now();
@@ -61,17 +42,12 @@ json host_facts() {
   return h;
 }
 
-json tool_facts(const Home& home) {
-  const std::string dir = "'" + home.root.string() + "'";
-  std::string rev = run_capture("git -C " + dir + " rev-parse --short=12 HEAD 2>/dev/null");
-  if (rev.empty())
-    rev = "unknown";
-  else if (!run_capture("git -C " + dir + " status --porcelain --untracked-files=no 2>/dev/null")
-                .empty())
-    rev += "-dirty";
+// The revision is the one baked in when the build was configured: an installed rosguard has no
+// source tree to ask, and a results folder must not depend on where it was written from.
+json tool_facts() {
   return {{"name", "rosguard"},
           {"version", kVersion},
-          {"git_revision", rev},
+          {"git_revision", kGitRevision},
           {"build_type", kBuildType}};
 }
 

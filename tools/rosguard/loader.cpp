@@ -13,8 +13,8 @@
 
 #include "core/error.h"
 
-#ifndef ROSGUARD_SOURCE_DIR
-#error "ROSGUARD_SOURCE_DIR must point at the source tree"
+#if !defined(ROSGUARD_SOURCE_DIR) || !defined(ROSGUARD_DATA_FROM_BIN)
+#error "ROSGUARD_SOURCE_DIR and ROSGUARD_DATA_FROM_BIN (bin -> share/rosguard) must be defined"
 #endif
 
 namespace rosguard {
@@ -102,14 +102,26 @@ std::vector<std::uint64_t> selected_points(std::uint64_t count,
 }  // namespace
 
 Home Home::locate() {
-  if (const char* env = std::getenv("ROSGUARD_HOME"); env && *env) return {fs::path(env)};
+  if (const char* env = std::getenv("ROSGUARD_HOME"); env && *env) {
+    if (!has_schemas(env))
+      throw RunError(std::string("ROSGUARD_HOME=") + env +
+                     " holds no scenarios/schema/scenario.schema.json (point it at rosguard's "
+                     "data: an install's share/rosguard or a source tree)");
+    return {fs::path(env)};
+  }
+  std::vector<fs::path> tried;
   std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec)
-    for (fs::path dir = exe.parent_path(); !dir.empty() && dir != dir.root_path();
-         dir = dir.parent_path())
-      if (has_schemas(dir)) return {dir};
-  return {fs::path(ROSGUARD_SOURCE_DIR)};
+  if (const fs::path exe = fs::read_symlink("/proc/self/exe", ec); !ec) {
+    tried.push_back((exe.parent_path() / ROSGUARD_DATA_FROM_BIN).lexically_normal());
+    if (has_schemas(tried.back())) return {tried.back()};  // installed: <prefix>/share/rosguard
+  }
+  tried.emplace_back(ROSGUARD_SOURCE_DIR);  // a build tree: the sources it was configured from
+  if (has_schemas(tried.back())) return {tried.back()};
+  std::string where;
+  for (const auto& dir : tried)
+    where += (where.empty() ? "" : ", ") + dir.string();
+  throw RunError("cannot find rosguard's data (scenarios/schema/) in " + where +
+                 "; set ROSGUARD_HOME to an install's share/rosguard or a source tree");
 }
 
 std::string display_path(const fs::path& path) {

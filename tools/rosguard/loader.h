@@ -17,8 +17,9 @@
 
 namespace rosguard {
 
-// Where rosguard's own files live (scenarios/, analysis/). ROSGUARD_HOME overrides; otherwise
-// the tree the executable was built from.
+// Where rosguard's own files live (scenarios/, analysis/): ROSGUARD_HOME when set (it must hold
+// scenarios/schema/); else <bin>/../share/rosguard next to an installed executable; else the
+// source tree a build-tree executable was configured from. Throws RunError when none holds them.
 struct Home {
   std::filesystem::path root;
   static Home locate();

@@ -98,7 +98,10 @@ int main(int argc, char** argv) {
                "for ROS2-style mixed-criticality applications on multicore SoCs."};
   app.footer(kFooter);
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("rosguard ") + kVersion);
+  // Baked in at configure time (version.h): the same revision the manifests record.
+  app.set_version_flag("--version",
+                       std::string("rosguard ") + kVersion + "\ngit revision: " + kGitRevision +
+                           "\nbuild type: " + kBuildType + "\nbackends: " + kBackendsBuilt);
 
   RunArgs run_args;
   auto* run = add_run_command(app, run_args);

@@ -60,11 +60,11 @@ std::string scenario_hash(const LoadedScenario& s) {
 }
 
 json describe_run(const LoadedScenario& loaded, const std::string& backend,
-                  const std::string& command_line, const Home& home) {
+                  const std::string& command_line) {
   const Scenario& first = loaded.points.front().scenario;
   json m;
   m["schema_version"] = 1;
-  m["tool"] = tool_facts(home);
+  m["tool"] = tool_facts();
   m["command"] = command_line;
   m["scenario_file"] = loaded.file;
   m["scenario_hash"] = scenario_hash(loaded);

@@ -17,6 +17,6 @@ std::string scenario_hash(const LoadedScenario& loaded);
 // the points), workloads (with their reference figures), platform, backend, seed, repetitions,
 // host, start_time, warnings.
 nlohmann::json describe_run(const LoadedScenario& loaded, const std::string& backend,
-                            const std::string& command_line, const Home& home);
+                            const std::string& command_line);
 
 }  // namespace rosguard

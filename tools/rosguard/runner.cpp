@@ -228,7 +228,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
                      join(header_of(loaded), ","), order, first.repetitions);
   store.prepare(opt.overwrite, opt.resume || opt.shard_count > 1, scenario_hash(loaded));
   const ResultsStore::Opened opened =
-      store.open(describe_run(loaded, first.backend, opt.command_line, loader.home()),
+      store.open(describe_run(loaded, first.backend, opt.command_line),
                  std::to_string(opt.shard_index) + "/" + std::to_string(opt.shard_count));
 
   // 3. Tasks of this shard; 4. run them; 5. sort the rows (so --jobs and shards do not change

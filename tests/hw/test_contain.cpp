@@ -94,6 +94,42 @@ void kill_all(const std::vector<Proc>& ps) {
     ::kill(p.pid, SIGKILL);
 }
 
+// For a failure report: the threads of `pid` (name, state, where they sleep) and its children,
+// and every thread of another process on the host under SCHED_FIFO / SCHED_RR (they starve ours).
+std::string describe_run(pid_t pid) {
+  std::string s;
+  const fs::path proc = "/proc/" + std::to_string(pid);
+  std::string children;
+  std::error_code gone;
+  for (const auto& t : fs::directory_iterator(proc / "task", gone)) {
+    const std::string stat = slurp(t.path() / "stat");
+    const auto close = stat.rfind(')');
+    s += "  thread " + stat.substr(0, close + 3) + " wchan " + slurp(t.path() / "wchan") + "\n";
+    children += slurp(t.path() / "children");
+  }
+  s += gone ? "  rosguard has ended\n" : "  children: " + children + "\n";
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename();
+    if (name.find_first_not_of("0123456789") != std::string::npos || name == std::to_string(pid))
+      continue;
+    std::error_code ec;
+    for (const auto& t : fs::directory_iterator(e.path() / "task", ec)) {
+      const std::string stat = slurp(t.path() / "stat");
+      const auto open = stat.find('('), close = stat.rfind(')');
+      if (open == std::string::npos || close == std::string::npos) continue;
+      std::istringstream f(stat.substr(close + 2));  // from field 3, the state
+      std::vector<std::string> fields;
+      for (std::string x; f >> x;)
+        fields.push_back(x);
+      const std::string comm = stat.substr(open + 1, close - open - 1);
+      if (fields.size() > 38 && fields[38] != "0" && comm.find("migration") == std::string::npos)
+        s += "  real-time elsewhere: " + name + " " + comm + " policy " + fields[38] + " state " +
+             fields[0] + "\n";
+    }
+  }
+  return s;
+}
+
 // A shell that leaves a child in its own session, a double-forked one and one in its process
 // group, then runs `last`.
 std::vector<std::string> daemonising(const std::string& mark, const std::string& last) {
@@ -194,7 +230,12 @@ TEST_CASE("SIGKILLed mid-run, rosguard leaves no process of its commands behind"
       if (!running) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     INFO("kill while command " << k << " runs");
-    if (!running) kill_all(marked_processes(mark));  // the old behaviour's leftovers
+    if (!running) {
+      UNSCOPED_INFO("no command started; the run:\n" << describe_run(pid));
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+      kill_all(marked_processes(mark));  // the old behaviour's leftovers
+    }
     REQUIRE(running);
     std::this_thread::sleep_for(std::chrono::milliseconds(20));  // its other children start
     REQUIRE(::kill(pid, SIGKILL) == 0);

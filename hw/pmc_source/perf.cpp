@@ -60,10 +60,14 @@ class PerfGroup : public CounterGroup {
     std::vector<std::uint64_t> big;
     if (buf_.size() > 16) big.resize(buf_.size());
     std::uint64_t* dst = buf_.size() <= 16 ? local : big.data();
+    // ECHILD: an inherited child group is being torn down (its process is exiting) and the
+    // kernel refuses to sum groups of different shapes (since Linux 6.6); it is gone a moment
+    // later, so read again, a bounded number of times.
     ssize_t n;
+    int child_retries = 1000;
     do {
       n = ::read(fds_[0].get(), dst, bytes);
-    } while (n < 0 && errno == EINTR);
+    } while (n < 0 && (errno == EINTR || (errno == ECHILD && --child_retries > 0)));
     if (n != static_cast<ssize_t>(bytes))
       throw RunError("reading perf group (" + names_[0] + ", ...) failed: " +
                      (n < 0 ? errno_text(errno) : "short read of " + std::to_string(n) + " bytes"));

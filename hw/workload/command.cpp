@@ -1,12 +1,11 @@
-// External commands: fork, configure the child (core, scheduling, process group, parent-death
-// signal, default signal mask), wait for the go byte, exec.
+// External commands: fork a supervisor (hw/workload/supervisor.h) that forks the command, which
+// waits for the go byte and execs. rosguard counts the command's pid and waits for the supervisor,
+// whose wait status is the command's.
 #include <fcntl.h>
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
 #include <string.h>
-#include <sys/prctl.h>
-#include <sys/resource.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -14,9 +13,22 @@
 #include <cerrno>
 
 #include "core/error.h"
+#include "hw/workload/supervisor.h"
 #include "hw/workload/workload.h"
 
 namespace rosguard::hw {
+namespace {
+
+// Reads one report; false at EOF (every write end closed).
+bool read_report(int fd, SupervisorReport& r) {
+  ssize_t n;
+  do {
+    n = ::read(fd, &r, sizeof r);
+  } while (n < 0 && errno == EINTR);
+  return n == sizeof r;
+}
+
+}  // namespace
 
 std::string describe_status(int status) {
   if (WIFEXITED(status)) return "exit " + std::to_string(WEXITSTATUS(status));
@@ -29,9 +41,9 @@ std::string describe_status(int status) {
 CommandProcess::CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec)
     : argv_(argv) {
   if (argv_.empty()) throw RunError("empty command");
-  int go[2], err[2];
+  int go[2], rep[2];
   if (::pipe2(go, O_CLOEXEC) != 0) throw RunError("pipe: " + errno_text(errno));
-  if (::pipe2(err, O_CLOEXEC) != 0) {
+  if (::pipe2(rep, O_CLOEXEC) != 0) {
     ::close(go[0]);
     ::close(go[1]);
     throw RunError("pipe: " + errno_text(errno));
@@ -44,56 +56,46 @@ CommandProcess::CommandProcess(const std::vector<std::string>& argv, const Threa
   cpu_set_t set;
   CPU_ZERO(&set);
   if (spec.core >= 0) CPU_SET(spec.core, &set);
-  const int nice = prio::nice_for(spec.priority);
+  SupervisorSetup setup;
+  setup.argv = cargv.data();
+  setup.cpus = spec.core >= 0 ? &set : nullptr;
+  setup.nice = prio::nice_for(spec.priority);
+  setup.go_fd = go[0];
+  setup.report_fd = rep[1];
+  setup.rosguard = ::getpid();
 
   const pid_t pid = ::fork();
   if (pid < 0) {
     const int e = errno;
-    for (int fd : {go[0], go[1], err[0], err[1]})
+    for (int fd : {go[0], go[1], rep[0], rep[1]})
       ::close(fd);
     throw RunError("fork: " + errno_text(e));
   }
   if (pid == 0) {
     ::close(go[1]);
-    ::close(err[0]);
-    ::setpgid(0, 0);
-    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-    sigset_t none;
-    sigemptyset(&none);
-    ::sigprocmask(SIG_SETMASK, &none, nullptr);
-    ::signal(SIGINT, SIG_DFL);
-    ::signal(SIGTERM, SIG_DFL);
-    if (spec.core >= 0) ::sched_setaffinity(0, sizeof set, &set);
-    // Never SCHED_FIFO: a program may fork workers that could outlive a killed rosguard, and
-    // none of them may be left spinning under a real-time policy. SCHED_OTHER is below every
-    // SCHED_FIFO thread of the node, so the THR callback still preempts the whole program.
-    ::sched_param zero{};
-    ::sched_setscheduler(0, SCHED_OTHER, &zero);
-    ::setpriority(PRIO_PROCESS, 0, nice);
-    const int devnull = ::open("/dev/null", O_RDWR);
-    if (devnull >= 0) {
-      ::dup2(devnull, 0);
-      ::dup2(devnull, 1);
-    }
-    char c;
-    ssize_t n;
-    do {
-      n = ::read(go[0], &c, 1);
-    } while (n < 0 && errno == EINTR);
-    if (n != 1) ::_exit(126);  // the parent gave up
-    ::execvp(cargv[0], cargv.data());
-    const int e = errno;
-    ssize_t w = ::write(err[1], &e, sizeof e);
-    (void)w;
-    ::_exit(127);
+    ::close(rep[0]);
+    run_supervisor(setup);
   }
   ::close(go[0]);
-  ::close(err[1]);
-  pid_ = pid;
+  ::close(rep[1]);
+  supervisor_ = pid;
   go_ = Fd(go[1]);
-  err_ = Fd(err[0]);
+  report_ = Fd(rep[0]);
   pidfd_ = Fd(static_cast<int>(::syscall(SYS_pidfd_open, pid, 0)));
-  ::setpgid(pid, pid);  // also from the parent: no race with kill() before the child ran
+  SupervisorReport r;
+  if (read_report(report_.get(), r) && r.kind == SupervisorReport::kCommandPid) {
+    pid_ = r.value;
+    return;
+  }
+  go_.reset();
+  reap();
+  if (r.kind == SupervisorReport::kSubreaperFailed)
+    throw RunError("cannot contain command '" + argv_[0] +
+                   "': prctl(PR_SET_CHILD_SUBREAPER): " + errno_text(r.value));
+  if (r.kind == SupervisorReport::kForkFailed)
+    throw RunError("cannot run command '" + argv_[0] + "': fork: " + errno_text(r.value));
+  throw RunError("cannot run command '" + argv_[0] + "': its supervisor ended with " +
+                 describe_status(status_));
 }
 
 void CommandProcess::start() {
@@ -103,14 +105,12 @@ void CommandProcess::start() {
     n = ::write(go_.get(), &c, 1);
   } while (n < 0 && errno == EINTR);
   go_.reset();
-  int e = 0;
-  do {
-    n = ::read(err_.get(), &e, sizeof e);
-  } while (n < 0 && errno == EINTR);
-  err_.reset();
-  if (n == sizeof e) {
+  SupervisorReport r;
+  const bool failed = read_report(report_.get(), r);  // EOF: exec closed the last write end
+  report_.reset();
+  if (failed) {
     kill();
-    throw RunError("cannot run command '" + argv_[0] + "': " + errno_text(e));
+    throw RunError("cannot run command '" + argv_[0] + "': " + errno_text(r.value));
   }
 }
 
@@ -129,18 +129,18 @@ bool CommandProcess::wait(int stop_fd) {
   }
 }
 
+// Asks the supervisor to end the tree and waits for it: it kills and reaps every descendant
+// before it exits. A command still waiting for the go byte gives up when go_ closes.
 void CommandProcess::kill() {
-  if (pid_ <= 0 || reaped_) return;
-  reap();  // the group includes the main process: setpgid in both parent and child
+  if (supervisor_ <= 0 || reaped_) return;
+  go_.reset();
+  ::kill(supervisor_, SIGTERM);  // not reaped yet: the pid cannot name another process
+  reap();
 }
 
-// Kills what is left of the group (workers the command forked may outlive its main process),
-// then collects the main process. In this order: until it is reaped, the main process (alive
-// or a zombie) keeps its pid, so -pid_ cannot name another program's recycled process group.
 void CommandProcess::reap() {
-  ::kill(-pid_, SIGKILL);
   int st = 0;
-  while (::waitpid(pid_, &st, 0) < 0 && errno == EINTR) {
+  while (::waitpid(supervisor_, &st, 0) < 0 && errno == EINTR) {
   }
   reaped_ = true;
   status_ = st;

@@ -27,6 +27,9 @@ class Buffer {
     void* p = ::mmap(nullptr, bytes_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (p == MAP_FAILED) throw RunError("cannot map a " + std::to_string(bytes_) + "-byte buffer");
     data_ = static_cast<std::uint64_t*>(p);
+    // Not in forked children (the supervisor of an external command is a fork of rosguard):
+    // shared with a child, every page would be copied on the kernel's next write to it.
+    ::madvise(data_, bytes_, MADV_DONTFORK);
     std::memset(data_, 1, bytes_);  // pre-fault: no page fault during a run
   }
   ~Buffer() { ::munmap(data_, bytes_); }

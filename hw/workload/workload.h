@@ -7,8 +7,11 @@
 // - BuiltinWorkload::run() is called from one thread at a time. It publishes its progress through
 //   WorkCounters (see work_counters.h) every 64 lines and checks `stop` as often; it returns the
 //   fraction of a run completed (1.0 unless stopped).
-// - CommandProcess owns a child process group: the destructor kills (SIGKILL) and reaps it, so
-//   no external program outlives its node.
+// - CommandProcess owns a command and everything it starts, through a supervisor process that is
+//   their subreaper (hw/workload/supervisor.h): the destructor has it kill (SIGKILL) and reap
+//   them all, and it does the same by itself if rosguard dies, so no external program outlives
+//   its node, however the run ends. Construct, use and destroy it on one thread: the supervisor
+//   takes that thread's exit for rosguard's death.
 #pragma once
 
 #include <sys/types.h>
@@ -49,33 +52,37 @@ ProxyCalibration calibrate_proxy(double target_mbps, std::uint32_t working_set_k
 
 class CommandProcess {
  public:
-  // Forks a child in its own process group (killed with rosguard: parent-death signal), pinned
-  // to spec.core, under SCHED_OTHER with the nice value of spec.priority whatever spec.sched
-  // says: below every SCHED_FIFO callback of the node, so THR preempts it, and nothing it forks
-  // can outlive rosguard as a real-time spinner. The child waits for start().
+  // Forks the supervisor, which forks the command in its own process group, pinned to
+  // spec.core, under SCHED_OTHER with the nice value of spec.priority whatever spec.sched says:
+  // below every SCHED_FIFO callback of the node, so THR preempts it, and nothing it forks can
+  // spin under a real-time policy. The command waits for start(). Throws RunError when the
+  // supervisor cannot be set up (fork, prctl).
   CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec);
   ~CommandProcess();
   CommandProcess(const CommandProcess&) = delete;
   CommandProcess& operator=(const CommandProcess&) = delete;
 
+  // The command's pid (not the supervisor's): what to count, from exec on.
   pid_t pid() const { return pid_; }
-  // Lets the child exec. Throws RunError when exec fails (command not found, ...).
+  // Lets the command exec. Throws RunError when exec fails (command not found, ...).
   void start();
-  // Blocks until the child exits (true; what it forked is killed with it) or `stop_fd` becomes
-  // readable (false).
+  // Blocks until the command exits (true; what it started is killed and reaped with it) or
+  // `stop_fd` becomes readable (false).
   bool wait(int stop_fd);
-  // Exit status as waitpid gives it (valid after wait() returned true).
+  // The command's exit status as waitpid gives it (valid after wait() returned true).
   int status() const { return status_; }
+  // Kills the command and everything it started, and reaps them; returns once all are gone.
   void kill();
 
  private:
   void reap();
 
   std::vector<std::string> argv_;
-  pid_t pid_ = -1;
-  Fd go_;   // write end: one byte lets the child exec
-  Fd err_;  // read end: errno of a failed exec, EOF when exec succeeded
-  Fd pidfd_;
+  pid_t pid_ = -1;         // the command
+  pid_t supervisor_ = -1;  // our child; its wait status mirrors the command's
+  Fd go_;                  // write end: one byte lets the command exec
+  Fd report_;              // read end: SupervisorReport messages, EOF once the command exec'd
+  Fd pidfd_;               // the supervisor's
   bool reaped_ = false;
   int status_ = 0;
 };

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "backend/backend.h"
+#include "engine/controller_driver.h"
 #include "nodes/recorder.h"
 #include "nodes/rt_node.h"
 #include "platform/sim_platform.h"

@@ -22,6 +22,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "engine/outcome.h"
 #include "hw/common/clock.h"
 #include "hw/common/sys.h"
 #include "hw/nodes/controller.h"
@@ -220,6 +221,37 @@ class IdleCores {
  private:
   std::atomic<bool> stop_{false};
   std::vector<std::unique_ptr<RtThread>> threads_;
+};
+
+// What the controller's driver reads of the nRT nodes: the metric's bytes (scaled for
+// multiplexing between two reads, accumulated), and completed runs (built-in: units of work /
+// units per run; command: processes that exited).
+class NodeMeter : public EntityMeter {
+ public:
+  NodeMeter(std::vector<std::unique_ptr<NrtRunner>>& nrts, const MetricPlan& plan)
+      : nrts_(nrts), plan_(plan), metric_(plan.spec), last_(nrts.size()), bytes_(nrts.size()) {}
+
+  EntityReading read(std::size_t e, TimeNs) override {
+    NrtRunner& n = *nrts_.at(e);
+    std::array<CounterValue, kMaxGroupEvents> v{};
+    n.group().read(std::span(v.data(), plan_.group_events.size()));
+    const std::size_t k = plan_.metric_events;
+    if (last_[e])
+      bytes_[e] += metric_.delta_bytes(std::span(last_[e]->data(), k), std::span(v.data(), k));
+    last_[e] = v;
+    const double runs =
+        n.builtin() ? static_cast<double>(n.work().units_done.load(std::memory_order_relaxed)) /
+                          static_cast<double>(n.units_per_run())
+                    : static_cast<double>(n.completed_runs());
+    return {bytes_[e], 0.0, runs};
+  }
+
+ private:
+  std::vector<std::unique_ptr<NrtRunner>>& nrts_;
+  const MetricPlan& plan_;
+  Metric metric_;
+  std::vector<std::optional<std::array<CounterValue, kMaxGroupEvents>>> last_;
+  std::vector<double> bytes_;
 };
 
 class HwBackend : public Backend {
@@ -479,54 +511,9 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   rc.metric = plan.spec;
   auto regulator = std::make_unique<Regulator>(rc, policies.make(r.policy, params));
 
-  // Regulation windows (activation start -> end), measured on the controller thread: counters,
-  // work and completed runs are snapshotted at both ends and their increases summed over every
-  // activation, so gaps between RT jobs (regulation off) do not count.
-  const Metric metric(plan.spec);
-  struct Snapshot {
-    TimeNs t = -1;
-    std::vector<std::array<CounterValue, kMaxGroupEvents>> values;
-    std::vector<std::uint64_t> units, completed;
-  };
-  struct Active {
-    TimeNs ns = 0;
-    int windows = 0;
-    std::vector<double> bytes, units, completed;
-  };
-  Snapshot open, close;
-  Active active;
-  active.bytes.assign(n_nrt, 0.0);
-  active.units.assign(n_nrt, 0.0);
-  active.completed.assign(n_nrt, 0.0);
-  const auto snapshot = [&](Snapshot& snap, TimeNs t) {
-    snap.values.assign(n_nrt, {});
-    snap.units.assign(n_nrt, 0);
-    snap.completed.assign(n_nrt, 0);
-    for (std::size_t i = 0; i < n_nrt; ++i) {
-      nrts[i]->group().read(std::span(snap.values[i].data(), plan.group_events.size()));
-      snap.units[i] = nrts[i]->work().units_done.load(std::memory_order_relaxed);
-      snap.completed[i] = nrts[i]->completed_runs();
-    }
-    snap.t = t;
-  };
-  const auto on_window = [&](bool start, TimeNs t) {
-    if (start) {
-      snapshot(open, t);
-      return;
-    }
-    if (open.t < 0) return;
-    snapshot(close, t);
-    for (std::size_t i = 0; i < n_nrt; ++i) {
-      active.bytes[i] += metric.delta_bytes(std::span(open.values[i].data(), plan.metric_events),
-                                            std::span(close.values[i].data(), plan.metric_events));
-      active.units[i] += static_cast<double>(close.units[i] - open.units[i]);
-      active.completed[i] += static_cast<double>(close.completed[i] - open.completed[i]);
-    }
-    active.ns += t - open.t;
-    ++active.windows;
-    open.t = -1;
-  };
-
+  // The driver's activation accounting reads the nRT nodes through this meter, on the
+  // controller thread, at both ends of every activation.
+  NodeMeter meter(nrts, plan);
   ControllerConfig cc;
   cc.core = s.nodes.controller_core;
   cc.sched = sched;
@@ -545,7 +532,7 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   }
   // Groups exist only once the nRT nodes started (their NCT thread is the target): the
   // controller gets them through this vector, filled before its first activation.
-  Controller controller(cc, std::move(regulator), rt_topic, samples, control_ptrs, {}, on_window,
+  Controller controller(cc, std::move(regulator), rt_topic, samples, control_ptrs, &meter,
                         engine_waker, errors.handler(), origin);
 
   // The engine's thread above every node thread while they run (restored before the safety
@@ -658,35 +645,28 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
 
   PointOutcome out;
   for (auto& x : rts) {
-    RtOutcome o;
-    o.name = x->spec().name;
-    const auto& jobs = x->job_times_us();
-    o.jobs = static_cast<int>(jobs.size());
-    double sum = 0;
-    for (double j : jobs)
-      sum += j;
-    o.time_us = jobs.empty() ? kNaN : sum / static_cast<double>(jobs.size());
-    out.rt.push_back(o);
+    std::vector<double> job_ns;
+    for (double j : x->job_times_us())
+      job_ns.push_back(j * 1e3);
+    out.rt.push_back(rt_outcome(x->spec().name, job_ns));
     emit_trace(ctx.trace(), x->trace(), "rt");
   }
-  const bool window = active.windows > 0 && active.ns > 0;
-  const double window_us = window ? ns_to_us(active.ns) : kNaN;
+  const ActivationTotals& totals = controller.driver().totals();
   for (std::size_t i = 0; i < n_nrt; ++i) {
     NrtRunner& n = *nrts[i];
-    NrtOutcome o;
-    o.name = n.config().name;
-    if (n.config().mode == NrtMode::Once) {
-      o.time_us = n.once_done() ? n.once_time_us() : kNaN;
-      o.runs = n.once_fraction();
-    } else if (window) {
-      o.runs = n.builtin() ? active.units[i] / static_cast<double>(n.units_per_run())
-                           : active.completed[i];
-      o.time_us = o.runs > 0 ? window_us / o.runs : kNaN;
+    NrtMeasure m;
+    m.name = n.config().name;
+    m.once = n.config().mode == NrtMode::Once;
+    if (m.once) {
+      if (n.once_done()) m.once_ns = n.once_time_us() * 1e3;
+      m.runs = n.once_fraction();
+    } else {
+      m.runs = totals.active[i].work;
+      m.window_ns = totals.active_ns;
     }
-    o.bandwidth_mbps = window ? active.bytes[i] / kBytesPerMb / (window_us / 1e6) : kNaN;
-    o.throttle_count = n.throttles();
-    o.throttled_us = ns_to_us(n.throttled_ns());
-    out.nrt.push_back(o);
+    m.traffic = {totals.active[i].bytes, 0.0, 0.0};  // cycles not counted: bytes / active time
+    m.traffic_ns = totals.active_ns;
+    out.nrt.push_back(nrt_outcome(m, n.driver()));
     for (double v : n.activation_delays_us())
       out.samples.push_back({"activation_delay", v});
     for (double v : n.pmc_callbacks_us())

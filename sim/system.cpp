@@ -271,8 +271,11 @@ IsolationResult isolation_of(const SimReport& report, const SimPlatform& platfor
   const JobStats& j = report.rt_jobs.at(0).at(0);
   IsolationResult r;
   r.time_us = static_cast<double>(j.end - j.start) / 1e3;
-  r.ipc = j.cycles > 0 ? j.instructions / j.cycles : 0.0;
-  r.mbps = eq1_mbps(platform.line_bytes, platform.freq_mhz * 1e6, j.l3_accesses, j.cycles);
+  // No cycle counted (an empty job): IPC and bandwidth are not applicable, not zero.
+  r.ipc = j.cycles > 0 ? j.instructions / j.cycles : not_applicable();
+  r.mbps = j.cycles > 0
+               ? eq1_mbps(platform.line_bytes, platform.freq_mhz * 1e6, j.l3_accesses, j.cycles)
+               : not_applicable();
   return r;
 }
 

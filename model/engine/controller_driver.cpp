@@ -128,8 +128,9 @@ void ControllerDriver::read_due(TimeNs t, DriverOutput& out) {
   for (std::size_t e = 0; e < regulator_->entity_count(); ++e)
     out.reads.push_back(e);
   // A fixed grid from the activation; periods a late host missed are skipped, not made up.
-  TimeNs next = *next_read_ + cfg_.sampling_period_ns;
-  if (next <= t) next = t + cfg_.sampling_period_ns;
+  const TimeNs p = cfg_.sampling_period_ns;
+  TimeNs next = *next_read_ + p;
+  if (next <= t) next += ((t - next) / p + 1) * p;
   next_read_ = next;
 }
 

@@ -29,6 +29,7 @@
 #include "hw/nodes/nrt_node.h"
 #include "hw/nodes/rt_node.h"
 #include "policy/policy.h"
+#include "policy/rules.h"
 #include "results/results.h"
 
 namespace rosguard::hw {
@@ -256,7 +257,10 @@ class NodeMeter : public EntityMeter {
 
 class HwBackend : public Backend {
  public:
-  explicit HwBackend(HwOptions options) : options_(options) { register_builtin(sources_); }
+  HwBackend(const PolicyRegistry& policies, HwOptions options)
+      : policies_(policies), options_(options) {
+    register_builtin(sources_);
+  }
 
   std::string_view name() const override { return "hw"; }
   bool process_per_task() const override { return false; }
@@ -294,6 +298,7 @@ class HwBackend : public Backend {
     for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
       check_workload("/nodes/nrt/" + std::to_string(i), s.nodes.nrt[i].workload);
 
+    check_policy(s, policies_);
     plan_metric(s, sources_);  // throws InputError for a source that cannot serve the scenario
   }
 
@@ -340,6 +345,7 @@ class HwBackend : public Backend {
 
   static constexpr TimeNs kWarmUpNs = kNsPerS;
 
+  const PolicyRegistry& policies_;
   HwOptions options_;
   PmcSourceRegistry sources_;
   bool warmed_up_ = false;
@@ -496,8 +502,6 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
     rts.push_back(std::make_unique<RtRunner>(s.nodes.rt[i], i, sched, rt_topic, engine_waker,
                                              errors.handler(), origin, trace));
 
-  PolicyRegistry policies;
-  rosguard::register_builtin(policies);
   PolicyParams params;
   params.threshold_pct = r.threshold_pct;
   params.reference_mbps = r.reference_mbps;
@@ -509,7 +513,7 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   rc.rt_count = std::max<std::size_t>(1, s.nodes.rt.size());
   rc.account_of_entity = accounts_for_scope(r.scope, n_nrt);
   rc.metric = plan.spec;
-  auto regulator = std::make_unique<Regulator>(rc, policies.make(r.policy, params));
+  auto regulator = std::make_unique<Regulator>(rc, policies_.make(r.policy, params));
 
   // The driver's activation accounting reads the nRT nodes through this meter, on the
   // controller thread, at both ends of every activation.
@@ -802,8 +806,8 @@ MetricPlan plan_metric(const Scenario& s, const PmcSourceRegistry& sources) {
   return plan;
 }
 
-std::unique_ptr<Backend> make_hw_backend(HwOptions options) {
-  return std::make_unique<HwBackend>(options);
+std::unique_ptr<Backend> make_hw_backend(const PolicyRegistry& policies, HwOptions options) {
+  return std::make_unique<HwBackend>(policies, options);
 }
 
 }  // namespace rosguard::hw

@@ -15,6 +15,7 @@
 
 #include "backend/backend.h"
 #include "hw/pmc_source/pmc_source.h"
+#include "policy/policy.h"
 
 namespace rosguard::hw {
 
@@ -43,6 +44,7 @@ struct MetricPlan {
 // InputError when an explicitly requested source cannot serve the scenario.
 MetricPlan plan_metric(const Scenario& s, const PmcSourceRegistry& sources);
 
-std::unique_ptr<Backend> make_hw_backend(HwOptions options = {});
+// `policies` (the run's registry) must outlive the backend.
+std::unique_ptr<Backend> make_hw_backend(const PolicyRegistry& policies, HwOptions options = {});
 
 }  // namespace rosguard::hw

@@ -50,10 +50,9 @@ class Top : public sc_core::sc_module {
       rc.rt_count = std::max<std::size_t>(1, cfg.rt.size());
       rc.account_of_entity = accounts_for_scope(cfg.scope, cfg.nrt.size());
       rc.metric = cfg.metric;
-      PolicyRegistry policies;
-      register_builtin(policies);
+      if (!cfg.policy.make) throw ContractError("a regulated simulation needs a policy");
       auto regulator =
-          std::make_unique<Regulator>(std::move(rc), policies.make(cfg.policy, cfg.policy_params));
+          std::make_unique<Regulator>(std::move(rc), cfg.policy.make(cfg.policy_params));
       ControllerConfig cc;
       cc.core = cfg.controller_core;
       cc.sampling = cfg.sampling;

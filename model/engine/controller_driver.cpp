@@ -16,8 +16,8 @@ void DriverOutput::clear() {
 ControllerDriver::ControllerDriver(ControllerDriverConfig config,
                                    std::unique_ptr<Regulator> regulator, EntityMeter* meter)
     : cfg_(config), regulator_(std::move(regulator)), meter_(meter) {
-  if (!regulator_) throw RunError("a controller driver needs a regulator");
-  if (cfg_.sampling_period_ns <= 0) throw RunError("the sampling period must be positive");
+  if (!regulator_) throw ContractError("a controller driver needs a regulator");
+  if (cfg_.sampling_period_ns <= 0) throw ContractError("the sampling period must be positive");
   const std::size_t n = regulator_->entity_count();
   at_activation_.assign(n, {});
   window_bytes_start_.assign(n, 0.0);

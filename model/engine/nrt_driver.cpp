@@ -53,7 +53,7 @@ void NrtDriver::finish(TimeNs t) {
 }
 
 SampleSchedule::SampleSchedule(TimeNs period_ns) : period_ns_(period_ns) {
-  if (period_ns_ <= 0) throw RunError("the sampling period must be positive");
+  if (period_ns_ <= 0) throw ContractError("the sampling period must be positive");
 }
 
 void SampleSchedule::restart(TimeNs t) {

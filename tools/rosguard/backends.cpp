@@ -8,10 +8,10 @@
 
 namespace rosguard {
 
-void register_backends(BackendRegistry& registry) {
-  sim::register_builtin(registry);
+void register_backends(BackendRegistry& registry, const PolicyRegistry& policies) {
+  sim::register_builtin(registry, policies);
 #ifdef ROSGUARD_WITH_HW
-  hw::register_builtin(registry);
+  hw::register_builtin(registry, policies);
 #endif
 }
 

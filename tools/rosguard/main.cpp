@@ -98,7 +98,7 @@ int main(int argc, char** argv) {
     PolicyRegistry policies;
     register_builtin(policies);
     BackendRegistry backends;
-    register_backends(backends);
+    register_backends(backends, policies);
     Loader loader(Home::locate());
 
     if (*run) {

@@ -106,19 +106,6 @@ void SimBackend::validate(const Scenario& s) const {
   for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
     profile_of(s, s.nodes.nrt[i].workload, "/nodes/nrt/" + std::to_string(i));
 
-  const auto shares = [&](int core) {
-    for (const auto& n : s.nodes.rt)
-      if (n.core == core) return n.name;
-    for (const auto& n : s.nodes.nrt)
-      if (n.core == core) return n.name;
-    return std::string();
-  };
-  if (const std::string other = shares(s.nodes.controller_core); !other.empty())
-    throw InputError(s.file, "/nodes/controller/core",
-                     "the sim backend models the controller on a dedicated core, and core " +
-                         std::to_string(s.nodes.controller_core) + " also runs node '" + other +
-                         "'; give the controller a core of its own");
-
   const RegulationSpec& r = s.regulation;
   check_policy(s, policies_);
   const bool samples = policies_.at(r.policy).traits.regulates && !s.nodes.nrt.empty();

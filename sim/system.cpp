@@ -94,6 +94,8 @@ class Top : public sc_core::sc_module {
       rt_nodes_.back()->on_done([this](TimeNs t) { rt_done(t); });
       if (cfg.isolation) break;
     }
+    if (controller_ && cores_.count(cfg.controller_core))
+      controller_->run_on(&core(cfg.controller_core));  // shared with a node, as on a 2-core host
     SC_METHOD(begin);
   }
 

@@ -72,11 +72,18 @@ void Controller::start_next(TimeNs now) {
   if (current_.kind == Work::Kind::Read) {
     stage_ = 0;
     read_started_ = now;
-    done_timer_.set(now + read_cost_.draw_ns());
+    spend(now, read_cost_.draw_ns());
   } else {
     stage_ = 1;
-    done_timer_.set(now + callback_cost_.draw_ns());
+    spend(now, callback_cost_.draw_ns());
   }
+}
+
+void Controller::spend(TimeNs now, TimeNs cost) {
+  if (core_)
+    core_->post(Core::Prio::Controller, cost, "controller", [this](TimeNs t) { stage_done(t); });
+  else
+    done_timer_.set(now + cost);
 }
 
 void Controller::stage_done(TimeNs now) {
@@ -86,7 +93,7 @@ void Controller::stage_done(TimeNs now) {
     rec_.observe("pmc_callback", now - read_started_);
     current_.origin = now;
     stage_ = 1;
-    done_timer_.set(now + callback_cost_.draw_ns());
+    spend(now, callback_cost_.draw_ns());
     return;
   }
   decide(current_, now);

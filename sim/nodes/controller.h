@@ -6,7 +6,10 @@
 // when the driver asks for them), and the regulation-period timer. Each callback costs
 // controller_callback_us (plus external_read_us for a read); the driver is called at the
 // callback's end with that time, and the commands it returns are published then and reach the
-// nRT node message_latency_us later. The driver's window accounting reads the entities' PMUs at
+// nRT node message_latency_us later. On a core of its own the callbacks just take their time; on a
+// core it shares with a node (run_on()) they are executed by that core at the highest priority,
+// preempting the node's callbacks, throttle loop and work, as the controller thread does on hw.
+// The driver's window accounting reads the entities' PMUs at
 // the exact boundary (instrumentation, no cost).
 //
 // Contract: a SystemC module; wired by the System before the simulation starts (add_entity()).
@@ -24,6 +27,7 @@
 #include "kernel/runtime.h"
 #include "nodes/costs.h"
 #include "nodes/recorder.h"
+#include "platform/core.h"
 #include "platform/pmu.h"
 
 namespace rosguard::sim {
@@ -52,6 +56,8 @@ class Controller : public sc_core::sc_module, private EntityMeter {
 
   // Wiring (elaboration): the regulated entities in entity order.
   void add_entity(ControlledEntity entity);
+  // Wiring: the controller shares `core` with a node; its callbacks run there.
+  void run_on(Core* core) { core_ = core; }
   // Called whenever regulation stops (an activation ended).
   void on_inactive(std::function<void(TimeNs)> fn) { on_inactive_ = std::move(fn); }
 
@@ -80,6 +86,7 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   void decide(Work& w, TimeNs now);
   void handle_output(TimeNs now);
   void rearm(Timer& timer, std::optional<TimeNs> when);
+  void spend(TimeNs now, TimeNs cost);  // the current stage takes `cost`, then stage_done()
   std::vector<CounterValue> read_counters(std::size_t entity, TimeNs now);
 
   ControllerConfig cfg_;
@@ -89,6 +96,7 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   MessageBus& bus_;
   Recorder& rec_;
   std::vector<ControlledEntity> entities_;
+  Core* core_ = nullptr;  // a core shared with a node, or null (a core of its own)
   std::vector<int> links_;
   std::vector<CostStream> latency_;
   std::function<void(TimeNs)> on_inactive_;

@@ -5,6 +5,12 @@
 
 namespace rosguard::hw {
 
+namespace {
+
+void map_metric(const Scenario& s, const PmcSourceRegistry& sources, MetricPlan& plan);
+
+}  // namespace
+
 MetricPlan plan_metric(const Scenario& s, const PmcSourceRegistry& sources) {
   const auto& wanted = s.regulation.metric.events;
   bool all_builtin = true;
@@ -78,10 +84,18 @@ MetricPlan plan_metric(const Scenario& s, const PmcSourceRegistry& sources) {
       break;
     }
   }
+  map_metric(s, sources, plan);
+  return plan;
+}
 
+namespace {
+
+// Maps the scenario's metric onto the chosen source (plan.source).
+void map_metric(const Scenario& s, const PmcSourceRegistry& sources, MetricPlan& plan) {
+  const auto& wanted = s.regulation.metric.events;
   plan.spec = s.regulation.metric;
   if (plan.source == "software") {
-    if (auto why = make("software")->unavailable_reason())
+    if (auto why = sources.find("software")->make()->unavailable_reason())
       throw InputError(s.file, "/hw/pmc_source", "perf software events do not work here: " + *why);
     // Time-based budget: bytes = task_clock ns x reference bytes per ns. The nRT node may then
     // run threshold% of each regulation period while an RT node runs.
@@ -113,7 +127,7 @@ MetricPlan plan_metric(const Scenario& s, const PmcSourceRegistry& sources) {
       plan.basis = "perf hardware events, Eq. 1";
     }
   }
-  return plan;
 }
 
+}  // namespace
 }  // namespace rosguard::hw

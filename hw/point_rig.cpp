@@ -285,8 +285,27 @@ PointOutcome PointRig::outcome(RunContext& ctx) const {
     out.samples.push_back({"pmc_callback", v});
     out.samples.push_back({"pmc_read", v});
   }
+  report_external_lag(ctx);
   emit_trace(ctx.trace(), controller_->trace(), "controller");
   return out;
+}
+
+// A round of reads longer than the sampling period leaves regulation late or inert.
+void PointRig::report_external_lag(RunContext& ctx) const {
+  const auto& reads = controller_->external_reads_us();
+  const std::size_t n_nrt = nrts_.size();
+  const double round_budget_us = static_cast<double>(s_.regulation.sampling_period_us) /
+                                 static_cast<double>(std::max<std::size_t>(n_nrt, 1));
+  const auto slow =
+      std::count_if(reads.begin(), reads.end(), [&](double v) { return v >= round_budget_us; });
+  if (slow > 0)
+    ctx.fallback("external_sampling_lag",
+                 std::to_string(slow) + " of " + std::to_string(reads.size()) +
+                     " counter reads took longer than one sampling period allows (" +
+                     std::to_string(s_.regulation.sampling_period_us) + " us for " +
+                     std::to_string(n_nrt) +
+                     " nRT core(s)): samples arrive late and regulation may never act; use a "
+                     "longer sampling period");
 }
 
 }  // namespace rosguard::hw

@@ -44,6 +44,7 @@ class PointRig {
  private:
   void wire_nodes(const PmcSource& source);
   bool wait_for_signals(RunContext& ctx);
+  void report_external_lag(RunContext& ctx) const;
 
   const Scenario& s_;
   const MetricPlan& plan_;

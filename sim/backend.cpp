@@ -35,6 +35,38 @@ SimPlatform platform_of(const Scenario& s) {
   }
 }
 
+// What the model cannot do, refused before it runs: a point longer than the simulated time the
+// sim backend allows one run, and external sampling faster than the controller can read.
+void check_feasible(const Scenario& s, const SimPlatform& platform) {
+  const double limit_s = static_cast<double>(RunConfig{}.limit_ns) / static_cast<double>(kNsPerS);
+  if (const auto need_s = min_simulated_seconds(s); need_s && *need_s > limit_s) {
+    const std::string at = s.nodes.rt.empty()             ? "/nodes/nrt/0/workload"
+                           : s.nodes.rt[0].iterations > 1 ? "/nodes/rt/0/iterations"
+                                                          : "/nodes/rt/0/workload";
+    throw InputError(s.file, at,
+                     "this point needs at least " + std::to_string(std::llround(*need_s)) +
+                         " s of simulated time (estimate: instructions / (base IPC x frequency) "
+                         "per job, times the jobs), more than the " +
+                         std::to_string(std::llround(limit_s)) +
+                         " s the sim backend simulates one run; use fewer iterations or a "
+                         "shorter workload");
+  }
+  const RegulationSpec& r = s.regulation;
+  if (r.sampling == Sampling::External && !s.nodes.nrt.empty()) {
+    const double read_us =
+        platform.costs.external_read.upper_bound() * static_cast<double>(s.nodes.nrt.size());
+    if (static_cast<double>(r.sampling_period_us) <= read_us)
+      throw InputError(s.file, "/regulation/sampling_period_us",
+                       "external sampling every " + std::to_string(r.sampling_period_us) +
+                           " us cannot keep up: the controller reads the counters of " +
+                           std::to_string(s.nodes.nrt.size()) + " nRT core(s), which takes up to " +
+                           std::to_string(static_cast<int>(std::ceil(read_us))) +
+                           " us on platform " + platform.name +
+                           ", so regulation would never see the usage in time; use a longer "
+                           "period");
+  }
+}
+
 RunConfig base_config(const Scenario& s, std::uint64_t seed) {
   RunConfig cfg;
   cfg.platform = platform_of(s);
@@ -122,6 +154,7 @@ void SimBackend::validate(const Scenario& s) const {
                            " (PMC callback + publishing); use a longer period or external "
                            "sampling");
   }
+  check_feasible(s, platform);
 }
 
 IsolationResult SimBackend::isolation(const Scenario& s, const WorkloadInfo& workload, int core,

@@ -105,8 +105,8 @@ class Top : public sc_core::sc_module {
     if (!finished || !ended_)
       throw RunError("the simulation did not finish within " +
                      std::to_string(cfg_.limit_ns / kNsPerS) +
-                     " s of simulated time (a node that never progresses? e.g. a sampling period "
-                     "shorter than the sampling cost)");
+                     " s of simulated time: the RT jobs under contention (iterations x their "
+                     "time) or an nRT run take longer than that, or a node never progresses");
     return report();
   }
 

@@ -1,4 +1,4 @@
-// Rows of points.csv and samples.csv (DESIGN section 7), built from a point's outcome.
+// Rows of points.csv and samples.csv (docs/design.md, results), built from a point's outcome.
 //
 // Contract: pure formatting. The header of points.csv is fixed for a run: computed once from
 // every point (node counts and sweep keys), then every row has exactly its columns. Numbers
@@ -14,7 +14,7 @@
 
 namespace rosguard {
 
-// The columns DESIGN.md fixes, in order; other columns follow them.
+// The columns docs/design.md fixes, in order; other columns follow them.
 const std::vector<std::string>& fixed_point_columns();
 
 // Header of points.csv for a run: the fixed columns, then platform / counts, then per-node

@@ -204,4 +204,38 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
   return s;
 }
 
+namespace {
+
+// One run of a sim workload at its base IPC, in seconds; nullopt without a sim profile.
+std::optional<double> min_run_seconds(const WorkloadInfo& w, double freq_mhz) {
+  if (!w.doc.contains("sim") || freq_mhz <= 0.0) return std::nullopt;
+  const auto& sim = w.doc.at("sim");
+  const double instructions = sim.at("instructions").get<double>();
+  double cycles = 0.0;
+  for (const auto& phase : sim.at("phases"))
+    cycles +=
+        instructions * phase.at("fraction").get<double>() / phase.at("base_ipc").get<double>();
+  return cycles / (freq_mhz * 1e6);
+}
+
+}  // namespace
+
+std::optional<double> min_simulated_seconds(const Scenario& s) {
+  double longest = 0.0;
+  for (const auto& rt : s.nodes.rt) {
+    const auto job = min_run_seconds(rt.workload, s.platform.freq_mhz);
+    if (!job) return std::nullopt;
+    const double slot =
+        rt.period_us ? std::max(*job, static_cast<double>(*rt.period_us) * 1e-6) : *job;
+    longest = std::max(longest, slot * rt.iterations);
+  }
+  if (s.nodes.rt.empty())
+    for (const auto& nrt : s.nodes.nrt) {
+      const auto run = min_run_seconds(nrt.workload, s.platform.freq_mhz);
+      if (!run) return std::nullopt;
+      longest = std::max(longest, *run);
+    }
+  return longest;
+}
+
 }  // namespace rosguard

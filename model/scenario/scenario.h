@@ -119,6 +119,11 @@ PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file);
 // (file + JSON path) when the combination is inconsistent.
 Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std::string& file);
 
+// A lower bound of the simulated time one run of a point takes, in seconds: the RT nodes' jobs
+// (or their periods) back to back, or without RT nodes the nRT nodes' single runs, each phase
+// at its base IPC (no contention, no isolation runs). nullopt when a workload has no sim profile.
+std::optional<double> min_simulated_seconds(const Scenario& s);
+
 std::string_view to_string(NrtMode m);
 std::string_view to_string(PmcSourceKind k);
 std::string_view to_string(SchedulerKind k);

@@ -105,23 +105,15 @@ std::string point_id(const std::vector<SweepParam>& params) {
   return buf;
 }
 
-std::vector<SweepPoint> expand_sweep(const nlohmann::json& doc,
-                                     const std::vector<std::string>& key_order) {
-  nlohmann::json base = doc;
-  const nlohmann::json sweep = base.contains("sweep") ? base["sweep"] : nlohmann::json::object();
-  base.erase("sweep");
+SweepPlan::SweepPlan(const nlohmann::json& doc, const std::vector<std::string>& key_order)
+    : base_(doc) {
+  static const nlohmann::json empty = nlohmann::json::object();
+  const nlohmann::json& sweep = doc.contains("sweep") ? doc.at("sweep") : empty;
+  base_.erase("sweep");
   if (key_order.size() != sweep.size())
     throw std::invalid_argument("sweep key order does not match the sweep object");
-
-  struct Key {
-    std::vector<std::string> names;
-    std::vector<std::vector<PathSegment>> paths;
-    const nlohmann::json* values;
-  };
-  std::vector<Key> keys;
-  std::size_t total = 1;
   for (const auto& key : key_order) {
-    Key k{split_sweep_key(key), {}, &sweep.at(key)};
+    Key k{key, split_sweep_key(key), {}, &sweep.at(key)};
     for (const auto& name : k.names)
       k.paths.push_back(parse_sweep_path(name));
     if (!k.values->is_array() || k.values->empty())
@@ -133,33 +125,53 @@ std::vector<SweepPoint> expand_sweep(const nlohmann::json& doc,
               "sweep '" + key + "' joins " + std::to_string(k.names.size()) +
               " paths, so each value must be a list of " + std::to_string(k.names.size()) +
               " values (value " + std::to_string(i) + " is not)");
-    total *= k.values->size();
-    keys.push_back(std::move(k));
+    if (__builtin_mul_overflow(count_, static_cast<std::uint64_t>(k.values->size()), &count_))
+      throw std::invalid_argument("the sweep has more points than a 64-bit count can hold (" +
+                                  std::to_string(UINT64_MAX) + ")");
+    keys_.push_back(std::move(k));
   }
+}
 
-  std::vector<SweepPoint> points;
-  points.reserve(total);
-  std::vector<std::size_t> digit(keys.size(), 0);
-  for (std::size_t n = 0; n < total; ++n) {
-    SweepPoint p;
-    p.index = n;
-    p.document = base;
-    for (std::size_t k = 0; k < keys.size(); ++k) {
-      const auto& value = (*keys[k].values)[digit[k]];
-      for (std::size_t c = 0; c < keys[k].names.size(); ++c) {
-        const auto& v = keys[k].names.size() > 1 ? value[c] : value;
-        set_at_path(p.document, keys[k].paths[c], v);
-        p.params.push_back({keys[k].names[c], v, digit[k], key_order[k], c});
+std::vector<std::uint64_t> SweepPlan::sizes() const {
+  std::vector<std::uint64_t> out;
+  for (const auto& k : keys_)
+    out.push_back(k.values->size());
+  return out;
+}
+
+SweepPoint SweepPlan::point(std::uint64_t index) const {
+  // Mixed radix, the last key varying fastest.
+  std::vector<std::size_t> digit(keys_.size(), 0);
+  for (std::uint64_t rest = index, k = keys_.size(); k-- > 0;) {
+    digit[k] = static_cast<std::size_t>(rest % keys_[k].values->size());
+    rest /= keys_[k].values->size();
+  }
+  SweepPoint p;
+  p.index = static_cast<std::size_t>(index);
+  p.document = base_;
+  for (std::size_t k = 0; k < keys_.size(); ++k) {
+    const Key& key = keys_[k];
+    const auto& value = (*key.values)[digit[k]];
+    for (std::size_t c = 0; c < key.names.size(); ++c) {
+      const auto& v = key.names.size() > 1 ? value[c] : value;
+      try {
+        set_at_path(p.document, key.paths[c], v);
+      } catch (const std::out_of_range& e) {
+        throw SweepPathError(key.key, e.what());
       }
-    }
-    p.id = point_id(p.params);
-    points.push_back(std::move(p));
-    // Odometer: the last key varies fastest.
-    for (std::size_t k = keys.size(); k-- > 0;) {
-      if (++digit[k] < keys[k].values->size()) break;
-      digit[k] = 0;
+      p.params.push_back({key.names[c], v, digit[k], key.key, c});
     }
   }
+  p.id = point_id(p.params);
+  return p;
+}
+
+std::vector<SweepPoint> expand_sweep(const nlohmann::json& doc,
+                                     const std::vector<std::string>& key_order) {
+  const SweepPlan plan(doc, key_order);
+  std::vector<SweepPoint> points;
+  for (std::uint64_t i = 0; i < plan.count(); ++i)
+    points.push_back(plan.point(i));
   return points;
 }
 

@@ -7,7 +7,9 @@
 // folders can be matched point by point.
 #pragma once
 
+#include <cstdint>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -52,10 +54,46 @@ void set_at_path(nlohmann::json& doc, const std::vector<PathSegment>& path,
 // Stable id of a parameter assignment ("p" + 10 hex digits of FNV-1a over the canonical form).
 std::string point_id(const std::vector<SweepParam>& params);
 
-// Expands `doc` (which holds a "sweep" object, possibly empty) into points. `key_order` is the
-// order the sweep keys were written in (JSON objects here are sorted, so the loader passes it).
-// Throws std::out_of_range / std::invalid_argument with the offending key; the loader turns
-// those into InputError with the JSON path.
+// A sweep value that cannot be written at its path in one point: an earlier sweep key reshaped
+// the document (e.g. "nodes.rt": [[]] empties the array that "nodes.rt[0].core" indexes).
+class SweepPathError : public std::out_of_range {
+ public:
+  SweepPathError(std::string key, const std::string& what)
+      : std::out_of_range(what), key_(std::move(key)) {}
+  const std::string& key() const { return key_; }  // the sweep key whose value did not fit
+
+ private:
+  std::string key_;
+};
+
+// The points of a sweep, counted without building them; point(i) builds one on demand.
+// `doc` holds a "sweep" object (possibly empty); `key_order` is the order its keys were written
+// in (JSON objects here are sorted, so the loader passes it). The plan refers to `doc`, which
+// must outlive it. The constructor throws std::invalid_argument naming the offending key (a
+// malformed path or value list, or a product of list sizes beyond 2^64 - 1).
+class SweepPlan {
+ public:
+  SweepPlan(const nlohmann::json& doc, const std::vector<std::string>& key_order);
+
+  std::uint64_t count() const { return count_; }
+  // Size of each key's value list, in key order.
+  std::vector<std::uint64_t> sizes() const;
+  // Point `index` (< count()); throws SweepPathError when a value cannot be written.
+  SweepPoint point(std::uint64_t index) const;
+
+ private:
+  struct Key {
+    std::string key;
+    std::vector<std::string> names;
+    std::vector<std::vector<PathSegment>> paths;
+    const nlohmann::json* values;
+  };
+  nlohmann::json base_;
+  std::vector<Key> keys_;
+  std::uint64_t count_ = 1;
+};
+
+// Every point of the sweep, in order (SweepPlan::point for each index).
 std::vector<SweepPoint> expand_sweep(const nlohmann::json& doc,
                                      const std::vector<std::string>& key_order);
 

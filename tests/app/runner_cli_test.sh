@@ -31,12 +31,45 @@ determinism)
   "$bin" run $scenario --out "$tmp/j1" --jobs 1 --quiet || fail "jobs 1"
   "$bin" run $scenario --out "$tmp/j2" --jobs 2 --quiet || fail "jobs 2"
   "$bin" run $scenario --out "$tmp/sh" --shard 1/2 --quiet || fail "shard 1/2"
+  [[ $(status "$tmp/sh") == partial ]] || fail "one shard of two: status $(status "$tmp/sh")"
   "$bin" run $scenario --out "$tmp/sh" --shard 0/2 --quiet || fail "shard 0/2"
+  [[ $(status "$tmp/sh") == complete ]] || fail "both shards: status $(status "$tmp/sh")"
   [[ $(rows "$tmp/j1") -eq 24 ]] || fail "expected 24 rows, got $(rows "$tmp/j1")"
   for d in j2 sh; do
     cmp "$tmp/j1/points.csv" "$tmp/$d/points.csv" || fail "points.csv differs for $d"
     cmp "$tmp/j1/samples.csv" "$tmp/$d/samples.csv" || fail "samples.csv differs for $d"
   done
+  ;;
+concurrent)
+  # Shards started at the same time into one folder lose nothing: every run's row and samples
+  # exactly once, the manifest complete, the files byte-identical to a single-process run.
+  "$bin" run $scenario --out "$tmp/ref" --quiet || fail "reference run"
+  pids=()
+  for i in 0 1 2; do
+    ROSGUARD_FAKE_SLEEP_MS=30 "$bin" run $scenario --out "$tmp/c" --shard $i/3 --jobs 1 --quiet &
+    pids+=($!)
+    sleep 0.07
+  done
+  for pid in "${pids[@]}"; do
+    wait "$pid" || fail "a shard exited $?"
+  done
+  echo "rows $(rows "$tmp/c") of 24, samples $(tail -n +2 "$tmp/c/samples.csv" | wc -l) of 240"
+  dups=$(tail -n +2 "$tmp/c/points.csv" | cut -d, -f1,2 | sort | uniq -d | wc -l)
+  [[ $dups -eq 0 ]] || fail "$dups run(s) have more than one row"
+  [[ $(rows "$tmp/c") -eq 24 ]] || fail "expected 24 rows, got $(rows "$tmp/c")"
+  tail -n +2 "$tmp/c/samples.csv" | cut -d, -f1,2 | sort | uniq -c | awk '$1 != 10 {bad=1} END {exit bad}' ||
+    fail "a run does not have exactly its 10 samples"
+  cmp "$tmp/ref/points.csv" "$tmp/c/points.csv" || fail "points.csv differs from a single run"
+  cmp "$tmp/ref/samples.csv" "$tmp/c/samples.csv" || fail "samples.csv differs from a single run"
+  /usr/bin/python3 - "$tmp/c/manifest.json" <<'PY' || fail "manifest does not describe the three shards"
+import json, sys
+m = json.load(open(sys.argv[1]))
+assert m["status"] == "complete", m["status"]
+assert m["counts"]["rows"] == 24, m["counts"]
+assert sorted(m["shards"]) == ["0/3", "1/3", "2/3"], m["shards"]
+assert all(s["status"] == "complete" for s in m["shards"].values()), m["shards"]
+assert sum(s["rows_this_invocation"] for s in m["shards"].values()) == 24, m["shards"]
+PY
   ;;
 kill9)
   # A run killed with SIGKILL leaves only complete rows; --resume finishes it identically.
@@ -73,6 +106,39 @@ sigint)
     [[ $(rows "$out") -eq 24 ]] || fail "$backend: $(rows "$out") rows after resume"
   done
   ;;
+resume_errors)
+  # A value that was not measured (NaN, null in baselines.json) survives --resume; a resume that
+  # fails leaves the manifest's status truthful (never "running").
+  out="$tmp/r"
+  ROSGUARD_FAKE_SLEEP_MS=100 "$bin" run $scenario --backend hw --out "$out" --quiet 2>/dev/null &
+  pid=$!
+  wait_rows "$out" 2
+  kill -INT $pid
+  wait $pid
+  [[ $? -eq 130 ]] || fail "SIGINT did not give exit 130"
+  set_ipc() {
+    /usr/bin/python3 - "$out/baselines.json" "$1" <<'PY'
+import json, sys
+b = json.load(open(sys.argv[1]))
+for v in b.values():
+    v["ipc"] = json.loads(sys.argv[2])
+json.dump(b, open(sys.argv[1], "w"))
+PY
+  }
+  set_ipc '"fast"'
+  "$bin" run $scenario --backend hw --out "$out" --resume --quiet 2> "$tmp/err"
+  rc=$?
+  [[ $rc -eq 1 ]] || fail "a corrupt baselines.json: exit $rc, expected 1"
+  grep -q "baselines.json" "$tmp/err" || fail "the error does not name baselines.json: $(cat "$tmp/err")"
+  grep -q "internal" "$tmp/err" && fail "$(cat "$tmp/err")"
+  [[ $(status "$out") == interrupted ]] || fail "status after a failed resume: $(status "$out")"
+  set_ipc null
+  "$bin" run $scenario --backend hw --out "$out" --resume --quiet 2> "$tmp/err" ||
+    fail "resume with ipc null: $(cat "$tmp/err")"
+  [[ $(rows "$out") -eq 24 ]] || fail "$(rows "$out") rows after resume"
+  [[ $(status "$out") == complete ]] || fail "status after resume: $(status "$out")"
+  grep -q '"ipc": null' "$out/baselines.json" || fail "null ipc not kept in baselines.json"
+  ;;
 failure)
   # A failing point: exit 1, status failed, the error in the manifest, complete rows kept.
   ROSGUARD_FAKE_FAIL_AT=15 "$bin" run $scenario --out "$tmp/f" --jobs 1 --quiet 2> "$tmp/err"
@@ -99,8 +165,14 @@ folders)
   grep -q "different scenario" "$tmp/err" || fail "message: $(cat "$tmp/err")"
   "$bin" run $scenario --out "$tmp/o" --resume --overwrite 2>/dev/null
   [[ $? -eq 2 ]] || fail "--resume with --overwrite should exit 2"
-  "$bin" run $scenario --out "$tmp/o2" --shard 2/2 2>/dev/null
-  [[ $? -eq 2 ]] || fail "--shard 2/2 should exit 2"
+  for bad in "--shard 2/2" "--shard 1/99999999999" "--shard 99999999999/2" "--shard -1/2" \
+             "--shard 1/2/3" "--jobs 99999999999" "--jobs 0"; do
+    "$bin" run $scenario --out "$tmp/o2" $bad 2> "$tmp/err"
+    rc=$?
+    [[ $rc -eq 2 ]] || fail "$bad should exit 2, got $rc"
+    grep -q "internal" "$tmp/err" && fail "$bad: $(cat "$tmp/err")"
+    grep -q -- "${bad%% *}" "$tmp/err" || fail "$bad: the message does not name the option"
+  done
   [[ ! -e "$tmp/o2" ]] || fail "a usage error created the results folder"
   ;;
 trace)

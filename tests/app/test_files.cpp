@@ -1,4 +1,6 @@
-// Crash-safe file primitives: atomic replace, torn-tail repair, single-write appends.
+// Crash-safe file primitives: atomic replace, torn-tail repair, single-write appends, the lock.
+#include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
@@ -47,10 +49,44 @@ TEST_CASE("appends accumulate whole rows", "[files]") {
     AppendFile out(f);
     out.append("a\n");
     out.append(std::string(100000, 'x') + "\n");
-    out.sync();
   }
   const auto lines = split_lines(read_file(f));
   REQUIRE(lines.size() == 2);
   CHECK(lines[1].size() == 100000);
+  fs::remove_all(d);
+}
+
+TEST_CASE("a FileLock excludes other processes and is released when its holder dies", "[files]") {
+  const fs::path d = temp_dir();
+  const fs::path lock = d / ".lock";
+  int ready[2];
+  REQUIRE(::pipe(ready) == 0);
+  const pid_t holder = ::fork();
+  REQUIRE(holder >= 0);
+  if (holder == 0) {
+    FileLock held(lock);
+    char c = 'x';
+    (void)!::write(ready[1], &c, 1);
+    ::pause();  // until SIGKILL: the kernel must release the lock
+    ::_exit(0);
+  }
+  char c = 0;
+  REQUIRE(::read(ready[0], &c, 1) == 1);
+  const pid_t waiter = ::fork();
+  REQUIRE(waiter >= 0);
+  if (waiter == 0) {
+    FileLock mine(lock);
+    ::_exit(7);
+  }
+  ::usleep(200 * 1000);
+  int status = 0;
+  CHECK(::waitpid(waiter, &status, WNOHANG) == 0);  // still waiting for the lock
+  ::kill(holder, SIGKILL);
+  REQUIRE(::waitpid(holder, &status, 0) == holder);
+  REQUIRE(::waitpid(waiter, &status, 0) == waiter);
+  CHECK(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 7);
+  ::close(ready[0]);
+  ::close(ready[1]);
   fs::remove_all(d);
 }

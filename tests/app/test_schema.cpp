@@ -106,9 +106,9 @@ TEST_CASE("schema: range errors say which bounds are inclusive", "[schema]") {
   }
   SECTION("inclusive lower bound only") {
     json w = workload();
-    w["sim"]["phases"][0]["mlp"] = 0.5;
+    w["sim"]["footprint_kb"] = -0.5;
     CHECK(error_of(w, SchemaKind::Workload) ==
-          std::pair<std::string, std::string>{"/sim/phases/0/mlp", "must be >= 1, not 0.5"});
+          std::pair<std::string, std::string>{"/sim/footprint_kb", "must be >= 0, not -0.5"});
   }
   SECTION("exclusive lower, inclusive upper") {
     json w = workload();
@@ -223,4 +223,32 @@ TEST_CASE("schema: apply_defaults fills nested objects and array items", "[schem
     CHECK(w["hw"]["passes"] == 1);
     CHECK_FALSE(w.contains("reference"));  // no default for an optional object without one
   }
+}
+
+TEST_CASE("schema: sim profiles are bounded to what can be simulated", "[schema]") {
+  // Each of these passed before and then ran for many minutes (or forever).
+  json w = workload();
+  w["sim"]["instructions"] = 1e300;
+  CHECK(error_of(w, SchemaKind::Workload).second == "must be in (0, 1000000000000], not 1e+300");
+  w = workload();
+  w["sim"]["phases"][0]["base_ipc"] = 1e-300;
+  CHECK(error_of(w, SchemaKind::Workload).second == "must be in [0.01, 16], not 1e-300");
+  w = workload();
+  w["sim"]["phases"][0]["mlp"] = 1e300;
+  CHECK(error_of(w, SchemaKind::Workload).second == "must be in [1, 64], not 1e+300");
+  w = workload();
+  w["sim"]["phases"][0]["l2_refill_pki"] = 1e300;
+  CHECK(error_of(w, SchemaKind::Workload).second == "must be in [0, 1000], not 1e+300");
+}
+
+TEST_CASE("schema: names and sweep keys have a length limit", "[schema]") {
+  json doc = scenario();
+  doc["name"] = std::string(129, 'n');
+  CHECK(error_of(doc) == std::pair<std::string, std::string>{
+                             "/name", "must be at most 128 characters long, not 129"});
+  doc = scenario();
+  doc["sweep"] = {{std::string(1025, 'a'), {1}}};
+  const auto [where, what] = error_of(doc);
+  CHECK(where == "/sweep");
+  CHECK_THAT(what, Catch::Matchers::Contains("key of 1025 characters is not valid here"));
 }

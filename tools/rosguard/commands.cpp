@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <sstream>
 
 #include "core/error.h"
 
@@ -19,9 +20,26 @@
 namespace rosguard {
 namespace fs = std::filesystem;
 
+namespace {
+
+std::string seconds_text(double s) {
+  std::ostringstream os;
+  os << std::setprecision(3);
+  if (s < 1e-3)
+    os << s * 1e6 << " us";
+  else if (s < 1.0)
+    os << s * 1e3 << " ms";
+  else
+    os << s << " s";
+  return os.str();
+}
+
+}  // namespace
+
 int check_scenario(Loader& loader, const BackendRegistry& backends, const std::string& file,
                    const std::optional<std::string>& backend, bool list_points) {
-  const LoadedScenario s = loader.load(file, backend);
+  const LoadedScenario s =
+      loader.load(file, backend, list_points ? PointSelection::All : PointSelection::Sample);
   const Scenario& first = s.points.front().scenario;
   if (const BackendInfo* info = backends.find(first.backend)) {
     const auto b = info->make();
@@ -35,7 +53,7 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
   for (const auto& key : s.sweep_keys)
     sweep += (sweep.empty() ? "" : " x ") + key + " (" +
              std::to_string(s.expanded["sweep"][key].size()) + ")";
-  const std::size_t runs = s.points.size() * static_cast<std::size_t>(first.repetitions);
+  const std::uint64_t runs = s.point_count * static_cast<std::uint64_t>(first.repetitions);
   std::cout << file << ": valid\n"
             << "  name         " << first.name << "\n"
             << "  backend      " << first.backend
@@ -45,6 +63,22 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
             << " nRT, controller on core " << first.nodes.controller_core << "\n"
             << "  sweep        " << (sweep.empty() ? "none" : sweep) << "\n"
             << "  repetitions  " << first.repetitions << " (" << runs << " runs)\n";
+  std::optional<double> lo, hi;
+  for (const auto& p : s.points)
+    if (const auto t = p.scenario.backend == "sim" ? min_simulated_seconds(p.scenario)
+                                                   : std::optional<double>()) {
+      lo = std::min(lo.value_or(*t), *t);
+      hi = std::max(hi.value_or(*t), *t);
+    }
+  if (lo)
+    std::cout << "  sim time     at least " << seconds_text(*lo)
+              << (*hi > *lo ? " to " + seconds_text(*hi) : std::string())
+              << " simulated per run (estimate: instructions / (base IPC x frequency), "
+                 "without contention or isolation runs)\n";
+  if (s.points.size() < s.point_count)
+    std::cout << "  checked      " << s.points.size() << " of the " << s.point_count
+              << " points (every value of every sweep key); run checks them all before "
+                 "starting\n";
   if (list_points)
     for (const auto& p : s.points) {
       std::cout << "  " << p.sweep.id;
@@ -53,7 +87,7 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
                   << (q.value.is_string() ? q.value.get<std::string>() : q.value.dump());
       std::cout << "\n";
     }
-  std::cout << s.points.size() << " point" << (s.points.size() == 1 ? "" : "s") << "\n";
+  std::cout << s.point_count << " point" << (s.point_count == 1 ? "" : "s") << "\n";
   return 0;
 }
 

@@ -1,7 +1,6 @@
 #include "files.h"
 
 #include <fcntl.h>
-#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -105,24 +104,23 @@ AppendFile::~AppendFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-AppendFile::AppendFile(AppendFile&& other) noexcept
-    : path_(std::move(other.path_)), fd_(other.fd_) {
-  other.fd_ = -1;
-}
-
 void AppendFile::append(const std::string& data) {
   write_all(fd_, data, path_);
-}
-
-void AppendFile::sync() {
-  if (::fsync(fd_) != 0) fail("cannot sync", path_);
 }
 
 FileLock::FileLock(const fs::path& path) {
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0) fail("cannot open lock file", path);
-  while (::flock(fd_, LOCK_EX) != 0)
-    if (errno != EINTR) fail("cannot lock", path);
+  struct flock whole {};  // l_start = l_len = 0: the whole file
+  whole.l_type = F_WRLCK;
+  whole.l_whence = SEEK_SET;
+  while (::fcntl(fd_, F_OFD_SETLKW, &whole) != 0) {
+    if (errno == EINTR) continue;
+    const int err = errno;
+    ::close(fd_);
+    errno = err;
+    fail("cannot lock", path);
+  }
 }
 
 FileLock::~FileLock() {

@@ -29,21 +29,22 @@ class AppendFile {
  public:
   explicit AppendFile(const std::filesystem::path& path);
   ~AppendFile();
-  AppendFile(AppendFile&& other) noexcept;
-  AppendFile& operator=(AppendFile&&) = delete;
   AppendFile(const AppendFile&) = delete;
   AppendFile& operator=(const AppendFile&) = delete;
 
   void append(const std::string& data);
-  void sync();
 
  private:
   std::filesystem::path path_;
   int fd_ = -1;
 };
 
-// An exclusive advisory lock (flock) on a file, held for the object's lifetime, so that shards
-// writing into one results folder take turns.
+// An exclusive advisory lock on a whole file, held for the object's lifetime, so that writers
+// sharing one results folder take turns (also on different machines). It is a POSIX record lock
+// owned by the open file description (fcntl F_OFD_SETLKW): NFS forwards POSIX locks to the
+// server (flock is only emulated by them there), and unlike classic fcntl locks it is neither
+// shared by the threads of a process nor dropped when another descriptor of the file closes.
+// The kernel releases it when its holder dies. Waiting for it retries on EINTR.
 class FileLock {
  public:
   explicit FileLock(const std::filesystem::path& path);

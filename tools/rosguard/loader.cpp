@@ -1,9 +1,12 @@
 #include "loader.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -75,6 +78,27 @@ std::vector<CatalogEntry> catalogue(const fs::path& dir, const char* kind) {
   return out;
 }
 
+// The points `check` builds: all of a small sweep; of a large one, every value of every key
+// (each with the first value of the other keys) and the last point, at most kCheckAllPoints.
+std::vector<std::uint64_t> selected_points(std::uint64_t count,
+                                           const std::vector<std::uint64_t>& sizes,
+                                           PointSelection selection) {
+  std::vector<std::uint64_t> out;
+  if (selection == PointSelection::All || count <= kCheckAllPoints) {
+    for (std::uint64_t i = 0; i < count; ++i)
+      out.push_back(i);
+    return out;
+  }
+  std::set<std::uint64_t> chosen = {0, count - 1};
+  std::uint64_t stride = count;  // index step of one value of key k (the last key: 1)
+  for (const std::uint64_t size : sizes) {
+    stride /= size;
+    for (std::uint64_t v = 0; v < size && chosen.size() < kCheckAllPoints; ++v)
+      chosen.insert(v * stride);
+  }
+  return {chosen.begin(), chosen.end()};
+}
+
 }  // namespace
 
 Home Home::locate() {
@@ -96,13 +120,39 @@ std::string display_path(const fs::path& path) {
   return r.size() <= path.string().size() ? r : path.string();
 }
 
-json read_json_file(const fs::path& path, const std::string& display) {
-  std::ifstream in(path);
+std::string read_text_file(const fs::path& path, const std::string& display) {
+  // stat() first: opening a FIFO blocks, and /dev/zero never ends.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    throw InputError(display, "",
+                     errno == ENOENT
+                         ? std::string("cannot read the file (does it exist?)")
+                         : std::string("cannot read the file: ") + std::strerror(errno));
+  if (!S_ISREG(st.st_mode))
+    throw InputError(display, "",
+                     std::string("not a regular file (") +
+                         (S_ISDIR(st.st_mode) ? "a folder" : "a device, FIFO or socket") +
+                         "); give the path of a JSON file");
+  if (static_cast<std::uintmax_t>(st.st_size) > kMaxJsonFileBytes)
+    throw InputError(display, "",
+                     "the file has " + std::to_string(st.st_size) + " bytes, more than the " +
+                         std::to_string(kMaxJsonFileBytes) +
+                         " a scenario, platform or workload file may have");
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(display, "", "cannot read the file (does it exist?)");
-  std::stringstream buf;
-  buf << in.rdbuf();
+  std::string text(kMaxJsonFileBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxJsonFileBytes)  // it grew since stat()
+    throw InputError(display, "",
+                     "the file is larger than " + std::to_string(kMaxJsonFileBytes) + " bytes");
+  return text;
+}
 
+json parse_json_text(const std::string& text, const std::string& display) {
   // Duplicate keys are silently merged by JSON parsers; here they are an error with a path.
+  // Nesting and string lengths are bounded while parsing, before anything recurses over the
+  // document (copies, the schema validator, std::regex in its "pattern" checks).
   struct Frame {
     bool array = false;
     long index = -1;
@@ -111,24 +161,31 @@ json read_json_file(const fs::path& path, const std::string& display) {
   };
   std::vector<Frame> stack;
   std::string duplicate;
-  const auto pointer = [&stack]() {
+  const auto pointer = [&stack](std::size_t frames) {
     std::string p;
-    for (std::size_t i = 0; i + 1 < stack.size(); ++i)
+    for (std::size_t i = 0; i < frames && i < stack.size(); ++i)
       p += "/" + (stack[i].array ? std::to_string(stack[i].index) : escape_token(stack[i].key));
     return p;
   };
   const auto enter_element = [&stack]() {
     if (!stack.empty() && stack.back().array) ++stack.back().index;
   };
+  const auto too_long = [&](const std::string& what, std::size_t size, const std::string& at) {
+    throw InputError(display, at,
+                     what + " of " + std::to_string(size) + " characters is longer than the " +
+                         std::to_string(kMaxJsonStringChars) +
+                         " allowed (names, keys and paths need far fewer)");
+  };
   const json::parser_callback_t cb = [&](int, json::parse_event_t ev, json& parsed) {
     switch (ev) {
       case json::parse_event_t::object_start:
-        enter_element();
-        stack.push_back({false, -1, "", {}});
-        break;
       case json::parse_event_t::array_start:
         enter_element();
-        stack.push_back({true, -1, "", {}});
+        if (stack.size() >= kMaxJsonDepth)
+          throw InputError(display, pointer(8) + "/...",
+                           "nested more than " + std::to_string(kMaxJsonDepth) +
+                               " levels deep (scenarios need about 10)");
+        stack.push_back({ev == json::parse_event_t::array_start, -1, "", {}});
         break;
       case json::parse_event_t::object_end:
       case json::parse_event_t::array_end:
@@ -136,28 +193,42 @@ json read_json_file(const fs::path& path, const std::string& display) {
         break;
       case json::parse_event_t::key: {
         const std::string k = parsed.get<std::string>();
-        if (!stack.back().keys.insert(k).second && duplicate.empty())
-          duplicate = pointer() + "/" + escape_token(k);
         stack.back().key = k;
+        if (k.size() > kMaxJsonStringChars) too_long("a key", k.size(), pointer(stack.size() - 1));
+        if (!stack.back().keys.insert(k).second && duplicate.empty())
+          duplicate = pointer(stack.size());
         break;
       }
       case json::parse_event_t::value:
         enter_element();
+        if (parsed.is_string() && parsed.get_ref<const std::string&>().size() > kMaxJsonStringChars)
+          too_long("a string", parsed.get_ref<const std::string&>().size(), pointer(stack.size()));
         break;
     }
     return true;
   };
   json doc;
   try {
-    doc = json::parse(buf.str(), cb);
+    doc = json::parse(text, cb);
   } catch (const json::parse_error& e) {
     std::string what = e.what();
     if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
     throw InputError(display, "", "invalid JSON: " + what);
+  } catch (const json::exception& e) {
+    // A number outside double's range (1e999): the value being read.
+    if (!stack.empty() && stack.back().array) ++stack.back().index;
+    std::string what = e.what();
+    if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    throw InputError(display, pointer(stack.size()),
+                     "invalid JSON: " + what + " (beyond the range of a double)");
   }
   if (!duplicate.empty())
     throw InputError(display, duplicate, "key written twice (the second would silently win)");
   return doc;
+}
+
+json read_json_file(const fs::path& path, const std::string& display) {
+  return parse_json_text(read_text_file(path, display), display);
 }
 
 Loader::Loader(Home home) : home_(std::move(home)), schemas_(home_.schemas()) {}
@@ -172,6 +243,11 @@ fs::path Loader::find_named(const std::string& ref, const fs::path& dir, const f
       throw InputError(file, pointer,
                        std::string(what) + " file '" + ref + "' not found (looked at " +
                            display_path(p.lexically_normal()) + ")");
+    if (!fs::is_regular_file(p, ec))
+      throw InputError(file, pointer,
+                       std::string(what) + " file '" + ref + "' is not a regular file (" +
+                           (fs::is_directory(p, ec) ? "a folder" : "a device, FIFO or socket") +
+                           "); give the path of a " + what + " JSON file");
     return p.lexically_normal();
   }
   const fs::path p = dir / (ref + ".json");
@@ -223,16 +299,17 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
   return w;
 }
 
-LoadedScenario Loader::load(const std::string& file, const std::optional<std::string>& backend) {
+LoadedScenario Loader::load(const std::string& file, const std::optional<std::string>& backend,
+                            PointSelection selection) {
   LoadedScenario out;
   out.file = file;
-  out.given = read_json_file(file, file);
+  const std::string text = read_text_file(file, file);
+  out.given = parse_json_text(text, file);
   schemas_.validate(out.given, SchemaKind::Scenario, file);
 
   // JSON objects here are sorted by key; the sweep runs in the order its keys were written.
   {
-    std::ifstream in(file);
-    const auto ordered = nlohmann::ordered_json::parse(in, nullptr, false);
+    const auto ordered = nlohmann::ordered_json::parse(text, nullptr, false);
     if (ordered.is_object() && ordered.contains("sweep"))
       for (const auto& [k, _] : ordered["sweep"].items())
         out.sweep_keys.push_back(k);
@@ -270,11 +347,22 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
       }
     }
   }
-  std::vector<SweepPoint> points;
+  std::optional<SweepPlan> plan;
   try {
-    points = expand_sweep(out.expanded, out.sweep_keys);
+    plan.emplace(out.expanded, out.sweep_keys);
   } catch (const std::invalid_argument& e) {
     throw InputError(file, "/sweep", e.what());
+  }
+  out.point_count = plan->count();
+  if (out.point_count > kMaxSweepPoints) {
+    std::string product;
+    for (const auto n : plan->sizes())
+      product += (product.empty() ? "" : " x ") + std::to_string(n);
+    throw InputError(file, "/sweep",
+                     "the sweep has " + std::to_string(out.point_count) + " points (" + product +
+                         "), more than the " + std::to_string(kMaxSweepPoints) +
+                         " one scenario may have (every point is validated and held in memory "
+                         "before the first one runs); split it into several scenarios");
   }
 
   const fs::path base = fs::path(file).parent_path();
@@ -324,7 +412,15 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
     return InputError(file, path, msg + " (in sweep point " + params_text(p) + ")");
   };
 
-  for (SweepPoint& p : points) {
+  for (const std::uint64_t index : selected_points(out.point_count, plan->sizes(), selection)) {
+    SweepPoint p;
+    try {
+      p = plan->point(index);
+    } catch (const SweepPathError& e) {
+      throw InputError(file, "/sweep/" + escape_token(e.key()),
+                       std::string("this path does not exist in every point: ") + e.what() +
+                           " (another sweep key changes what it points into)");
+    }
     try {
       Scenario s = build(p.document);
       p.document = s.document;

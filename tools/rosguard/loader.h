@@ -3,6 +3,7 @@
 // point. Every problem is an InputError naming the file and the JSON path; nothing is written.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -32,14 +33,25 @@ struct LoadedPoint {
   Scenario scenario;
 };
 
+// A sweep may have at most this many points: each is validated and held in memory (some tens
+// of KB) before the first runs.
+inline constexpr std::uint64_t kMaxSweepPoints = 50000;
+// `check` builds every point of a sweep up to this size, and a sample of a larger one.
+inline constexpr std::uint64_t kCheckAllPoints = 2000;
+
+// Which points load() builds: All (run), or Sample (check: all of a sweep of at most
+// kCheckAllPoints points; of a larger one, every value of every key at least once).
+enum class PointSelection { All, Sample };
+
 struct LoadedScenario {
   std::string file;
-  nlohmann::json given;                  // as written
-  nlohmann::json expanded;               // defaults applied, sweep still in place
+  std::uint64_t point_count = 0;  // points of the sweep; `points` holds them all unless sampled
+  nlohmann::json given;           // as written
+  nlohmann::json expanded;        // defaults applied, sweep still in place
   std::vector<std::string> sweep_keys;   // as written (a key may join paths with '+')
   std::vector<std::string> sweep_paths;  // every swept path, in key order
-  std::vector<LoadedPoint> points;
-  std::vector<std::string> warnings;  // e.g. the controller shares a core with a node
+  std::vector<LoadedPoint> points;       // in order; with PointSelection::Sample maybe a subset
+  std::vector<std::string> warnings;     // e.g. the controller shares a core with a node
 };
 
 // A catalogue entry for `rosguard list`.
@@ -54,7 +66,8 @@ class Loader {
   explicit Loader(Home home);
 
   // `backend` overrides the scenario's "backend" key (rosguard run --backend).
-  LoadedScenario load(const std::string& file, const std::optional<std::string>& backend = {});
+  LoadedScenario load(const std::string& file, const std::optional<std::string>& backend = {},
+                      PointSelection selection = PointSelection::All);
 
   std::vector<CatalogEntry> platforms() const;
   std::vector<CatalogEntry> workloads() const;
@@ -76,7 +89,22 @@ class Loader {
   std::map<std::string, WorkloadInfo> workload_cache_;
 };
 
-// Reads a JSON file; syntax errors and duplicate keys are InputErrors with line and column.
+// Bounds on what a scenario, platform or workload file may be: past them an input could exhaust
+// the stack (deep nesting; std::regex recurses per character of a string) or the memory.
+inline constexpr std::size_t kMaxJsonDepth = 64;
+inline constexpr std::size_t kMaxJsonStringChars = 4096;
+inline constexpr std::size_t kMaxJsonFileBytes = std::size_t{16} << 20;
+
+// Reads a regular file of at most kMaxJsonFileBytes (a FIFO, a device or a folder is an
+// InputError: reading one could block or never end).
+std::string read_text_file(const std::filesystem::path& path, const std::string& display);
+
+// Parses JSON text. Syntax errors (with line and column), duplicate keys, numbers beyond a
+// double, nesting deeper than kMaxJsonDepth and strings or keys longer than kMaxJsonStringChars
+// are InputErrors naming `display` and the JSON path.
+nlohmann::json parse_json_text(const std::string& text, const std::string& display);
+
+// read_text_file + parse_json_text.
 nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& display);
 
 // How a path is shown in messages: relative to the working directory when that is shorter.

@@ -2,9 +2,12 @@
 // mixed-criticality applications. Only this file turns errors into exit codes:
 // 0 success, 1 runtime failure, 2 invalid input (usage or scenario), 130 / 143 interrupted.
 #include <CLI/CLI.hpp>
+#include <charconv>
+#include <climits>
 #include <iostream>
 #include <optional>
-#include <regex>
+#include <tuple>
+#include <utility>
 
 #include "commands.h"
 #include "core/error.h"
@@ -21,11 +24,68 @@ Start here:
   rosguard plot results/quickstart            draw its figures
 Run 'rosguard <command> --help' for the options of a command.)";
 
+// "I/N" with 0 <= I < N <= INT_MAX, digits only; throws InputError otherwise.
+std::pair<int, int> parse_shard(const std::string& text) {
+  const auto slash = text.find('/');
+  const auto number = [&](std::size_t begin, std::size_t end, int& value) {
+    const char* first = text.data() + begin;
+    const char* last = text.data() + end;
+    const auto [ptr, ec] = std::from_chars(first, last, value);
+    return first != last && *first != '-' && *first != '+' && ec == std::errc() && ptr == last;
+  };
+  int index = 0, count = 0;
+  if (slash == std::string::npos || !number(0, slash, index) ||
+      !number(slash + 1, text.size(), count) || count < 1 || index >= count)
+    throw rosguard::InputError("", "",
+                               "--shard must be I/N with 0 <= I < N <= " + std::to_string(INT_MAX) +
+                                   ", e.g. 0/2 (got '" +
+                                   (text.size() > 40 ? text.substr(0, 40) + "..." : text) + "')");
+  return {index, count};
+}
+
 std::string joined_args(int argc, char** argv) {
   std::string s;
   for (int i = 0; i < argc; ++i)
     s += (i ? " " : "") + std::string(argv[i]);
   return s;
+}
+
+struct RunArgs {
+  rosguard::RunOptions options;
+  std::string shard;    // "I/N", parsed by run_command
+  std::string backend;  // empty: the scenario's
+};
+
+CLI::App* add_run_command(CLI::App& app, RunArgs& args) {
+  rosguard::RunOptions& opt = args.options;
+  auto* run = app.add_subcommand("run", "Run every point of a scenario and write results.");
+  run->add_option("scenario", opt.scenario_file, "Scenario JSON file")->required();
+  run->add_option("--backend", args.backend, "Backend to run on (default: the scenario's)")
+      ->check(CLI::IsMember({"sim", "hw"}));
+  run->add_option("--out", opt.out, "Results folder (default: results/<scenario name>)");
+  run->add_option("--jobs", opt.jobs, "Worker processes for sim (default: all CPUs)")
+      ->check(CLI::Range(1, 65536));
+  run->add_option("--shard", args.shard,
+                  "Run only shard I of N (points with index % N == I); shards may share --out, "
+                  "also at the same time");
+  run->add_flag("--resume", opt.resume, "Continue a run in --out, skipping finished points");
+  run->add_flag("--overwrite", opt.overwrite, "Replace the results already in --out");
+  run->add_flag("--trace", opt.trace, "Also write trace.json (Chrome trace, opens in Perfetto)");
+  run->add_flag("--quiet", opt.quiet, "No progress or summary");
+  run->footer("Writes manifest.json, points.csv and samples.csv (docs/design.md, results format).");
+  return run;
+}
+
+int run_command(RunArgs& args, const std::string& command_line, rosguard::Loader& loader,
+                const rosguard::BackendRegistry& backends) {
+  rosguard::RunOptions& opt = args.options;
+  if (!args.backend.empty()) opt.backend = args.backend;
+  if (!args.shard.empty()) std::tie(opt.shard_index, opt.shard_count) = parse_shard(args.shard);
+  if (opt.resume && opt.overwrite)
+    throw rosguard::InputError("", "",
+                               "--resume and --overwrite contradict each other; choose one");
+  opt.command_line = command_line;
+  return rosguard::run_scenario(opt, loader, backends);
 }
 
 }  // namespace
@@ -40,24 +100,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("rosguard ") + kVersion);
 
-  RunOptions run_opt;
-  std::string shard;
-  std::string backend_opt;
-  auto* run = app.add_subcommand("run", "Run every point of a scenario and write results.");
-  run->add_option("scenario", run_opt.scenario_file, "Scenario JSON file")->required();
-  run->add_option("--backend", backend_opt, "Backend to run on (default: the scenario's)")
-      ->check(CLI::IsMember({"sim", "hw"}));
-  run->add_option("--out", run_opt.out, "Results folder (default: results/<scenario name>)");
-  run->add_option("--jobs", run_opt.jobs, "Worker processes for sim (default: all CPUs)")
-      ->check(CLI::PositiveNumber);
-  run->add_option("--shard", shard,
-                  "Run only shard I of N (points with index % N == I); shards may share --out");
-  run->add_flag("--resume", run_opt.resume, "Continue a run in --out, skipping finished points");
-  run->add_flag("--overwrite", run_opt.overwrite, "Replace the results already in --out");
-  run->add_flag("--trace", run_opt.trace,
-                "Also write trace.json (Chrome trace, opens in Perfetto)");
-  run->add_flag("--quiet", run_opt.quiet, "No progress or summary");
-  run->footer("Writes manifest.json, points.csv and samples.csv (DESIGN.md section 7).");
+  RunArgs run_args;
+  auto* run = add_run_command(app, run_args);
 
   std::string check_file, check_backend;
   bool check_points = false;
@@ -101,23 +145,7 @@ int main(int argc, char** argv) {
     register_backends(backends, policies);
     Loader loader(Home::locate());
 
-    if (*run) {
-      if (!backend_opt.empty()) run_opt.backend = backend_opt;
-      if (!shard.empty()) {
-        std::smatch m;
-        const std::regex re(R"((\d+)/(\d+))");
-        if (!std::regex_match(shard, m, re) || std::stoi(m[2]) < 1 ||
-            std::stoi(m[1]) >= std::stoi(m[2]))
-          throw InputError("", "",
-                           "--shard must be I/N with 0 <= I < N, e.g. 0/2 (got '" + shard + "')");
-        run_opt.shard_index = std::stoi(m[1]);
-        run_opt.shard_count = std::stoi(m[2]);
-      }
-      if (run_opt.resume && run_opt.overwrite)
-        throw InputError("", "", "--resume and --overwrite contradict each other; choose one");
-      run_opt.command_line = joined_args(argc, argv);
-      return run_scenario(run_opt, loader, backends);
-    }
+    if (*run) return run_command(run_args, joined_args(argc, argv), loader, backends);
     if (*check)
       return check_scenario(
           loader, backends, check_file,

@@ -251,6 +251,14 @@ struct SchemaSet::Impl {
     const json* s = node ? resolve(*node).schema : nullptr;
     if (s && inst && inst->is_object() && s->contains("propertyNames")) {
       const json& names = (*s)["propertyNames"];
+      const std::size_t max_length = names.value("maxLength", std::size_t{4096});
+      for (const auto& [key, _] : inst->items())
+        if (key.size() > max_length)
+          return {pointer, "key of " + std::to_string(key.size()) +
+                               " characters is not valid here: expected " +
+                               names.value("description", "a key") + ", at most " +
+                               std::to_string(max_length) + " characters"};
+      // The parser bounds keys (kMaxJsonStringChars), so std::regex cannot recurse too deep.
       const std::regex re(names.value("pattern", ".*"));
       for (const auto& [key, _] : inst->items())
         if (!std::regex_search(key, re))
@@ -320,6 +328,9 @@ struct SchemaSet::Impl {
         s) {
       return {pointer, "must be " + range_text(*s) + (inst ? ", not " + shown(*inst) : "")};
     }
+    if (d.rfind("String should be no more than", 0) == 0 && s && inst && inst->is_string())
+      return {pointer, "must be at most " + (*s)["maxLength"].dump() + " characters long, not " +
+                           std::to_string(inst->get_ref<const std::string&>().size())};
     if (d.find("no fewer than") != std::string::npos) {
       if (inst && inst->is_string()) return {pointer, "must not be empty"};
       if (inst && inst->is_object()) return {pointer, "must have at least one entry"};

@@ -1,0 +1,253 @@
+#include "results_store.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <tuple>
+
+#include "core/error.h"
+#include "files.h"
+#include "host_facts.h"
+#include "results/results.h"
+#include "trace_writer.h"
+
+namespace rosguard {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+using RunKey = std::pair<std::string, int>;  // (point id, rep)
+
+struct CsvRow {
+  std::size_t order;  // the point's sweep index (unknown ids last)
+  int rep;
+  RunKey key;
+  std::string line;
+};
+
+struct CsvFile {
+  std::string header;  // empty for a missing or empty file
+  std::vector<CsvRow> rows;
+};
+
+// A results CSV (first columns: point, rep) with a torn tail cut; rows without both are skipped.
+CsvFile read_csv(const fs::path& path, const std::map<std::string, std::size_t>& order) {
+  CsvFile out;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return out;
+  truncate_torn_tail(path);
+  const auto lines = split_lines(read_file(path));
+  if (lines.empty()) return out;
+  out.header = lines.front();
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    const auto cells = csv_split(lines[i]);
+    if (cells.size() < 2) continue;
+    const auto it = order.find(cells[0]);
+    int rep = -1;  // a rep that is not a number matches no run
+    std::from_chars(cells[1].data(), cells[1].data() + cells[1].size(), rep);
+    out.rows.push_back(
+        {it == order.end() ? order.size() : it->second, rep, {cells[0], rep}, lines[i]});
+  }
+  std::stable_sort(out.rows.begin(), out.rows.end(), [](const CsvRow& a, const CsvRow& b) {
+    return std::tie(a.order, a.rep) < std::tie(b.order, b.rep);
+  });
+  return out;
+}
+
+void append_under_lock(const fs::path& path, const std::string& data) {
+  AppendFile file(path);
+  file.append(data);
+}
+
+// The folder's status from its shards' entries (see ResultsStore::finish).
+std::string folder_status(const json& shards, bool all_rows) {
+  const auto any = [&](const char* status) {
+    return std::any_of(shards.begin(), shards.end(),
+                       [&](const json& s) { return s.value("status", "") == status; });
+  };
+  if (any("failed")) return "failed";
+  if (all_rows) return "complete";
+  for (const char* s : {"interrupted", "running"})
+    if (any(s)) return s;
+  return "partial";
+}
+
+std::string first_error(const json& shards) {
+  for (const auto& s : shards)
+    if (s.value("status", "") == "failed") return s.value("error", "");
+  return "";
+}
+
+}  // namespace
+
+double number_or_nan(const json& value) {
+  return value.is_null() ? std::numeric_limits<double>::quiet_NaN() : value.get<double>();
+}
+
+ResultsStore::ResultsStore(fs::path dir, std::string header_line,
+                           std::map<std::string, std::size_t> order, int repetitions)
+    : dir_(std::move(dir)),
+      header_line_(std::move(header_line)),
+      order_(std::move(order)),
+      repetitions_(repetitions) {}
+
+void ResultsStore::prepare(bool overwrite, bool joining, const std::string& scenario_hash) const {
+  std::error_code ec;
+  const fs::path manifest = dir_ / "manifest.json";
+  if (!fs::exists(manifest, ec) && !fs::exists(points_path(), ec)) return;
+  if (overwrite) {
+    for (const char* f :
+         {"manifest.json", "points.csv", "samples.csv", "baselines.json", "trace.json", ".lock"})
+      fs::remove(dir_ / f, ec);
+  } else if (!joining) {
+    throw InputError("", "",
+                     "results folder " + dir_.string() +
+                         " already holds a run; pass --resume to continue it, "
+                         "--overwrite to replace it, or choose another --out");
+  } else if (fs::exists(manifest, ec)) {
+    const json m = json::parse(read_file(manifest), nullptr, false);
+    if (!m.is_object() || m.value("scenario_hash", "") != scenario_hash)
+      throw InputError("", "",
+                       "results folder " + dir_.string() +
+                           " holds a different scenario (or other settings); resume "
+                           "only the same scenario, or choose another --out");
+  }
+}
+
+json ResultsStore::read_manifest() const {
+  std::error_code ec;
+  const fs::path path = dir_ / "manifest.json";
+  json m = fs::exists(path, ec) ? json::parse(read_file(path), nullptr, false) : json::object();
+  return m.is_object() ? m : json::object();
+}
+
+// Sorted rows, the first row of each run kept; samples of runs without a row dropped. The caller
+// holds the lock, so no writer is between its two appends.
+std::set<RunKey> ResultsStore::tidy_csv_files() const {
+  const CsvFile points = read_csv(points_path(), order_);
+  if (!points.header.empty() && points.header != header_line_)
+    throw InputError("", "",
+                     points_path().string() +
+                         " has other columns than this scenario produces; resume "
+                         "only the same scenario, or choose another --out");
+  std::set<RunKey> done;
+  std::string text = header_line_ + "\n";
+  for (const auto& row : points.rows)
+    if (done.insert(row.key).second) text += row.line + "\n";
+  write_file_atomic(points_path(), text);
+
+  text = std::string(kSamplesHeader) + "\n";
+  for (const auto& row : read_csv(dir_ / "samples.csv", order_).rows)
+    if (done.count(row.key)) text += row.line + "\n";
+  write_file_atomic(dir_ / "samples.csv", text);
+  return done;
+}
+
+ResultsStore::Opened ResultsStore::open(const json& description, const std::string& shard) {
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec) throw RunError("cannot create results folder " + dir_.string() + ": " + ec.message());
+  FileLock lock(dir_ / ".lock");
+  json m = read_manifest();
+  if (m.contains("scenario_hash") && m["scenario_hash"] != description.at("scenario_hash"))
+    throw InputError("", "",
+                     "results folder " + dir_.string() +
+                         " holds a different scenario (or other settings); resume "
+                         "only the same scenario, or choose another --out");
+  Opened opened;
+  opened.done = tidy_csv_files();
+  const fs::path baselines = dir_ / "baselines.json";
+  if (fs::exists(baselines, ec)) {
+    const json b = json::parse(read_file(baselines), nullptr, false);
+    if (b.is_object()) try {
+        for (const auto& [k, v] : b.items())
+          opened.baselines.put(k, {number_or_nan(v.at("time_us")), number_or_nan(v.at("ipc")),
+                                   number_or_nan(v.at("mbps"))});
+      } catch (const json::exception& e) {
+        throw RunError(baselines.string() + ": not the isolation results rosguard writes (" +
+                       e.what() + "); remove it to measure them again");
+      }
+  }
+  shard_ = shard;
+  m.update(description);
+  m["shard"] = shard;
+  m["end_time"] = nullptr;
+  m["status"] = "running";
+  m["shards"][shard] = {{"status", "running"},
+                        {"command", m.value("command", "")},
+                        {"start_time", m.value("start_time", "")}};
+  if (!m.contains("fallbacks")) m["fallbacks"] = json::array();
+  if (!m.contains("facts")) m["facts"] = json::object();
+  for (const auto& f : m["fallbacks"])
+    opened.fallbacks.emplace(f.value("what", ""), f.value("detail", ""));
+  write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
+  return opened;
+}
+
+void ResultsStore::append_run(const std::string& samples, const std::string& row) const {
+  FileLock lock(dir_ / ".lock");
+  append_under_lock(dir_ / "samples.csv", samples);
+  append_under_lock(points_path(), row);
+}
+
+void ResultsStore::save_baselines(const Baselines& baselines) const {
+  FileLock lock(dir_ / ".lock");
+  std::error_code ec;
+  const fs::path path = dir_ / "baselines.json";
+  json b = fs::exists(path, ec) ? json::parse(read_file(path), nullptr, false) : json::object();
+  if (!b.is_object()) b = json::object();
+  for (const auto& [k, v] : baselines.all())
+    b[k] = {{"time_us", v.time_us}, {"ipc", v.ipc}, {"mbps", v.mbps}};  // NaN is written null
+  write_file_atomic(path, b.dump(2) + "\n");
+}
+
+void ResultsStore::add_trace(const json& events) const {
+  FileLock lock(dir_ / ".lock");
+  write_trace(dir_ / "trace.json", events);
+}
+
+std::size_t ResultsStore::finish(const InvocationReport& report) {
+  FileLock lock(dir_ / ".lock");
+  const std::size_t rows = tidy_csv_files().size();
+  json m = read_manifest();
+  if (!m["fallbacks"].is_array()) m["fallbacks"] = json::array();
+  for (const auto& [what, detail] : report.fallbacks) {
+    const json entry{{"what", what}, {"detail", detail}};
+    if (std::find(m["fallbacks"].begin(), m["fallbacks"].end(), entry) == m["fallbacks"].end())
+      m["fallbacks"].push_back(entry);
+  }
+  for (const auto& [k, v] : report.facts)
+    m["facts"][k] = v;
+  const std::string now = iso_time_now();
+  json& entry = m["shards"][shard_];
+  entry["status"] = report.status;
+  entry["end_time"] = now;
+  entry["rows_this_invocation"] = report.rows;
+  entry["skipped_on_resume"] = report.skipped_on_resume;
+  entry["elapsed_s"] = report.elapsed_s;
+  if (report.error.empty())
+    entry.erase("error");
+  else
+    entry["error"] = report.error;
+
+  const std::size_t expected = order_.size() * static_cast<std::size_t>(repetitions_);
+  m["end_time"] = now;
+  m["status"] = folder_status(m["shards"], rows == expected);
+  if (const std::string error = first_error(m["shards"]); !error.empty())
+    m["error"] = error;
+  else
+    m.erase("error");
+  m["counts"] = {{"points", order_.size()},
+                 {"repetitions", repetitions_},
+                 {"runs_expected", expected},
+                 {"rows", rows},
+                 {"rows_this_invocation", report.rows},
+                 {"skipped_on_resume", report.skipped_on_resume}};
+  m["elapsed_s"] = report.elapsed_s;
+  write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
+  return rows;
+}
+
+}  // namespace rosguard

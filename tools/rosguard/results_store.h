@@ -1,0 +1,94 @@
+// The results folder of a run (docs/design.md, results): manifest.json, points.csv, samples.csv,
+// baselines.json and, with --trace, trace.json.
+//
+// Several writers may use one folder at the same time: shards of one scenario, on one machine
+// or on several sharing it over NFS (Slurm arrays). Every read-modify-write of a shared file
+// happens under an exclusive lock on DIR/.lock (FileLock: a POSIX lock, which NFS forwards to
+// the server, released by the kernel when its holder dies). A run's rows are appended under
+// that lock, samples first and then the point's row, each file opened by its path for every
+// append: a file that another writer replaced (when it sorted at its end) is never written
+// through a stale descriptor, and while nobody holds the lock every row has all its samples.
+// A killed writer leaves at most samples without their row; the next open or finish drops them.
+// Each writer sorts both files when it finishes, so the last one leaves points.csv byte-identical
+// to a single-process run, whatever the shards and their timing.
+// "Not measured" (NaN) is written as null in JSON and read back as NaN.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "backend/backend.h"
+
+namespace rosguard {
+
+// A JSON number, or NaN for null (a value that was not measured).
+double number_or_nan(const nlohmann::json& value);
+
+// What one invocation (one shard, or a whole run) did, for the manifest.
+struct InvocationReport {
+  std::string status;  // "complete" (its tasks all ran), "interrupted" or "failed"
+  std::string error;   // when failed
+  std::size_t rows = 0;
+  std::size_t skipped_on_resume = 0;
+  double elapsed_s = 0.0;
+  std::vector<std::pair<std::string, std::string>> fallbacks;  // (what, detail)
+  std::map<std::string, std::string> facts;
+};
+
+class ResultsStore {
+ public:
+  // `header_line`: points.csv's header for this scenario; `order`: point id -> sweep index (the
+  // canonical row order, one entry per point of the scenario); `repetitions` per point.
+  ResultsStore(std::filesystem::path dir, std::string header_line,
+               std::map<std::string, std::size_t> order, int repetitions);
+
+  const std::filesystem::path& dir() const { return dir_; }
+  std::filesystem::path points_path() const { return dir_ / "points.csv"; }
+
+  // Before anything is written: a folder that holds a run may be joined (`joining`: --resume or
+  // --shard) only by the same scenario (`scenario_hash`), or emptied first with `overwrite`.
+  // Throws InputError otherwise.
+  void prepare(bool overwrite, bool joining, const std::string& scenario_hash) const;
+
+  struct Opened {
+    std::set<std::pair<std::string, int>> done;  // (point id, rep) rows already written
+    Baselines baselines;                         // isolation results already measured
+    std::set<std::pair<std::string, std::string>> fallbacks;  // already in the manifest
+  };
+  // Creates the folder and, under the lock: checks the scenario hash and points.csv's header
+  // (InputError, nothing written), tidies both CSV files, reads what is already done, and
+  // writes the manifest: `description` merged over it, this invocation's `shard` ("I/N")
+  // marked running.
+  Opened open(const nlohmann::json& description, const std::string& shard);
+
+  // Appends one run's samples.csv lines and its points.csv row.
+  void append_run(const std::string& samples, const std::string& row) const;
+  // Merges `baselines` into baselines.json.
+  void save_baselines(const Baselines& baselines) const;
+  // Adds trace events to trace.json.
+  void add_trace(const nlohmann::json& events) const;
+
+  // Under the lock: sorts both CSV files and merges `report` into the manifest (this shard's
+  // entry, fallbacks, facts, counts, and the folder's status: complete once every run of the
+  // scenario has its row, else failed / interrupted / running when a shard says so, else
+  // partial). Returns the rows now in points.csv.
+  std::size_t finish(const InvocationReport& report);
+
+ private:
+  std::set<std::pair<std::string, int>> tidy_csv_files() const;
+  nlohmann::json read_manifest() const;
+
+  std::filesystem::path dir_;
+  std::string header_line_;
+  std::map<std::string, std::size_t> order_;
+  int repetitions_;
+  std::string shard_;
+};
+
+}  // namespace rosguard

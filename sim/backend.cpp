@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "policy/rules.h"
 
 namespace rosguard::sim {
 namespace {
@@ -96,7 +97,8 @@ RunConfig isolation_config(const Scenario& s, const WorkloadInfo& workload, int 
   return cfg;
 }
 
-RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint64_t seed) {
+RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint64_t seed,
+                       const PolicyRegistry& policies) {
   RunConfig cfg = base_config(s, seed);
   for (std::size_t i = 0; i < s.nodes.rt.size(); ++i) {
     const RtNodeSpec& n = s.nodes.rt[i];
@@ -118,7 +120,7 @@ RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint
     cfg.nrt.push_back(std::move(r));
   }
   const RegulationSpec& reg = s.regulation;
-  cfg.policy = reg.policy;
+  cfg.policy = policies.at(reg.policy);
   cfg.policy_params.threshold_pct = reg.threshold_pct;
   cfg.policy_params.reference_mbps = reg.reference_mbps;
   cfg.policy_params.regulation_period_ns = reg.regulation_period_us * kNsPerUs;
@@ -136,21 +138,9 @@ void SimBackend::validate(const Scenario& s) const {
   for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
     profile_of(s, s.nodes.nrt[i].workload, "/nodes/nrt/" + std::to_string(i));
 
-  const auto shares = [&](int core) {
-    for (const auto& n : s.nodes.rt)
-      if (n.core == core) return n.name;
-    for (const auto& n : s.nodes.nrt)
-      if (n.core == core) return n.name;
-    return std::string();
-  };
-  if (const std::string other = shares(s.nodes.controller_core); !other.empty())
-    throw InputError(s.file, "/nodes/controller/core",
-                     "the sim backend models the controller on a dedicated core, and core " +
-                         std::to_string(s.nodes.controller_core) + " also runs node '" + other +
-                         "'; give the controller a core of its own");
-
   const RegulationSpec& r = s.regulation;
-  const bool samples = r.policy != "none" && !s.nodes.nrt.empty();
+  check_policy(s, policies_);
+  const bool samples = policies_.at(r.policy).traits.regulates && !s.nodes.nrt.empty();
   if (samples && r.sampling == Sampling::Self) {
     const double cost_us =
         platform.costs.pmc_callback.upper_bound() + platform.costs.publish.upper_bound();
@@ -184,7 +174,7 @@ PointOutcome SimBackend::run_point(const Scenario& s, const Baselines& baselines
     const auto& first = s.nodes.rt.front();
     window = us_to_ns(baselines.at(s, first.workload, first.core).time_us);
   }
-  RunConfig cfg = point_config(s, window, seed);
+  RunConfig cfg = point_config(s, window, seed, policies_);
   cfg.trace = ctx.trace();
   cfg.stop_requested = [&ctx] { return ctx.stop_requested(); };
   record_facts(ctx, cfg);

@@ -12,6 +12,8 @@ namespace rosguard::sim {
 
 class SimBackend : public Backend {
  public:
+  // `policies` (the run's registry, filled in main) must outlive the backend.
+  explicit SimBackend(const PolicyRegistry& policies) : policies_(policies) {}
   std::string_view name() const override { return "sim"; }
   bool process_per_task() const override { return true; }
   void validate(const Scenario& point) const override;
@@ -19,11 +21,15 @@ class SimBackend : public Backend {
                             std::uint64_t seed, RunContext& ctx) override;
   PointOutcome run_point(const Scenario& point, const Baselines& baselines, int rep,
                          std::uint64_t seed, RunContext& ctx) override;
+
+ private:
+  const PolicyRegistry& policies_;
 };
 
 // The simulation a point describes (used by run_point, and by tests that need the full report).
 // `monolithic_window_ns` is the first RT node's isolation time (monolithic policy only).
-RunConfig point_config(const Scenario& point, TimeNs monolithic_window_ns, std::uint64_t seed);
+RunConfig point_config(const Scenario& point, TimeNs monolithic_window_ns, std::uint64_t seed,
+                       const PolicyRegistry& policies);
 // The isolation run of `workload` on `core` under `scenario`'s platform and settings.
 RunConfig isolation_config(const Scenario& scenario, const WorkloadInfo& workload, int core,
                            std::uint64_t seed);

@@ -2,9 +2,11 @@
 #pragma once
 
 #include "backend/backend.h"
+#include "policy/policy.h"
 
 namespace rosguard::sim {
 
-void register_builtin(BackendRegistry& registry);
+// Adds the "sim" backend; it runs the policies of `policies`, which must outlive `registry`.
+void register_builtin(BackendRegistry& registry, const PolicyRegistry& policies);
 
 }  // namespace rosguard::sim

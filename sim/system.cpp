@@ -6,6 +6,7 @@
 #include <systemc>
 
 #include "core/error.h"
+#include "engine/outcome.h"
 #include "kernel/runtime.h"
 #include "metric/metric.h"
 #include "nodes/controller.h"
@@ -49,17 +50,14 @@ class Top : public sc_core::sc_module {
       rc.rt_count = std::max<std::size_t>(1, cfg.rt.size());
       rc.account_of_entity = accounts_for_scope(cfg.scope, cfg.nrt.size());
       rc.metric = cfg.metric;
-      PolicyRegistry policies;
-      register_builtin(policies);
+      if (!cfg.policy.make) throw ContractError("a regulated simulation needs a policy");
       auto regulator =
-          std::make_unique<Regulator>(std::move(rc), policies.make(cfg.policy, cfg.policy_params));
+          std::make_unique<Regulator>(std::move(rc), cfg.policy.make(cfg.policy_params));
       ControllerConfig cc;
       cc.core = cfg.controller_core;
       cc.sampling = cfg.sampling;
       cc.sampling_period_ns = cfg.sampling_period_ns;
-      cc.regulation_period_ns = cfg.policy_params.regulation_period_ns;
-      cc.periodic_windows = regulator->policy().window_end(0).has_value();
-      cc.line_bytes = cfg.metric.line_bytes;
+      cc.line_bytes = cfg.platform.line_bytes;
       cc.metric_events = events;
       controller_ = std::make_unique<Controller>("controller", std::move(cc), std::move(regulator),
                                                  cfg.platform.costs, cfg.seed, bus_, rt_, rec_);
@@ -80,7 +78,10 @@ class Top : public sc_core::sc_module {
       nrt_.push_back(std::make_unique<NrtNodeModel>(n.name.c_str(), std::move(nc), n.profile,
                                                     cfg.platform.costs, cfg.seed, core(n.core),
                                                     bus_, *controller_, rt_, rec_));
-      controller_->add_nrt(nrt_.back().get());
+      NrtNodeModel* node = nrt_.back().get();
+      controller_->add_entity({n.name,
+                               [node](Command c, TimeNs cause) { node->on_command(c, cause); },
+                               [node]() -> const Pmu& { return node->core().pmu(); }});
       nrt_.back()->on_done([this](TimeNs t) { nrt_done(t); });
     }
     for (std::size_t i = 0; i < cfg.rt.size(); ++i) {
@@ -93,6 +94,8 @@ class Top : public sc_core::sc_module {
       rt_nodes_.back()->on_done([this](TimeNs t) { rt_done(t); });
       if (cfg.isolation) break;
     }
+    if (controller_ && cores_.count(cfg.controller_core))
+      controller_->run_on(&core(cfg.controller_core));  // shared with a node, as on a 2-core host
     SC_METHOD(begin);
   }
 
@@ -177,7 +180,7 @@ class Top : public sc_core::sc_module {
     for (auto& n : nrt_)
       if (!n->config().loop && !n->done()) return;
     if (controller_ && controller_->active()) return;
-    if (rt_nodes_.empty() && controller_ && controller_->activations() == 0) return;
+    if (rt_nodes_.empty() && controller_ && controller_->driver().totals().activations == 0) return;
     ended_ = true;
     end_ns_ = now;
     for (auto& n : nrt_)
@@ -186,48 +189,46 @@ class Top : public sc_core::sc_module {
     rt_.stop();
   }
 
+  // What the sim measured of nRT node i: runs over the RT window (first RT job start -> last RT
+  // job end), traffic over the regulation-active time (the whole run when never active).
+  NrtMeasure measure(std::size_t i) {
+    NrtNodeModel& n = *nrt_[i];
+    NrtMeasure m;
+    m.name = n.config().name;
+    m.once = !n.config().loop;
+    m.freq_hz = cfg_.platform.freq_mhz * 1e6;
+    if (m.once) {
+      m.runs = 1.0;
+      if (n.done()) m.once_ns = static_cast<double>(n.finished_at());
+    } else {
+      m.window_ns = rt_window_end_ - rt_window_start_;
+      m.runs = (retired_end_.at(i) - retired_start_.at(i)) / n.profile().instructions;
+    }
+    if (controller_ && controller_->driver().totals().activations > 0) {
+      m.traffic = controller_->driver().totals().active[i];
+      m.traffic_ns = controller_->driver().totals().active_ns;
+    } else {
+      const Pmu& p = n.core().pmu();
+      m.traffic = {p.l3_accesses() * cfg_.platform.line_bytes, p[PmuEvent::CpuCycles], 0.0};
+      m.traffic_ns = end_ns_;
+    }
+    return m;
+  }
+
   SimReport report() {
     SimReport rep;
     rep.end_ns = end_ns_;
-    const double f_hz = cfg_.platform.freq_mhz * 1e6;
-    const double line = cfg_.platform.line_bytes;
     for (auto& r : rt_nodes_) {
-      RtOutcome o;
-      o.name = r->config().name;
-      double sum = 0.0;
+      std::vector<double> job_ns;
       for (const auto& j : r->jobs())
-        sum += static_cast<double>(j.end - j.start);
-      o.jobs = static_cast<int>(r->jobs().size());
-      o.time_us = o.jobs ? sum / o.jobs / 1e3 : 0.0;
-      rep.outcome.rt.push_back(o);
+        job_ns.push_back(static_cast<double>(j.end - j.start));
+      rep.outcome.rt.push_back(rt_outcome(r->config().name, job_ns));
       rep.rt_jobs.push_back(r->jobs());
     }
-    for (std::size_t i = 0; i < nrt_.size(); ++i) {
-      NrtNodeModel& n = *nrt_[i];
-      NrtOutcome o;
-      o.name = n.config().name;
-      const double instructions = n.profile().instructions;
-      if (n.config().loop) {
-        const double window = static_cast<double>(rt_window_end_ - rt_window_start_);
-        o.runs = (retired_end_.at(i) - retired_start_.at(i)) / instructions;
-        o.time_us = o.runs > 0 ? window / o.runs / 1e3 : HUGE_VAL;
-      } else {
-        o.runs = 1.0;
-        o.time_us = static_cast<double>(n.finished_at()) / 1e3;
-      }
-      if (controller_ && controller_->activations() > 0) {
-        o.bandwidth_mbps =
-            eq1_mbps(line, f_hz, controller_->active_l3(i), controller_->active_cycles(i));
-      } else {
-        const Pmu& p = n.core().pmu();
-        o.bandwidth_mbps = eq1_mbps(line, f_hz, p.l3_accesses(), p[PmuEvent::CpuCycles]);
-      }
-      o.throttle_count = n.throttles();
-      o.throttled_us = static_cast<double>(n.throttled_ns()) / 1e3;
-      rep.outcome.nrt.push_back(o);
-    }
+    for (std::size_t i = 0; i < nrt_.size(); ++i)
+      rep.outcome.nrt.push_back(nrt_outcome(measure(i), nrt_[i]->driver()));
     rep.outcome.samples = std::move(rec_.samples);
-    rep.windows = std::move(rec_.windows);
+    if (controller_) rep.windows = controller_->driver().windows();
     rep.activations = rt_.activations();
     rep.memory_resolves = memory_.resolves();
     rep.memory_solves = memory_.solves();
@@ -271,8 +272,11 @@ IsolationResult isolation_of(const SimReport& report, const SimPlatform& platfor
   const JobStats& j = report.rt_jobs.at(0).at(0);
   IsolationResult r;
   r.time_us = static_cast<double>(j.end - j.start) / 1e3;
-  r.ipc = j.cycles > 0 ? j.instructions / j.cycles : 0.0;
-  r.mbps = eq1_mbps(platform.line_bytes, platform.freq_mhz * 1e6, j.l3_accesses, j.cycles);
+  // No cycle counted (an empty job): IPC and bandwidth are not applicable, not zero.
+  r.ipc = j.cycles > 0 ? j.instructions / j.cycles : not_applicable();
+  r.mbps = j.cycles > 0
+               ? eq1_mbps(platform.line_bytes, platform.freq_mhz * 1e6, j.l3_accesses, j.cycles)
+               : not_applicable();
   return r;
 }
 

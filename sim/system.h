@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "backend/backend.h"
+#include "engine/controller_driver.h"
 #include "nodes/recorder.h"
 #include "nodes/rt_node.h"
 #include "platform/sim_platform.h"
@@ -45,7 +46,7 @@ struct RunConfig {
   std::vector<NrtSpec> nrt;
   // Isolation: the first RT node alone, no controller and no regulation.
   bool isolation = false;
-  std::string policy = "none";
+  PolicyInfo policy;  // from the run's policy registry (point_config)
   PolicyParams policy_params;
   Sampling sampling = Sampling::Self;
   TimeNs sampling_period_ns = 1'000'000;

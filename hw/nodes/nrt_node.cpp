@@ -55,6 +55,7 @@ NrtRunner::NrtRunner(NrtConfig config, const WorkloadInfo& workload, const PmcSo
       origin_(origin),
       track_state_(cfg_.name + " state"),
       track_thr_(cfg_.name + " THR"),
+      driver_(cfg_.sampling, cfg_.watchdog_ns),
       cfb_trace_(cfg_.trace),
       thr_trace_(cfg_.trace),
       pmc_trace_(cfg_.trace) {
@@ -135,11 +136,27 @@ std::vector<SchedOutcome> NrtRunner::outcomes() const {
   return out;
 }
 
-// CFB: applies commands to the state machine, starts the throttle, runs the watchdog.
+void NrtRunner::apply_effects(const NrtEffects& fx, TimeNs now, TimeNs& state_since) {
+  if (fx.activation_delay_ns) activation_us_.push_back(ns_to_us(*fx.activation_delay_ns));
+  if (fx.transition.changed()) {
+    cfb_trace_.span(state_since - origin_, now - origin_, cfg_.core, &track_state_,
+                    state_name(fx.transition.from));
+    state_since = now;
+    state_.store(fx.transition.to, std::memory_order_release);
+  }
+  if (fx.throttle) thr_waker_.notify();  // the zero-time timer
+  if (fx.baseline) {
+    sample_now_.store(true, std::memory_order_release);  // a new activation: new baseline
+    pmc_waker_.notify();
+  } else if (fx.resume) {
+    pmc_waker_.notify();  // a period that ended while throttled runs now
+  }
+}
+
+// CFB: hands commands to the nRT engine and carries out its effects; runs the watchdog.
 void NrtRunner::cfb_main() {
-  NrtNode node(cfg_.sampling);
-  TimeNs last_heard = now_ns();
-  TimeNs state_since = last_heard;
+  TimeNs state_since = now_ns();
+  driver_.heard(state_since);
   while (!stop_.load(std::memory_order_acquire)) {
     const auto epoch = cfb_waker_.epoch();
     ControlMsg m;
@@ -147,49 +164,26 @@ void NrtRunner::cfb_main() {
     while (control_.take(control_sub_, m)) {
       got = true;
       const TimeNs now = now_ns();
-      last_heard = now;
+      driver_.heard(now);
       if (m.kind == ControlMsg::Kind::Keepalive) continue;
-      const Transition tr = node.apply(m.command);
       cfb_trace_.instant(now - origin_, cfg_.core, &track_state_, to_string(m.command).data());
-      if (!tr.changed()) {
-        if (m.command == Command::On && cfg_.sampling == Sampling::Self) {
-          sample_now_.store(true, std::memory_order_release);  // a new activation: new baseline
-          pmc_waker_.notify();
-        }
-        continue;
-      }
-      cfb_trace_.span(state_since - origin_, now - origin_, cfg_.core, &track_state_,
-                      state_name(tr.from));
-      state_since = now;
-      if (tr.to == NodeState::Thr) thr_cause_.store(m.t_cause, std::memory_order_relaxed);
-      state_.store(tr.to, std::memory_order_release);
-      if (tr.to == NodeState::Thr) thr_waker_.notify();  // the zero-time timer
-      if (m.command == Command::On && cfg_.sampling == Sampling::Self) {
-        sample_now_.store(true, std::memory_order_release);
-        pmc_waker_.notify();
-      } else if (tr.to == NodeState::On && cfg_.sampling == Sampling::Self) {
-        pmc_waker_.notify();
-      }
+      apply_effects(driver_.command(now, m.command, m.t_cause), now, state_since);
     }
     if (stop_.load(std::memory_order_acquire)) break;
     if (got) continue;
-    const bool active = node.state() != NodeState::Off;
-    const TimeNs deadline = active ? last_heard + cfg_.watchdog_ns : -1;
-    if (!cfb_waker_.wait(epoch, deadline) && active && now_ns() >= deadline) {
+    const auto deadline = driver_.watchdog_deadline();
+    if (!cfb_waker_.wait(epoch, deadline.value_or(-1)) && deadline && now_ns() >= *deadline) {
       // The controller has been silent too long: back to nominal on our own.
       const TimeNs now = now_ns();
-      const Transition tr = node.apply(Command::Off);
-      cfb_trace_.span(state_since - origin_, now - origin_, cfg_.core, &track_state_,
-                      state_name(tr.from));
+      const NrtEffects fx = driver_.watchdog(now);
       cfb_trace_.instant(now - origin_, cfg_.core, &track_state_, "watchdog: back to nominal");
-      state_since = now;
-      state_.store(NodeState::Off, std::memory_order_release);
-      ++watchdog_fired_;
+      apply_effects(fx, now, state_since);
     }
   }
   const TimeNs now = now_ns();
+  driver_.finish(now);
   cfb_trace_.span(state_since - origin_, now - origin_, cfg_.core, &track_state_,
-                  state_name(node.state()));
+                  state_name(driver_.state()));
   state_.store(NodeState::Off, std::memory_order_release);
 }
 
@@ -200,15 +194,10 @@ void NrtRunner::thr_main() {
     const auto epoch = thr_waker_.epoch();
     if (state_.load(std::memory_order_acquire) == NodeState::Thr) {
       const TimeNs enter = now_ns();
-      const TimeNs cause = thr_cause_.load(std::memory_order_relaxed);
-      if (cause > 0) activation_us_.push_back(ns_to_us(enter - cause));
-      ++throttles_;
       while (state_.load(std::memory_order_relaxed) == NodeState::Thr &&
              !stop_.load(std::memory_order_relaxed))
         cpu_relax();
-      const TimeNs leave = now_ns();
-      throttled_ns_ += leave - enter;
-      thr_trace_.span(enter - origin_, leave - origin_, cfg_.core, &track_thr_, "THR");
+      thr_trace_.span(enter - origin_, now_ns() - origin_, cfg_.core, &track_thr_, "THR");
       continue;
     }
     thr_waker_.wait(epoch, -1);
@@ -244,26 +233,24 @@ void NrtRunner::take_sample(bool periodic, TimeNs& cpu_mark) {
   }
 }
 
-// PMC (self-sampling): a baseline sample at every ON, then one per sampling period while ON.
+// PMC (self-sampling): a baseline sample at every ON, then one per sampling period while ON
+// (a period that ended while throttled runs once when the node is ON again).
 void NrtRunner::pmc_main() {
-  TimeNs next = -1;
+  SampleSchedule schedule(cfg_.sampling_period_ns);
   TimeNs cpu_mark = 0;
   while (!stop_.load(std::memory_order_acquire)) {
     const auto epoch = pmc_waker_.epoch();
     if (sample_now_.exchange(false, std::memory_order_acq_rel)) {
       take_sample(false, cpu_mark);
-      next = now_ns() + cfg_.sampling_period_ns;
+      schedule.restart(now_ns());
       continue;
     }
-    if (state_.load(std::memory_order_acquire) == NodeState::On && next >= 0) {
-      const TimeNs now = now_ns();
-      if (now >= next) {
+    if (state_.load(std::memory_order_acquire) == NodeState::On && schedule.next()) {
+      if (schedule.elapsed(now_ns(), true)) {
         take_sample(true, cpu_mark);
-        next += cfg_.sampling_period_ns;
-        if (next <= now) next = now + cfg_.sampling_period_ns;  // missed periods are skipped
         continue;
       }
-      pmc_waker_.wait(epoch, next);
+      pmc_waker_.wait(epoch, *schedule.next());
       continue;
     }
     overhead_periods_ = 0;  // a period spent throttled or off is not sampling overhead

@@ -7,10 +7,11 @@
 //   run the workload; end_loop() stops a loop-mode workload; shutdown() (also run by the
 //   destructor, on every exit path) forces the node to nominal, stops and joins every thread and
 //   kills an external command. No thread of the node is left spinning or under SCHED_FIFO.
-// - CFB alone owns the NrtNode state machine (model/node/nrt_node.h); other threads see its
-//   state through an atomic copy. THR is started by CFB through a futex wake (the paper's zero-
-//   time timer) and spins until the state leaves THR: CFB, a higher priority on the same core,
-//   preempts the spinner when REPLENISH / OFF / ON arrives.
+// - CFB alone owns the nRT engine (model/engine/nrt_driver.h: the state machine, its side
+//   effects, the throttle bookkeeping and the watchdog); other threads see its state through an
+//   atomic copy. THR is started by CFB through a futex wake (the paper's zero-time timer) and
+//   spins until the state leaves THR: CFB, a higher priority on the same core, preempts the
+//   spinner when REPLENISH / OFF / ON arrives. PMC owns the sampling period (SampleSchedule).
 // - Watchdog: when the node is not OFF and the controller (commands or keepalives) has been
 //   silent for watchdog_ns, CFB returns the node to nominal (OFF) by itself.
 // - Results (observations, trace, counts) are read by the engine after shutdown().
@@ -21,13 +22,13 @@
 #include <string>
 #include <vector>
 
+#include "engine/nrt_driver.h"
 #include "hw/common/sys.h"
 #include "hw/executor/executor.h"
 #include "hw/nodes/messages.h"
 #include "hw/pmc_source/pmc_source.h"
 #include "hw/topic/topic.h"
 #include "hw/workload/workload.h"
-#include "node/nrt_node.h"
 #include "scenario/scenario.h"
 
 namespace rosguard::hw {
@@ -94,9 +95,10 @@ class NrtRunner {
 
   // After shutdown():
   std::vector<SchedOutcome> outcomes() const;
-  std::uint64_t throttles() const { return throttles_; }
-  TimeNs throttled_ns() const { return throttled_ns_; }
-  std::uint64_t watchdog_fired() const { return watchdog_fired_; }
+  const NrtDriver& driver() const { return driver_; }
+  std::uint64_t throttles() const { return driver_.throttles(); }
+  TimeNs throttled_ns() const { return driver_.throttled_ns(); }
+  std::uint64_t watchdog_fired() const { return driver_.watchdog_fired(); }
   double once_time_us() const { return once_time_us_; }
   double once_fraction() const { return once_fraction_; }
   const std::vector<double>& activation_delays_us() const { return activation_us_; }
@@ -114,6 +116,7 @@ class NrtRunner {
   void nct_main();
   void nct_command();
   void take_sample(bool periodic, TimeNs& cpu_mark);
+  void apply_effects(const NrtEffects& fx, TimeNs now, TimeNs& state_since);
 
   NrtConfig cfg_;
   const WorkloadInfo& workload_;
@@ -134,7 +137,6 @@ class NrtRunner {
   Waker cfb_waker_, thr_waker_, pmc_waker_, nct_waker_;
   Fd stop_fd_;  // eventfd: wakes an NCT thread waiting on an external command
   std::atomic<NodeState> state_{NodeState::Off};
-  std::atomic<TimeNs> thr_cause_{0};
   std::atomic<bool> stop_{false};
   std::atomic<bool> begun_{false};
   std::atomic<bool> nct_stop_{false};
@@ -144,9 +146,7 @@ class NrtRunner {
   bool shut_ = false;
 
   // Written by one thread each, read after join.
-  std::uint64_t throttles_ = 0;
-  TimeNs throttled_ns_ = 0;
-  std::uint64_t watchdog_fired_ = 0;
+  NrtDriver driver_;  // CFB thread
   double once_time_us_ = 0.0;
   double once_fraction_ = 0.0;
   static constexpr int kOverheadPeriods = 10;

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "core/error.h"
 #include "core/hash.h"
 
 namespace rosguard {
@@ -20,7 +21,7 @@ const IsolationResult& Baselines::at(const Scenario& s, const WorkloadInfo& work
                                      int core) const {
   const std::string k = key(s, workload, core);
   auto it = by_key_.find(k);
-  if (it == by_key_.end()) throw std::out_of_range("no isolation baseline for " + k);
+  if (it == by_key_.end()) throw RunError("no isolation baseline for " + k);
   return it->second;
 }
 

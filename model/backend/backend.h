@@ -36,7 +36,7 @@ class Baselines {
   // its result (platform, backend and backend settings).
   static std::string key(const Scenario& scenario, const WorkloadInfo& workload, int core);
   void put(const std::string& key, IsolationResult result) { by_key_[key] = result; }
-  // Throws std::out_of_range naming the missing key.
+  // Throws RunError naming the missing key.
   const IsolationResult& at(const Scenario& scenario, const WorkloadInfo& workload, int core) const;
   const std::map<std::string, IsolationResult>& all() const { return by_key_; }
 

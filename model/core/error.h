@@ -40,6 +40,13 @@ class RunError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A caller broke an interface's contract (time going backwards, an entity or RT node that does
+// not exist, a policy without a positive period): a bug in the host, not bad input. Exit code 1.
+class ContractError : public std::logic_error {
+ public:
+  using std::logic_error::logic_error;
+};
+
 // A task stopped early because the user asked (SIGINT / SIGTERM); its partial result is dropped.
 class Interrupted : public std::runtime_error {
  public:

@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/error.h"
+
 namespace rosguard {
 
 template <class Info>
@@ -18,8 +20,7 @@ class Registry {
   explicit Registry(std::string kind) : kind_(std::move(kind)) {}
 
   void add(Info info) {
-    if (find(info.name) != nullptr)
-      throw std::logic_error(kind_ + " registered twice: " + info.name);
+    if (find(info.name) != nullptr) throw ContractError(kind_ + " registered twice: " + info.name);
     entries_.push_back(std::move(info));
   }
   const Info* find(std::string_view name) const {

@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "core/error.h"
 #include "core/types.h"
 
 namespace rosguard {
@@ -21,15 +22,15 @@ double scaled_delta(const CounterValue& prev, const CounterValue& cur, unsigned 
 }
 
 Metric::Metric(MetricSpec spec) : spec_(std::move(spec)) {
-  if (spec_.events.empty()) throw std::invalid_argument("metric needs at least one event");
+  if (spec_.events.empty()) throw ContractError("metric needs at least one event");
   if (spec_.counter_bits == 0 || spec_.counter_bits > 64)
-    throw std::invalid_argument("counter_bits must be in [1, 64]");
+    throw ContractError("counter_bits must be in [1, 64]");
 }
 
 double Metric::delta_bytes(std::span<const CounterValue> prev,
                            std::span<const CounterValue> cur) const {
   if (prev.size() != spec_.events.size() || cur.size() != spec_.events.size())
-    throw std::invalid_argument("counter group size does not match the metric's events");
+    throw ContractError("counter group size does not match the metric's events");
   double lines = 0.0;
   for (std::size_t i = 0; i < cur.size(); ++i)
     lines += spec_.events[i].weight * scaled_delta(prev[i], cur[i], spec_.counter_bits);

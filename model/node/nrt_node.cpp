@@ -14,22 +14,6 @@ std::string_view to_string(NodeState s) {
   return "?";
 }
 
-std::string_view to_string(Callback c) {
-  switch (c) {
-    case Callback::None:
-      return "idle";
-    case Callback::Cfb:
-      return "CFB";
-    case Callback::Thr:
-      return "THR";
-    case Callback::Pmc:
-      return "PMC";
-    case Callback::Nct:
-      return "NCT";
-  }
-  return "?";
-}
-
 Transition NrtNode::apply(Command command) {
   const NodeState from = state_;
   switch (command) {
@@ -47,14 +31,6 @@ Transition NrtNode::apply(Command command) {
       break;
   }
   return {from, state_};
-}
-
-Callback NrtNode::dispatch(bool command_pending, bool sample_due, bool work_ready) const {
-  if (command_pending) return Callback::Cfb;
-  if (state_ == NodeState::Thr) return Callback::Thr;
-  if (sample_due && sampling_enabled()) return Callback::Pmc;
-  if (work_ready) return Callback::Nct;
-  return Callback::None;
 }
 
 }  // namespace rosguard

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/error.h"
 #include "metric/metric.h"
 #include "policy/policy.h"
 
@@ -36,8 +37,8 @@ class MonitorPolicy : public Policy {
 std::unique_ptr<Policy> make_monitor_policy(const PolicyParams& params) {
   // A window that ends where it starts would never let the regulator's catch-up loop finish.
   if (params.regulation_period_ns <= 0)
-    throw std::invalid_argument("monitor policy: the regulation period must be positive, not " +
-                                std::to_string(params.regulation_period_ns) + " ns");
+    throw ContractError("monitor policy: the regulation period must be positive, not " +
+                        std::to_string(params.regulation_period_ns) + " ns");
   return std::make_unique<MonitorPolicy>(params);
 }
 

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/error.h"
 #include "metric/metric.h"
 #include "policy/policy.h"
 
@@ -34,9 +35,8 @@ class MonolithicPolicy : public Policy {
 std::unique_ptr<Policy> make_monolithic_policy(const PolicyParams& params) {
   // The window is the RT node's isolation time; without it the budget would be zero.
   if (params.monolithic_window_ns <= 0)
-    throw std::invalid_argument(
-        "monolithic policy: the RT execution window must be positive, not " +
-        std::to_string(params.monolithic_window_ns) + " ns");
+    throw ContractError("monolithic policy: the RT execution window must be positive, not " +
+                        std::to_string(params.monolithic_window_ns) + " ns");
   return std::make_unique<MonolithicPolicy>(params);
 }
 

@@ -55,9 +55,19 @@ void open_accounts(std::span<Account> accounts, TimeNs start, double budget);
 
 using PolicyFactory = std::function<std::unique_ptr<Policy>(const PolicyParams&)>;
 
+// What a policy is, known without its parameters. Scenario checks and the backends ask these
+// instead of comparing policy names.
+struct PolicyTraits {
+  bool regulates = true;         // false: no ON / OFF, no sampling: the unregulated co-run
+  bool throttles = true;         // false: samples and accounts, never throttles (monitor)
+  bool periodic_windows = true;  // a budget per regulation period; false: one per RT execution
+  bool needs_rt = false;         // the budget is sized from the first RT node's isolation time
+};
+
 struct PolicyInfo {
   std::string name;
   std::string description;
+  PolicyTraits traits;
   PolicyFactory make;
 };
 
@@ -65,11 +75,16 @@ struct PolicyInfo {
 class PolicyRegistry : public Registry<PolicyInfo> {
  public:
   PolicyRegistry() : Registry("policy") {}
-  // Throws std::out_of_range naming the known policies.
+  // Throws InputError (/regulation/policy) naming the known policies.
+  const PolicyInfo& at(std::string_view name) const;
   std::unique_ptr<Policy> make(std::string_view name, const PolicyParams& params) const;
 };
 
-// Adds interval, monolithic, monitor and none.
+// The built-in policies, defined once: interval, monolithic, monitor and none.
+const std::vector<PolicyInfo>& builtin_policies();
+// A built-in policy by name, or null.
+const PolicyInfo* find_builtin_policy(std::string_view name);
+// Adds the built-in policies.
 void register_builtin(PolicyRegistry& registry);
 
 // The built-in policies, also usable without a registry (tests, benchmarks).

@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/error.h"
+
 namespace rosguard {
 
 std::vector<std::size_t> accounts_for_scope(Scope scope, std::size_t entities) {
@@ -18,7 +20,7 @@ Regulator::Regulator(RegulatorConfig config, std::unique_ptr<Policy> policy)
     : metric_(std::move(config.metric)),
       policy_(std::move(policy)),
       rt_running_(config.rt_count, false) {
-  if (!policy_) throw std::invalid_argument("regulator needs a policy");
+  if (!policy_) throw ContractError("regulator needs a policy");
   std::size_t account_count = 0;
   for (std::size_t a : config.account_of_entity)
     account_count = std::max(account_count, a + 1);
@@ -32,14 +34,13 @@ Regulator::Regulator(RegulatorConfig config, std::unique_ptr<Policy> policy)
     members_[a].push_back(e);
   }
   for (std::size_t a = 0; a < account_count; ++a)
-    if (members_[a].empty())
-      throw std::invalid_argument("account " + std::to_string(a) + " has no entity");
+    if (members_[a].empty()) throw ContractError("account " + std::to_string(a) + " has no entity");
 }
 
 void Regulator::check_time(TimeNs t) {
   if (t < now_)
-    throw std::invalid_argument("regulator input at t=" + std::to_string(t) +
-                                " ns is earlier than the previous one at " + std::to_string(now_));
+    throw ContractError("regulator input at t=" + std::to_string(t) +
+                        " ns is earlier than the previous one at " + std::to_string(now_));
   now_ = t;
 }
 
@@ -62,8 +63,8 @@ void Regulator::send(TimeNs t, std::size_t entity, Command c, Commands& out) {
 }
 
 void Regulator::rt_started(TimeNs t, std::size_t rt, Commands& out) {
-  if (rt >= rt_running_.size()) throw std::out_of_range("no RT node " + std::to_string(rt));
-  if (rt_running_[rt]) throw std::logic_error("RT node " + std::to_string(rt) + " started twice");
+  if (rt >= rt_running_.size()) throw ContractError("no RT node " + std::to_string(rt));
+  if (rt_running_[rt]) throw ContractError("RT node " + std::to_string(rt) + " started twice");
   check_time(t);
   advance(t, out);
   rt_running_[rt] = true;
@@ -81,8 +82,8 @@ void Regulator::rt_started(TimeNs t, std::size_t rt, Commands& out) {
 }
 
 void Regulator::rt_finished(TimeNs t, std::size_t rt, Commands& out) {
-  if (rt >= rt_running_.size()) throw std::out_of_range("no RT node " + std::to_string(rt));
-  if (!rt_running_[rt]) throw std::logic_error("RT node " + std::to_string(rt) + " not running");
+  if (rt >= rt_running_.size()) throw ContractError("no RT node " + std::to_string(rt));
+  if (!rt_running_[rt]) throw ContractError("RT node " + std::to_string(rt) + " not running");
   check_time(t);
   rt_running_[rt] = false;
   // The last finish ends the activation: OFF alone, no REPLENISH of a boundary at the same t.
@@ -123,18 +124,19 @@ void Regulator::advance(TimeNs t, Commands& out) {
 
 void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValue> counters,
                        Commands& out, std::optional<TimeNs> measured_at) {
-  Entity& ent = entities_.at(entity);
+  if (entity >= entities_.size()) throw ContractError("no entity " + std::to_string(entity));
+  Entity& ent = entities_[entity];
   if (counters.size() != ent.last.size())
-    throw std::invalid_argument("sample has " + std::to_string(counters.size()) +
-                                " counters, the metric has " + std::to_string(ent.last.size()));
+    throw ContractError("sample has " + std::to_string(counters.size()) +
+                        " counters, the metric has " + std::to_string(ent.last.size()));
   const TimeNs measured = measured_at.value_or(t);
   if (measured > t)
-    throw std::invalid_argument("sample measured at t=" + std::to_string(measured) +
-                                " ns, after it is processed at " + std::to_string(t));
+    throw ContractError("sample measured at t=" + std::to_string(measured) +
+                        " ns, after it is processed at " + std::to_string(t));
   if (ent.has_baseline && active() && measured < ent.last_measured)
-    throw std::invalid_argument("sample of entity " + std::to_string(entity) + " measured at t=" +
-                                std::to_string(measured) + " ns, before its previous reading at " +
-                                std::to_string(ent.last_measured));
+    throw ContractError("sample of entity " + std::to_string(entity) +
+                        " measured at t=" + std::to_string(measured) +
+                        " ns, before its previous reading at " + std::to_string(ent.last_measured));
   check_time(t);
   if (!active() || !policy_->regulates()) return;
   advance(t, out);

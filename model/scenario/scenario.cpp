@@ -4,6 +4,7 @@
 #include <map>
 
 #include "core/error.h"
+#include "policy/rules.h"
 
 namespace rosguard {
 namespace {
@@ -189,20 +190,9 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
     r.metric.events.push_back({event, weight.get<double>()});
   }
 
-  const bool periodic = r.policy == "interval" || r.policy == "monitor";
-  if (periodic && r.sampling_period_us > r.regulation_period_us)
-    fail("/regulation/sampling_period_us",
-         "sampling period " + std::to_string(r.sampling_period_us) +
-             " us is longer than the regulation period " + std::to_string(r.regulation_period_us) +
-             " us: a budget would be replenished before it could be checked");
-  if (r.policy == "interval" && r.sampling_period_us == r.regulation_period_us)
-    fail("/regulation/sampling_period_us",
-         "sampling period equals the regulation period (" + std::to_string(r.sampling_period_us) +
-             " us): each window's usage would only be seen as it closes, so nothing would ever "
-             "be throttled; sample more often");
-  if (r.policy == "monolithic" && s.nodes.rt.empty())
-    fail("/regulation/policy",
-         "monolithic regulation budgets the RT node's execution, and there is no RT node");
+  // Rules of the built-in policies; a policy registered elsewhere is checked by the backends
+  // (check_policy with the run's registry).
+  if (const PolicyInfo* p = find_builtin_policy(r.policy)) check_policy_rules(s, p->traits);
 
   // Backend settings.
   s.sim.quantum_us = doc.at("sim").at("quantum_us").get<double>();

@@ -2,9 +2,6 @@
 
 #include <string>
 
-#include "metric/metric.h"
-#include "nodes/nrt_node.h"
-
 namespace rosguard::sim {
 
 Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig config,
@@ -12,11 +9,10 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
                        std::uint64_t seed, MessageBus& bus, Runtime& rt, Recorder& rec)
     : sc_core::sc_module(name),
       cfg_(std::move(config)),
-      regulator_(std::move(regulator)),
+      driver_({cfg_.sampling, cfg_.sampling_period_ns, 0, true}, std::move(regulator), this),
       callback_cost_(costs.controller_callback, stream_seed(seed, "controller/callback")),
       read_cost_(costs.external_read, stream_seed(seed, "controller/external_read")),
       bus_(bus),
-      rt_(rt),
       rec_(rec),
       message_latency_(costs.message_latency),
       seed_(seed),
@@ -27,24 +23,27 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
                   }),
       poll_timer_("poll", rt,
                   [this](TimeNs t) {
-                    poll_timer_.set(t + cfg_.sampling_period_ns);
-                    for (std::size_t e = 0; e < nrt_.size(); ++e)
+                    DriverOutput due;
+                    driver_.read_due(t, due);
+                    rearm(poll_timer_, driver_.next_read());
+                    for (std::size_t e : due.reads)
                       enqueue({Work::Kind::Read, e, {}, -1}, t);
                   }),
-      probe_timer_("probe", rt, [this](TimeNs t) { window_probe(t, true); }) {
-  out_.reserve(16);
+      probe_timer_("probe", rt, [this](TimeNs t) {
+        DriverOutput due;
+        driver_.window_due(t, due);
+        rearm(probe_timer_, driver_.next_window());
+      }) {}
+
+void Controller::add_entity(ControlledEntity entity) {
+  links_.push_back(bus_.add_link());
+  latency_.emplace_back(message_latency_, stream_seed(seed_, "controller->" + entity.name));
+  entities_.push_back(std::move(entity));
 }
 
-void Controller::add_nrt(NrtNodeModel* node) {
-  nrt_.push_back(node);
-  links_.push_back(bus_.add_link());
-  latency_.emplace_back(message_latency_, stream_seed(seed_, "controller->" + node->config().name));
-  active_start_.emplace_back();
-  active_l3_.push_back(0.0);
-  active_cycles_.push_back(0.0);
-  window_l3_.push_back(0.0);
-  last_sample_l3_.push_back(0.0);
-  last_sample_cycles_.push_back(0.0);
+EntityReading Controller::read(std::size_t entity, TimeNs) {
+  const Pmu& p = entities_.at(entity).pmu();
+  return {p.l3_accesses() * cfg_.line_bytes, p[PmuEvent::CpuCycles], 0.0};
 }
 
 void Controller::enable(std::size_t rt, TimeNs now) {
@@ -73,11 +72,18 @@ void Controller::start_next(TimeNs now) {
   if (current_.kind == Work::Kind::Read) {
     stage_ = 0;
     read_started_ = now;
-    done_timer_.set(now + read_cost_.draw_ns());
+    spend(now, read_cost_.draw_ns());
   } else {
     stage_ = 1;
-    done_timer_.set(now + callback_cost_.draw_ns());
+    spend(now, callback_cost_.draw_ns());
   }
+}
+
+void Controller::spend(TimeNs now, TimeNs cost) {
+  if (core_)
+    core_->post(Core::Prio::Controller, cost, "controller", [this](TimeNs t) { stage_done(t); });
+  else
+    done_timer_.set(now + cost);
 }
 
 void Controller::stage_done(TimeNs now) {
@@ -87,7 +93,7 @@ void Controller::stage_done(TimeNs now) {
     rec_.observe("pmc_callback", now - read_started_);
     current_.origin = now;
     stage_ = 1;
-    done_timer_.set(now + callback_cost_.draw_ns());
+    spend(now, callback_cost_.draw_ns());
     return;
   }
   decide(current_, now);
@@ -96,7 +102,7 @@ void Controller::stage_done(TimeNs now) {
 }
 
 std::vector<CounterValue> Controller::read_counters(std::size_t entity, TimeNs now) {
-  const Pmu& pmu = nrt_[entity]->core().pmu();
+  const Pmu& pmu = entities_.at(entity).pmu();
   std::vector<CounterValue> out;
   out.reserve(cfg_.metric_events.size());
   for (PmuEvent e : cfg_.metric_events)
@@ -105,104 +111,57 @@ std::vector<CounterValue> Controller::read_counters(std::size_t entity, TimeNs n
 }
 
 void Controller::decide(Work& w, TimeNs now) {
-  Regulator& reg = *regulator_;
+  out_.clear();
   switch (w.kind) {
     case Work::Kind::Enable:
-      reg.rt_started(now, w.index, out_);
-      break;
     case Work::Kind::Disable:
-      reg.rt_finished(now, w.index, out_);
+      driver_.rt_signal(now, w.index, w.kind == Work::Kind::Enable, out_);
       break;
     case Work::Kind::Sample:
     case Work::Kind::Read:
       // Charged by when the counters were read (published / read), processed now.
-      reg.sample(now, w.index, w.counters, out_,
-                 w.origin >= 0 ? std::optional<TimeNs>(w.origin) : std::nullopt);
-      if (rec_.trace && reg.active()) {
-        const auto& acc = reg.accounts()[reg.entity(w.index).account];
-        if (acc.budget_bytes > 0)
-          rec_.trace->counter(now, cfg_.core, nrt_[w.index]->config().name + " budget_used_pct",
-                              100.0 * acc.used_bytes / acc.budget_bytes);
-      }
+      driver_.sample(now, w.index, w.counters,
+                     w.origin >= 0 ? std::optional<TimeNs>(w.origin) : std::nullopt, out_);
       break;
     case Work::Kind::Tick:
-      reg.tick(now, out_);
+      driver_.tick(now, out_);
       break;
   }
-  publish(w.kind == Work::Kind::Sample || w.kind == Work::Kind::Read ? w.origin : -1, now);
-  if (!was_active_ && reg.active()) activation_begin(now);
-  if (was_active_ && !reg.active()) activation_end(now);
-  rearm_tick();
+  handle_output(now);
+  // Same order as the timers were armed before the engine existed: probe, poll, tick.
+  rearm(probe_timer_, driver_.next_window());
+  rearm(poll_timer_, driver_.next_read());
+  rearm(tick_timer_, driver_.next_tick());
 }
 
-void Controller::publish(TimeNs origin, TimeNs now) {
-  for (const CommandOut& c : out_) {
-    NrtNodeModel* node = nrt_[c.entity];
-    const Command cmd = c.command;
+void Controller::handle_output(TimeNs now) {
+  for (const EngineEvent& ev : out_.events)
+    if (ev.kind == EngineEvent::Kind::BudgetUsed && rec_.trace)
+      rec_.trace->counter(now, cfg_.core, entities_[ev.entity].name + " budget_used_pct", ev.value);
+  for (const DriverCommand& c : out_.commands) {
+    const ControlledEntity& target = entities_[c.entity];
     if (rec_.trace)
       rec_.trace->instant(now, cfg_.core, "controller",
-                          std::string(to_string(cmd)) + " -> " + node->config().name);
+                          std::string(to_string(c.command)) + " -> " + target.name);
     bus_.send(links_[c.entity], now, latency_[c.entity].draw_ns(),
-              [node, cmd, origin](TimeNs) { node->on_command(cmd, origin); });
+              [deliver = target.deliver, cmd = c.command, cause = c.cause](TimeNs) {
+                deliver(cmd, cause);
+              });
   }
-  out_.clear();
+  for (const EngineEvent& ev : out_.events)
+    if (ev.kind == EngineEvent::Kind::ActivationEnd && on_inactive_) on_inactive_(now);
 }
 
-void Controller::rearm_tick() {
-  const auto next = regulator_->next_tick();
-  if (!next || !regulator_->active()) {
-    tick_timer_.cancel();
-  } else if (!tick_timer_.pending() || tick_timer_.when() != *next) {
-    tick_timer_.set(*next);
-  }
-}
-
-void Controller::activation_begin(TimeNs now) {
-  was_active_ = true;
-  active_since_ = now;
-  ++activations_;
-  for (std::size_t e = 0; e < nrt_.size(); ++e) {
-    active_start_[e] = nrt_[e]->core().pmu();
-    window_l3_[e] = active_start_[e].l3_accesses();
-  }
-  window_start_ = now;
-  window_index_ = 0;
-  if (regulator_->policy().regulates()) {
-    if (cfg_.periodic_windows) probe_timer_.set(now + cfg_.regulation_period_ns);
-    // External sampling: the first read (the baseline) right away, then every period.
-    if (cfg_.sampling == Sampling::External && !nrt_.empty()) poll_timer_.set(now);
-  }
-}
-
-void Controller::window_probe(TimeNs now, bool complete) {
-  for (std::size_t e = 0; e < nrt_.size(); ++e) {
-    const double l3 = nrt_[e]->core().pmu().l3_accesses();
-    rec_.windows.push_back(
-        {e, window_index_, window_start_, now, (l3 - window_l3_[e]) * cfg_.line_bytes, complete});
-    window_l3_[e] = l3;
-  }
-  window_start_ = now;
-  ++window_index_;
-  if (was_active_ && cfg_.periodic_windows) probe_timer_.set(now + cfg_.regulation_period_ns);
-}
-
-void Controller::activation_end(TimeNs now) {
-  if (regulator_->policy().regulates())
-    window_probe(now, now - window_start_ >= cfg_.regulation_period_ns);
-  was_active_ = false;
-  probe_timer_.cancel();
-  poll_timer_.cancel();
-  active_ns_ += now - active_since_;
-  for (std::size_t e = 0; e < nrt_.size(); ++e) {
-    const Pmu& p = nrt_[e]->core().pmu();
-    active_l3_[e] += p.l3_accesses() - active_start_[e].l3_accesses();
-    active_cycles_[e] += p[PmuEvent::CpuCycles] - active_start_[e][PmuEvent::CpuCycles];
-  }
-  if (on_inactive_) on_inactive_(now);
+void Controller::rearm(Timer& timer, std::optional<TimeNs> when) {
+  if (!when)
+    timer.cancel();
+  else if (!timer.pending() || timer.when() != *when)
+    timer.set(*when);
 }
 
 void Controller::finish(TimeNs now) {
-  if (was_active_) activation_end(now);
+  DriverOutput last;
+  driver_.finish(now, last);
 }
 
 }  // namespace rosguard::sim

@@ -22,7 +22,8 @@ NrtNodeModel::NrtNodeModel(const sc_core::sc_module_name& name, NrtNodeConfig co
       cfb_cost_(costs.throttle_activation, stream_seed(seed, cfg_.name + "/cfb")),
       latency_(costs.message_latency, stream_seed(seed, cfg_.name + "->controller")),
       link_(bus.add_link()),
-      node_(cfg_.sampling),
+      driver_(cfg_.sampling),
+      schedule_(cfg_.sampling_period_ns),
       run_(profile),
       sample_timer_("sample_timer", rt, [this](TimeNs t) { pmc_timer(t); }),
       state_track_(cfg_.name + " state"),
@@ -58,46 +59,40 @@ void NrtNodeModel::set_state_span(NodeState from, TimeNs now) {
 }
 
 void NrtNodeModel::apply(Command command, TimeNs origin, TimeNs now) {
-  const Transition tr = node_.apply(command);
+  const NrtEffects fx = driver_.command(now, command, origin);
+  const Transition& tr = fx.transition;
   if (tr.changed()) set_state_span(tr.from, now);
-  if (tr.to == NodeState::Thr && tr.from != NodeState::Thr) {
+  if (fx.throttle) {
     core_.set_throttle(true);
     thr_since_ = now;
-    ++throttles_;
-    if (origin >= 0) rec_.observe("activation_delay", now - origin);
+    if (fx.activation_delay_ns) rec_.observe("activation_delay", *fx.activation_delay_ns);
   }
-  if (tr.from == NodeState::Thr && tr.to != NodeState::Thr) {
+  if (fx.unthrottle) {
     core_.set_throttle(false);
-    throttled_ns_ += now - thr_since_;
     if (rec_.trace) rec_.trace->span(thr_since_, now, core_.id(), cfg_.name + " throttle", "THR");
     thr_since_ = -1;
   }
-  if (cfg_.sampling != Sampling::Self) return;
-  if (command == Command::On && node_.state() == NodeState::On) {
-    // A new activation: its baseline sample now, then one every sampling period.
-    sample_timer_.set(now + cfg_.sampling_period_ns);
-    sample_pending_ = false;
+  if (fx.baseline) {
+    schedule_.restart(now);
+    sample_timer_.set(*schedule_.next());
     post_pmc();
-  } else if (tr.to == NodeState::Off) {
+  } else if (fx.stop_sampling) {
+    schedule_.stop();
     sample_timer_.cancel();
-    sample_pending_ = false;
-  } else if (tr.from == NodeState::Thr && tr.to == NodeState::On && sample_pending_) {
-    sample_pending_ = false;
+  } else if (fx.resume && schedule_.take_owed()) {
     post_pmc();
   }
 }
 
 void NrtNodeModel::pmc_timer(TimeNs now) {
-  sample_timer_.set(now + cfg_.sampling_period_ns);
-  if (node_.state() == NodeState::On && !sample_busy_)
-    post_pmc();
-  else
-    sample_pending_ = true;
+  const bool sample = schedule_.elapsed(now, driver_.state() == NodeState::On && !sample_busy_);
+  sample_timer_.set(*schedule_.next());
+  if (sample) post_pmc();
 }
 
 void NrtNodeModel::post_pmc() {
   if (sample_busy_) {
-    sample_pending_ = true;
+    schedule_.defer();
     return;
   }
   sample_busy_ = true;
@@ -135,17 +130,14 @@ void NrtNodeModel::pmc_done(TimeNs cost, TimeNs now) {
                            ctl->sample(e, std::move(c), published, at);
                          });
                sample_busy_ = false;
-               if (sample_pending_ && node_.state() == NodeState::On) {
-                 sample_pending_ = false;
-                 post_pmc();
-               }
+               if (driver_.state() == NodeState::On && schedule_.take_owed()) post_pmc();
              });
 }
 
 void NrtNodeModel::finish(TimeNs now) {
-  set_state_span(node_.state(), now);
+  set_state_span(driver_.state(), now);
+  driver_.finish(now);
   if (thr_since_ >= 0) {
-    throttled_ns_ += now - thr_since_;
     if (rec_.trace) rec_.trace->span(thr_since_, now, core_.id(), cfg_.name + " throttle", "THR");
     thr_since_ = -1;
   }

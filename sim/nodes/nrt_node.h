@@ -1,5 +1,6 @@
 // An nRT node on its core: the nominal application (NCT) at the lowest priority, and the
-// ROSGuard callbacks around it (model/node/nrt_node.h decides the state transitions).
+// ROSGuard callbacks around it. The nRT engine (model/engine/nrt_driver.h) decides the state
+// transitions, their side effects and the throttle bookkeeping; this module adds their costs.
 //
 //   CFB  every command received costs throttle_activation_us at the highest priority; at its end
 //        the command takes effect: THR enters the idle loop (the zero-time timer fired), ON starts
@@ -23,8 +24,8 @@
 #include <systemc>
 #include <vector>
 
+#include "engine/nrt_driver.h"
 #include "kernel/runtime.h"
-#include "node/nrt_node.h"
 #include "nodes/costs.h"
 #include "nodes/recorder.h"
 #include "platform/core.h"
@@ -62,10 +63,8 @@ class NrtNodeModel : public sc_core::sc_module {
   const WorkloadProfile& profile() const { return profile_; }
   bool done() const { return done_; }
   TimeNs finished_at() const { return finished_at_; }
-  std::uint64_t throttles() const { return throttles_; }
-  TimeNs throttled_ns() const { return throttled_ns_; }
+  const NrtDriver& driver() const { return driver_; }
   double retired() { return core_.work_retired(); }
-  NodeState state() const { return node_.state(); }
   // End of the simulation: closes the open state span and THR interval.
   void finish(TimeNs now);
 
@@ -90,15 +89,13 @@ class NrtNodeModel : public sc_core::sc_module {
   CostStream latency_;
   int link_;
 
-  NrtNode node_;
+  NrtDriver driver_;
+  SampleSchedule schedule_;
   WorkloadRun run_;
   Timer sample_timer_;
-  bool sample_busy_ = false;     // a PMC callback or its publishing is under way
-  bool sample_pending_ = false;  // a period expired meanwhile (or while throttled)
+  bool sample_busy_ = false;  // a PMC callback or its publishing is under way
   TimeNs state_since_ = 0;
-  TimeNs thr_since_ = -1;
-  std::uint64_t throttles_ = 0;
-  TimeNs throttled_ns_ = 0;
+  TimeNs thr_since_ = -1;  // for the trace
   bool done_ = false;
   TimeNs finished_at_ = -1;
   std::function<void(TimeNs)> on_done_;

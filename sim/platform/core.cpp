@@ -150,7 +150,7 @@ void Core::sync(TimeNs now) {
 void Core::dispatch(TimeNs now) {
   const std::size_t cb = top_callback();
   Running next = Running::Idle;
-  if (cb != kNone && callbacks_[cb].prio == Prio::Cfb)
+  if (cb != kNone && callbacks_[cb].prio <= Prio::Cfb)  // controller and CFB preempt THR
     next = Running::Callback;
   else if (thr_)
     next = Running::Thr;

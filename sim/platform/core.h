@@ -1,7 +1,9 @@
 // A simulated core: a priority-preemptive executor of one workload (lowest priority) and of
 // callbacks, with a PMU.
 //
-// What runs, highest priority first: a CFB callback (Prio::Cfb), the THR idle loop while
+// What runs, highest priority first: a callback of a controller that shares the core
+// (Prio::Controller, as its thread sits above the node's threads on hw), a CFB callback
+// (Prio::Cfb), the THR idle loop while
 // throttled, a PMC / publishing callback (Prio::Pmc), the workload (an RT job or the nRT node's
 // NCT), else nothing (the core idles and its cycle counter stops, as in WFI). Equal priorities
 // run in the order posted. Callbacks take a fixed time and move no data; the THR loop counts
@@ -30,7 +32,7 @@ namespace rosguard::sim {
 class Core : public sc_core::sc_module {
  public:
   SC_HAS_PROCESS(Core);
-  enum class Prio : std::uint8_t { Cfb = 0, Pmc = 2 };
+  enum class Prio : std::uint8_t { Controller = 0, Cfb = 1, Pmc = 2 };
   using Done = std::function<void(TimeNs)>;
 
   Core(const sc_core::sc_module_name& name, int id, const SimPlatform& platform,

@@ -60,7 +60,7 @@ sim::RunConfig minimal_setup(TimeNs sampling_us, int rt_iterations) {
   cfg.seed = 1;
   cfg.rt.push_back({"rt0", 1, profile("bandwidth_read"), rt_iterations, std::nullopt});
   cfg.nrt.push_back({"nrt0", 2, profile("bandwidth_read"), true});
-  cfg.policy = "interval";
+  cfg.policy = *find_builtin_policy("interval");
   cfg.policy_params = {20.0, 26271.74, 5 * kNsPerMs, 0};
   cfg.sampling = Sampling::Self;
   cfg.sampling_period_ns = sampling_us * kNsPerUs;

@@ -17,6 +17,7 @@ namespace {
 struct State {
   fs::path dir;
   std::unique_ptr<Loader> loader;
+  PolicyRegistry policies;  // registered once, as main() does; the backends keep a reference
   BackendRegistry backends;
 };
 
@@ -38,7 +39,8 @@ fs::path fuzz_setup() {
   fs::copy(home.root / "tests" / "invalid" / "fixtures", s.dir / "fixtures",
            fs::copy_options::recursive | fs::copy_options::overwrite_existing, ec);
   s.loader = std::make_unique<Loader>(home);
-  register_backends(s.backends);
+  register_builtin(s.policies);
+  register_backends(s.backends, s.policies);
   s.loader->load((home.scenarios() / "quickstart.json").string());  // caches the shipped files
   return s.dir;
 }

@@ -23,6 +23,17 @@ using namespace rosguard::hw;
 
 namespace {
 
+// The built-in policies, registered once for these tests as main() does for a run.
+const PolicyRegistry& test_policies() {
+  static const PolicyRegistry registry = [] {
+    PolicyRegistry r;
+    register_builtin(r);
+    return r;
+  }();
+  return registry;
+}
+
+
 const std::string kScenarios = std::string(ROSGUARD_TEST_SOURCE_DIR) + "/tests/hw/scenarios/";
 
 class TestContext : public RunContext {
@@ -96,7 +107,7 @@ struct Protection {
 // One attempt: isolation + both policies alternating; checks the bound.
 Protection protection_attempt(int attempt) {
   const auto loaded = load("rt-vs-nrt-bandwidth-read.json");
-  auto backend = make_hw_backend();
+  auto backend = make_hw_backend(test_policies());
   TestContext ctx;
   Baselines baselines;
   const auto runs = run_all(*backend, loaded, ctx, baselines);
@@ -181,7 +192,7 @@ TEST_CASE("an external command (stress-ng --stream) is regulated as an nRT workl
     return;
   }
   const auto loaded = load("stress-ng-nrt.json");
-  auto backend = make_hw_backend();
+  auto backend = make_hw_backend(test_policies());
   TestContext ctx;
   Baselines baselines;
   const auto runs = run_all(*backend, loaded, ctx, baselines);
@@ -215,7 +226,7 @@ TEST_CASE("watchdog: the controller goes silent mid-run, the nRT node returns to
   const auto loaded = load("watchdog.json");
   HwOptions opt;
   opt.controller_fail_after_ns = 30 * kNsPerMs;  // monolithic 1 %: throttled by then, for good
-  auto backend = make_hw_backend(opt);
+  auto backend = make_hw_backend(test_policies(), opt);
   TestContext ctx;
   Baselines baselines;
   const TimeNs t0 = now_ns();
@@ -233,7 +244,7 @@ TEST_CASE("watchdog: the controller goes silent mid-run, the nRT node returns to
 TEST_CASE("a stop request mid-point returns nodes to nominal and throws Interrupted",
           "[hw][integration][safety]") {
   const auto loaded = load("long-run.json");
-  auto backend = make_hw_backend();
+  auto backend = make_hw_backend(test_policies());
   TestContext ctx;
   Baselines baselines;
   const Scenario& s = loaded.points[0].scenario;
@@ -250,7 +261,7 @@ TEST_CASE("a failing nRT command fails the point cleanly", "[hw][integration][sa
   auto loaded = load("stress-ng-nrt.json");
   Scenario s = loaded.points[0].scenario;
   s.nodes.nrt[0].workload.doc = {{"command", {"false"}}};
-  auto backend = make_hw_backend();
+  auto backend = make_hw_backend(test_policies());
   TestContext ctx;
   Baselines baselines;
   baselines.put(Baselines::key(s, s.nodes.rt[0].workload, s.nodes.rt[0].core), {1e5, 0, 0});
@@ -261,7 +272,7 @@ TEST_CASE("a failing nRT command fails the point cleanly", "[hw][integration][sa
 
 TEST_CASE("validate rejects what this host cannot run, naming file and path", "[hw][validate]") {
   auto loaded = load("rt-vs-nrt-bandwidth-read.json");
-  auto backend = make_hw_backend();
+  auto backend = make_hw_backend(test_policies());
   Scenario s = loaded.points[1].scenario;
   CHECK_NOTHROW(backend->validate(s));
 

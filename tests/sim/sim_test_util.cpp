@@ -125,10 +125,20 @@ class NullContext : public RunContext {
 
 }  // namespace
 
+// The built-in policies, registered once for the sim tests as main() does for a run.
+const PolicyRegistry& builtin_registry() {
+  static const PolicyRegistry registry = [] {
+    PolicyRegistry r;
+    register_builtin(r);
+    return r;
+  }();
+  return registry;
+}
+
 IsolationResult isolation(const Scenario& s, const WorkloadInfo& w, int core) {
   return from_json(in_child([&] {
     NullContext ctx;
-    sim::SimBackend backend;
+    sim::SimBackend backend(builtin_registry());
     return to_json(backend.isolation(s, w, core, 1, ctx));
   }));
 }
@@ -146,7 +156,7 @@ json run_point_report(const Scenario& s, std::uint64_t seed) {
   if (!s.nodes.rt.empty())
     window = static_cast<TimeNs>(iso["rt:" + s.nodes.rt[0].name]["time_us"].get<double>() * 1e3);
   json out = in_child([&] {
-    const sim::RunConfig cfg = sim::point_config(s, window, seed);
+    const sim::RunConfig cfg = sim::point_config(s, window, seed, builtin_registry());
     const sim::SimReport rep = sim::simulate(cfg);
     json j;
     j["rt"] = json::array();

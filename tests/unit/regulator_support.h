@@ -26,10 +26,6 @@ template <>
 struct StringMaker<rosguard::NodeState> {
   static std::string convert(rosguard::NodeState s) { return std::string(rosguard::to_string(s)); }
 };
-template <>
-struct StringMaker<rosguard::Callback> {
-  static std::string convert(rosguard::Callback c) { return std::string(rosguard::to_string(c)); }
-};
 }  // namespace Catch
 
 namespace rosguard::test {

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/error.h"
 #include "core/types.h"
 #include "metric/metric.h"
 
@@ -86,19 +87,19 @@ TEST_CASE("Metric::delta_bytes: line size times the weighted sum of event deltas
   SECTION("a counter group of the wrong size is rejected") {
     const Metric m(MetricSpec{});
     const std::vector<CounterValue> one(1), two(2), three(3);
-    CHECK_THROWS_AS(m.delta_bytes(one, two), std::invalid_argument);
-    CHECK_THROWS_AS(m.delta_bytes(two, three), std::invalid_argument);
+    CHECK_THROWS_AS(m.delta_bytes(one, two), ContractError);
+    CHECK_THROWS_AS(m.delta_bytes(two, three), ContractError);
   }
   SECTION("a metric needs events and a counter width in [1, 64]") {
     MetricSpec none;
     none.events.clear();
-    CHECK_THROWS_AS(Metric(none), std::invalid_argument);
+    CHECK_THROWS_AS(Metric(none), ContractError);
     MetricSpec zero;
     zero.counter_bits = 0;
-    CHECK_THROWS_AS(Metric(zero), std::invalid_argument);
+    CHECK_THROWS_AS(Metric(zero), ContractError);
     MetricSpec wide;
     wide.counter_bits = 65;
-    CHECK_THROWS_AS(Metric(wide), std::invalid_argument);
+    CHECK_THROWS_AS(Metric(wide), ContractError);
   }
 }
 

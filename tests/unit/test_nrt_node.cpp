@@ -1,5 +1,5 @@
-// The nRT node state machine (node/nrt_node.h): every (state, command) transition, and which
-// callback runs by priority CFB > THR > PMC > NCT.
+// The nRT node state machine (node/nrt_node.h): every (state, command) transition. Which
+// callback runs (CFB > THR > PMC > NCT) is the hosts' (sim core, hw thread priorities).
 #include <catch2/catch.hpp>
 
 #include "node/nrt_node.h"
@@ -65,57 +65,9 @@ TEST_CASE("nRT node: every (state, command) transition", "[node]") {
   }
 }
 
-TEST_CASE("nRT node: PMC sampling only in ON with self-sampling", "[node]") {
-  CHECK_FALSE(node_in(NodeState::Off).sampling_enabled());
-  CHECK(node_in(NodeState::On).sampling_enabled());
-  CHECK_FALSE(node_in(NodeState::Thr).sampling_enabled());  // THR preempts PMC
-  CHECK_FALSE(node_in(NodeState::Off, Sampling::External).sampling_enabled());
-  CHECK_FALSE(node_in(NodeState::On, Sampling::External).sampling_enabled());
-  CHECK_FALSE(node_in(NodeState::Thr, Sampling::External).sampling_enabled());
-}
-
-TEST_CASE("nRT node: dispatch priority CFB > THR > PMC > NCT", "[node]") {
-  using Cb = Callback;
-  SECTION("a pending command always runs CFB first") {
-    for (NodeState s : {NodeState::Off, NodeState::On, NodeState::Thr})
-      for (bool sample : {false, true})
-        for (bool work : {false, true})
-          CHECK(node_in(s).dispatch(true, sample, work) == Cb::Cfb);
-  }
-  SECTION("THR: the idle loop preempts PMC and NCT, and runs even with nothing ready") {
-    const NrtNode n = node_in(NodeState::Thr);
-    CHECK(n.dispatch(false, true, true) == Cb::Thr);
-    CHECK(n.dispatch(false, false, true) == Cb::Thr);
-    CHECK(n.dispatch(false, true, false) == Cb::Thr);
-    CHECK(n.dispatch(false, false, false) == Cb::Thr);
-  }
-  SECTION("ON with self-sampling: PMC before NCT") {
-    const NrtNode n = node_in(NodeState::On);
-    CHECK(n.dispatch(false, true, true) == Cb::Pmc);
-    CHECK(n.dispatch(false, true, false) == Cb::Pmc);
-    CHECK(n.dispatch(false, false, true) == Cb::Nct);
-    CHECK(n.dispatch(false, false, false) == Cb::None);
-  }
-  SECTION("ON with external sampling: no PMC callback") {
-    const NrtNode n = node_in(NodeState::On, Sampling::External);
-    CHECK(n.dispatch(false, true, true) == Cb::Nct);
-    CHECK(n.dispatch(false, true, false) == Cb::None);
-  }
-  SECTION("OFF: nominal work only, never PMC") {
-    const NrtNode n = node_in(NodeState::Off);
-    CHECK(n.dispatch(false, true, true) == Cb::Nct);
-    CHECK(n.dispatch(false, true, false) == Cb::None);
-    CHECK(n.dispatch(false, false, true) == Cb::Nct);
-  }
-}
-
-TEST_CASE("nRT node: states and callbacks have printable names", "[node]") {
+TEST_CASE("nRT node: states have printable names", "[node]") {
   CHECK(to_string(NodeState::Off) == "OFF");
   CHECK(to_string(NodeState::On) == "ON");
   CHECK(to_string(NodeState::Thr) == "THR");
-  CHECK(to_string(Callback::Cfb) == "CFB");
-  CHECK(to_string(Callback::Thr) == "THR");
-  CHECK(to_string(Callback::Pmc) == "PMC");
-  CHECK(to_string(Callback::Nct) == "NCT");
   CHECK(to_string(Command::Replenish) == "REPLENISH");
 }

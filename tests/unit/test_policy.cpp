@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "regulator_support.h"
 
 using namespace rosguard;
@@ -80,9 +81,9 @@ TEST_CASE("policies: periodic policies reject a regulation period that is not po
           "[policy]") {
   // A zero period would make every window end where it starts: the regulator's catch-up loop
   // would never terminate.
-  CHECK_THROWS_AS(make_interval_policy(params(0)), std::invalid_argument);
-  CHECK_THROWS_AS(make_interval_policy(params(-ms(1))), std::invalid_argument);
-  CHECK_THROWS_AS(make_monitor_policy(params(0)), std::invalid_argument);
+  CHECK_THROWS_AS(make_interval_policy(params(0)), ContractError);
+  CHECK_THROWS_AS(make_interval_policy(params(-ms(1))), ContractError);
+  CHECK_THROWS_AS(make_monitor_policy(params(0)), ContractError);
   // Monolithic and none do not use the regulation period.
   CHECK_NOTHROW(make_monolithic_policy(params(0, ms(10))));
   CHECK_NOTHROW(make_none_policy(params(0)));
@@ -90,8 +91,8 @@ TEST_CASE("policies: periodic policies reject a regulation period that is not po
 
 TEST_CASE("policies: monolithic rejects an RT execution window that is not positive", "[policy]") {
   // The window is the RT node's isolation time; a missing one must not become a zero budget.
-  CHECK_THROWS_AS(make_monolithic_policy(params(ms(5), 0)), std::invalid_argument);
-  CHECK_THROWS_AS(make_monolithic_policy(params(ms(5), -ms(1))), std::invalid_argument);
+  CHECK_THROWS_AS(make_monolithic_policy(params(ms(5), 0)), ContractError);
+  CHECK_THROWS_AS(make_monolithic_policy(params(ms(5), -ms(1))), ContractError);
 }
 
 TEST_CASE("policy registry: built-ins by name, unknown names listed, no duplicates", "[policy]") {
@@ -111,10 +112,35 @@ TEST_CASE("policy registry: built-ins by name, unknown names listed, no duplicat
   try {
     reg.make("adaptive", params());
     FAIL("unknown policy accepted");
-  } catch (const std::out_of_range& e) {
-    CHECK(std::string(e.what()) ==
-          "unknown policy 'adaptive' (known: interval, monolithic, monitor, none)");
+  } catch (const InputError& e) {
+    CHECK(e.json_path() == "/regulation/policy");
+    CHECK(e.message() == "unknown policy 'adaptive' (known: interval, monolithic, monitor, none)");
   }
-  CHECK_THROWS_AS(reg.add({"interval", "again", make_interval_policy}), std::logic_error);
+  CHECK_THROWS_AS(reg.add({"interval", "again", {}, make_interval_policy}), ContractError);
   CHECK(reg.all().size() == 4);
+}
+
+TEST_CASE("policy traits: what each built-in policy is, without comparing names", "[policy]") {
+  const auto traits = [](const char* name) {
+    const PolicyInfo* p = find_builtin_policy(name);
+    REQUIRE(p != nullptr);
+    return p->traits;
+  };
+  CHECK(traits("interval").regulates);
+  CHECK(traits("interval").throttles);
+  CHECK(traits("interval").periodic_windows);
+  CHECK_FALSE(traits("interval").needs_rt);
+  CHECK_FALSE(traits("monolithic").periodic_windows);
+  CHECK(traits("monolithic").needs_rt);
+  CHECK(traits("monitor").regulates);
+  CHECK_FALSE(traits("monitor").throttles);
+  CHECK_FALSE(traits("none").regulates);
+  CHECK(find_builtin_policy("adaptive") == nullptr);
+  // The traits agree with what the policy objects do.
+  for (const auto& info : builtin_policies()) {
+    const auto policy = info.make(params(ms(5), ms(10)));
+    CHECK(policy->regulates() == info.traits.regulates);
+    if (info.traits.regulates)
+      CHECK(policy->window_end(0).has_value() == info.traits.periodic_windows);
+  }
 }

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/error.h"
 #include "regulator_support.h"
 
 using namespace rosguard;
@@ -301,8 +302,8 @@ TEST_CASE("regulator: measurement times must be consistent", "[regulator][errors
   rig.reg.rt_started(0, 0, rig.out);
   rig.sample(ms(2), 0, 0);
   const auto& c = rig.counters[0];
-  CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, c, rig.out, ms(4)), std::invalid_argument);  // future
-  CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, c, rig.out, ms(1)), std::invalid_argument);  // older
+  CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, c, rig.out, ms(4)), ContractError);  // future
+  CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, c, rig.out, ms(1)), ContractError);  // older
   CHECK_NOTHROW(rig.reg.sample(ms(3), 0, c, rig.out, ms(2)));  // same instant again is fine
 }
 
@@ -557,31 +558,31 @@ TEST_CASE("regulator: contract violations throw", "[regulator][errors]") {
   rig.reg.rt_started(ms(2), 0, rig.out);
 
   SECTION("time going backwards") {
-    CHECK_THROWS_AS(rig.reg.tick(ms(1), rig.out), std::invalid_argument);
-    CHECK_THROWS_AS(rig.reg.rt_started(ms(1), 1, rig.out), std::invalid_argument);
-    CHECK_THROWS_AS(rig.reg.rt_finished(ms(1), 0, rig.out), std::invalid_argument);
-    CHECK_THROWS_AS(rig.sample(ms(1), 0, 0), std::invalid_argument);
+    CHECK_THROWS_AS(rig.reg.tick(ms(1), rig.out), ContractError);
+    CHECK_THROWS_AS(rig.reg.rt_started(ms(1), 1, rig.out), ContractError);
+    CHECK_THROWS_AS(rig.reg.rt_finished(ms(1), 0, rig.out), ContractError);
+    CHECK_THROWS_AS(rig.sample(ms(1), 0, 0), ContractError);
     rig.reg.tick(ms(2), rig.out);  // the same t is fine
   }
   SECTION("wrong number of counters") {
     std::vector<CounterValue> three(3), one(1);
-    CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, three, rig.out), std::invalid_argument);
-    CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, one, rig.out), std::invalid_argument);
+    CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, three, rig.out), ContractError);
+    CHECK_THROWS_AS(rig.reg.sample(ms(3), 0, one, rig.out), ContractError);
   }
   SECTION("unknown RT node or entity") {
-    CHECK_THROWS_AS(rig.reg.rt_started(ms(3), 2, rig.out), std::out_of_range);
-    CHECK_THROWS_AS(rig.reg.rt_finished(ms(3), 2, rig.out), std::out_of_range);
-    CHECK_THROWS_AS(rig.reg.sample(ms(3), 2, rig.counters[0], rig.out), std::out_of_range);
+    CHECK_THROWS_AS(rig.reg.rt_started(ms(3), 2, rig.out), ContractError);
+    CHECK_THROWS_AS(rig.reg.rt_finished(ms(3), 2, rig.out), ContractError);
+    CHECK_THROWS_AS(rig.reg.sample(ms(3), 2, rig.counters[0], rig.out), ContractError);
   }
   SECTION("an RT node started twice, or finished without running") {
-    CHECK_THROWS_AS(rig.reg.rt_started(ms(3), 0, rig.out), std::logic_error);
-    CHECK_THROWS_AS(rig.reg.rt_finished(ms(3), 1, rig.out), std::logic_error);
+    CHECK_THROWS_AS(rig.reg.rt_started(ms(3), 0, rig.out), ContractError);
+    CHECK_THROWS_AS(rig.reg.rt_finished(ms(3), 1, rig.out), ContractError);
   }
   SECTION("a bad configuration") {
-    CHECK_THROWS_AS(Regulator(RegulatorConfig{1, {0}, {}}, nullptr), std::invalid_argument);
+    CHECK_THROWS_AS(Regulator(RegulatorConfig{1, {0}, {}}, nullptr), ContractError);
     // Account 1 has no entity.
     CHECK_THROWS_AS(Regulator(RegulatorConfig{1, {0, 2, 2}, {}}, make_interval_policy(params())),
-                    std::invalid_argument);
+                    ContractError);
   }
   CHECK(rig.out == Commands{{ms(2), 0, On}, {ms(2), 1, On}});
 }

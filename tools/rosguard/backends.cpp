@@ -10,12 +10,13 @@
 
 namespace rosguard {
 
-void register_backends([[maybe_unused]] BackendRegistry& registry) {
+void register_backends([[maybe_unused]] BackendRegistry& registry,
+                       [[maybe_unused]] const PolicyRegistry& policies) {
 #ifdef ROSGUARD_WITH_SIM
-  sim::register_builtin(registry);
+  sim::register_builtin(registry, policies);
 #endif
 #ifdef ROSGUARD_WITH_HW
-  hw::register_builtin(registry);
+  hw::register_builtin(registry, policies);
 #endif
 }
 

@@ -24,6 +24,6 @@ int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
 int run_analysis(const Home& home, const std::vector<std::string>& args);
 
 // Every backend this build has (sim and hw when they are compiled in).
-void register_backends(BackendRegistry& registry);
+void register_backends(BackendRegistry& registry, const PolicyRegistry& policies);
 
 }  // namespace rosguard

@@ -145,7 +145,7 @@ int main(int argc, char** argv) {
     PolicyRegistry policies;
     register_builtin(policies);
     BackendRegistry backends;
-    register_backends(backends);
+    register_backends(backends, policies);
     Loader loader(Home::locate());
 
     if (*run) return run_command(run_args, joined_args(argc, argv), loader, backends);

@@ -77,7 +77,7 @@ class FakeBackend : public Backend {
 
 }  // namespace
 
-void register_backends(BackendRegistry& registry) {
+void register_backends(BackendRegistry& registry, const PolicyRegistry&) {
   registry.add({"sim", "fake: a worker process per task",
                 [] { return std::make_unique<FakeBackend>("sim", true); }});
   registry.add({"hw", "fake: in-process, one task at a time",

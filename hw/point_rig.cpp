@@ -1,0 +1,311 @@
+#include "hw/point_rig.h"
+
+#include <algorithm>
+#include <optional>
+
+#include "core/error.h"
+#include "engine/outcome.h"
+#include "hw/common/clock.h"
+#include "hw/isolation.h"
+
+namespace rosguard::hw {
+
+// What the controller's driver reads of the nRT nodes: the metric's bytes (scaled for
+// multiplexing between two reads, accumulated), and completed runs (built-in: units of work /
+// units per run; command: processes that exited).
+class NodeMeter : public EntityMeter {
+ public:
+  NodeMeter(std::vector<std::unique_ptr<NrtRunner>>& nrts, const MetricPlan& plan)
+      : nrts_(nrts), plan_(plan), metric_(plan.spec), last_(nrts.size()), bytes_(nrts.size()) {}
+
+  EntityReading read(std::size_t e, TimeNs) override {
+    NrtRunner& n = *nrts_.at(e);
+    std::array<CounterValue, kMaxGroupEvents> v{};
+    n.group().read(std::span(v.data(), plan_.group_events.size()));
+    const std::size_t k = plan_.metric_events;
+    if (last_[e])
+      bytes_[e] += metric_.delta_bytes(std::span(last_[e]->data(), k), std::span(v.data(), k));
+    last_[e] = v;
+    const double runs =
+        n.builtin() ? static_cast<double>(n.work().units_done.load(std::memory_order_relaxed)) /
+                          static_cast<double>(n.units_per_run())
+                    : static_cast<double>(n.completed_runs());
+    return {bytes_[e], 0.0, runs};
+  }
+
+ private:
+  std::vector<std::unique_ptr<NrtRunner>>& nrts_;
+  const MetricPlan& plan_;
+  Metric metric_;
+  std::vector<std::optional<std::array<CounterValue, kMaxGroupEvents>>> last_;
+  std::vector<double> bytes_;
+};
+
+namespace {
+
+void emit_trace(TraceSink* sink, const TraceLog& log, const char* default_track) {
+  if (!sink) return;
+  for (const auto& r : log.records()) {
+    const std::string_view track = r.track ? std::string_view(*r.track) : default_track;
+    switch (r.kind) {
+      case TraceRecord::Kind::Span:
+        sink->span(r.a, r.b, r.core, track, r.name);
+        break;
+      case TraceRecord::Kind::Counter:
+        sink->counter(r.a, r.core, r.name, r.value);
+        break;
+      case TraceRecord::Kind::Instant:
+        sink->instant(r.a, r.core, track, r.name);
+        break;
+    }
+  }
+}
+
+}  // namespace
+
+std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
+                                                const Baselines& baselines,
+                                                const PolicyRegistry& policies) {
+  const RegulationSpec& r = s.regulation;
+  PolicyParams params;
+  params.threshold_pct = r.threshold_pct;
+  params.reference_mbps = r.reference_mbps;
+  params.regulation_period_ns = r.regulation_period_us * kNsPerUs;
+  if (!s.nodes.rt.empty())
+    params.monolithic_window_ns = static_cast<TimeNs>(
+        baselines.at(s, s.nodes.rt[0].workload, s.nodes.rt[0].core).time_us * 1e3);
+  RegulatorConfig rc;
+  rc.rt_count = std::max<std::size_t>(1, s.nodes.rt.size());
+  rc.account_of_entity = accounts_for_scope(r.scope, s.nodes.nrt.size());
+  rc.metric = plan.spec;
+  return std::make_unique<Regulator>(rc, policies.make(r.policy, params));
+}
+
+PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
+                   std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace)
+    : s_(s), plan_(plan), options_(options), trace_(trace), origin_(now_ns()) {
+  // Wiring: every publisher and subscriber exists before the first thread starts.
+  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
+    controls_.push_back(std::make_unique<Topic<ControlMsg>>());
+  engine_pub_ = rt_topic_.add_publisher();
+  wire_nodes(source);
+  // The driver's activation accounting reads the nRT nodes through this meter, on the
+  // controller thread, at both ends of every activation.
+  meter_ = std::make_unique<NodeMeter>(nrts_, plan_);
+  const RegulationSpec& r = s.regulation;
+  ControllerConfig cc;
+  cc.core = s.nodes.controller_core;
+  cc.sched = sched_of(s);
+  cc.sampling = r.sampling;
+  cc.sampling_period_ns = r.sampling_period_us * kNsPerUs;
+  cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s.hw.watchdog_ms * kNsPerMs / 4);
+  cc.metric_events = plan.metric_events;
+  cc.trace = trace;
+  cc.fail_after_ns = options.controller_fail_after_ns;
+  std::vector<Topic<ControlMsg>*> control_ptrs;
+  for (std::size_t i = 0; i < controls_.size(); ++i) {
+    control_ptrs.push_back(controls_[i].get());
+    cc.entity_cores.push_back(s.nodes.nrt[i].core);
+    cc.group_sizes.push_back(plan.group_events.size());
+  }
+  controller_ =
+      std::make_unique<Controller>(cc, std::move(regulator), rt_topic_, samples_, control_ptrs,
+                                   meter_.get(), engine_waker_, errors_.handler(), origin_);
+}
+
+void PointRig::wire_nodes(const PmcSource& source) {
+  const RegulationSpec& r = s_.regulation;
+  for (std::size_t i = 0; i < s_.nodes.nrt.size(); ++i) {
+    const auto& n = s_.nodes.nrt[i];
+    NrtConfig c;
+    c.name = n.name;
+    c.entity = i;
+    c.core = n.core;
+    c.sampling = r.sampling;
+    c.sampling_period_ns = r.sampling_period_us * kNsPerUs;
+    c.watchdog_ns = s_.hw.watchdog_ms * kNsPerMs;
+    c.mode = n.mode;
+    c.sched = sched_of(s_);
+    c.group_events = plan_.group_events;
+    c.metric_events = plan_.metric_events;
+    c.trace = trace_;
+    nrts_.push_back(std::make_unique<NrtRunner>(c, n.workload, source, *controls_[i], samples_,
+                                                engine_waker_, errors_.handler(), origin_));
+  }
+  for (std::size_t i = 0; i < s_.nodes.rt.size(); ++i)
+    rts_.push_back(std::make_unique<RtRunner>(s_.nodes.rt[i], i, sched_of(s_), rt_topic_,
+                                              engine_waker_, errors_.handler(), origin_, trace_));
+}
+
+PointRig::~PointRig() {
+  teardown();
+}
+
+// nRT nodes to nominal first, then RT nodes, then the controller.
+void PointRig::teardown() {
+  if (torn_down_) return;
+  torn_down_ = true;
+  for (auto& n : nrts_)
+    n->shutdown();
+  for (auto& x : rts_)
+    x->shutdown();
+  if (controller_) controller_->shutdown();
+}
+
+std::vector<SchedOutcome> PointRig::start() {
+  for (auto& n : nrts_)
+    n->start();
+  // Groups exist only once the nRT nodes started (their NCT thread is the target).
+  std::vector<CounterGroup*> groups;
+  for (auto& n : nrts_)
+    groups.push_back(&n->group());
+  controller_->set_groups(groups);
+  controller_->start();
+  for (auto& x : rts_)
+    x->start();
+  std::vector<SchedOutcome> outcomes{controller_->outcome()};
+  for (auto& n : nrts_)
+    for (const auto& o : n->outcomes())
+      outcomes.push_back(o);
+  for (auto& x : rts_)
+    outcomes.push_back(x->outcome());
+  return outcomes;
+}
+
+void PointRig::drive(RunContext& ctx) {
+  const auto stopping = [&] { return ctx.stop_requested() || errors_.failed(); };
+  const auto nrt_once_done = [&] {
+    for (auto& n : nrts_)
+      if (n->config().mode == NrtMode::Once && !n->once_done()) return false;
+    return true;
+  };
+  bool ok = true;
+  if (rts_.empty()) {
+    // No RT node: regulation covers the whole run. The activation starts (ON, baselines) before
+    // the nRT nodes begin, so their runs lie entirely inside the regulation window.
+    rt_topic_.publish(engine_pub_, {0, true, now_ns()});
+    ok = wait_for(
+        engine_waker_, [&] { return controller_->windows_opened() > 0; }, stopping);
+  }
+  if (ok)
+    for (auto& n : nrts_)
+      n->begin();
+  const bool any_loop = std::any_of(
+      nrts_.begin(), nrts_.end(), [](const auto& n) { return n->config().mode == NrtMode::Loop; });
+  if (ok && !rts_.empty() && any_loop)
+    ok = !wait_for(
+             engine_waker_, [] { return false; }, stopping, options_.warmup_ns) &&
+         !stopping();
+  if (ok && rts_.empty()) {
+    ok = wait_for(engine_waker_, nrt_once_done, stopping);
+    if (ok) rt_topic_.publish(engine_pub_, {0, false, now_ns()});
+  } else if (ok) {
+    for (auto& x : rts_)
+      x->go();
+    ok = wait_for(
+        engine_waker_,
+        [&] {
+          for (auto& x : rts_)
+            if (!x->done()) return false;
+          return nrt_once_done();
+        },
+        stopping);
+  }
+  if (ok) wait_for_signals(ctx);
+  if (controller_->failed_on_purpose()) {
+    // The controller went silent: the nodes must come back on their own (watchdog).
+    wait_for(
+        engine_waker_,
+        [&] {
+          return std::all_of(nrts_.begin(), nrts_.end(),
+                             [](const auto& n) { return n->state() == NodeState::Off; });
+        },
+        stopping, 2 * s_.hw.watchdog_ms * kNsPerMs + kWatchdogGraceNs);
+  }
+}
+
+// Every enable / disable signal processed: the last OFF sent, the last activation accounted.
+bool PointRig::wait_for_signals(RunContext& ctx) {
+  int sent = rts_.empty() ? 2 : 0;
+  for (auto& x : rts_)
+    sent += x->published();
+  return wait_for(
+      engine_waker_,
+      [&] { return controller_->rt_events() >= sent || controller_->failed_on_purpose(); },
+      [&] { return ctx.stop_requested() || errors_.failed(); },
+      s_.hw.watchdog_ms * kNsPerMs + kSignalsGraceNs);
+}
+
+void PointRig::check_errors() const {
+  if (errors_.failed()) throw RunError(errors_.message());
+  for (auto& c : controls_)
+    if (c->dropped()) throw RunError("a control topic dropped a command");
+}
+
+PointOutcome PointRig::outcome(RunContext& ctx) const {
+  PointOutcome out;
+  for (auto& x : rts_) {
+    std::vector<double> job_ns;
+    for (double j : x->job_times_us())
+      job_ns.push_back(j * 1e3);
+    out.rt.push_back(rt_outcome(x->spec().name, job_ns));
+    emit_trace(ctx.trace(), x->trace(), "rt");
+  }
+  const ActivationTotals& totals = controller_->driver().totals();
+  for (std::size_t i = 0; i < nrts_.size(); ++i) {
+    const NrtRunner& n = *nrts_[i];
+    NrtMeasure m;
+    m.name = n.config().name;
+    m.once = n.config().mode == NrtMode::Once;
+    if (m.once) {
+      if (n.once_done()) m.once_ns = n.once_time_us() * 1e3;
+      m.runs = n.once_fraction();
+    } else {
+      m.runs = totals.active[i].work;
+      m.window_ns = totals.active_ns;
+    }
+    m.traffic = {totals.active[i].bytes, 0.0, 0.0};  // cycles not counted: bytes / active time
+    m.traffic_ns = totals.active_ns;
+    out.nrt.push_back(nrt_outcome(m, n.driver()));
+    for (double v : n.activation_delays_us())
+      out.samples.push_back({"activation_delay", v});
+    for (double v : n.pmc_callbacks_us())
+      out.samples.push_back({"pmc_callback", v});
+    for (double v : n.pmc_reads_us())
+      out.samples.push_back({"pmc_read", v});
+    for (double v : n.sampling_overheads_us())
+      out.samples.push_back({"sampling_overhead", v});
+    for (const TraceLog* t : n.traces())
+      emit_trace(ctx.trace(), *t, "nrt");
+    if (n.watchdog_fired())
+      ctx.fact("watchdog_fired", n.config().name + ": " + std::to_string(n.watchdog_fired()));
+  }
+  // External sampling: the controller's read of an nRT group is the sampling callback.
+  for (double v : controller_->external_reads_us()) {
+    out.samples.push_back({"pmc_callback", v});
+    out.samples.push_back({"pmc_read", v});
+  }
+  report_external_lag(ctx);
+  emit_trace(ctx.trace(), controller_->trace(), "controller");
+  return out;
+}
+
+// A round of reads longer than the sampling period leaves regulation late or inert.
+void PointRig::report_external_lag(RunContext& ctx) const {
+  const auto& reads = controller_->external_reads_us();
+  const std::size_t n_nrt = nrts_.size();
+  const double round_budget_us = static_cast<double>(s_.regulation.sampling_period_us) /
+                                 static_cast<double>(std::max<std::size_t>(n_nrt, 1));
+  const auto slow =
+      std::count_if(reads.begin(), reads.end(), [&](double v) { return v >= round_budget_us; });
+  if (slow > 0)
+    ctx.fallback("external_sampling_lag",
+                 std::to_string(slow) + " of " + std::to_string(reads.size()) +
+                     " counter reads took longer than one sampling period allows (" +
+                     std::to_string(s_.regulation.sampling_period_us) + " us for " +
+                     std::to_string(n_nrt) +
+                     " nRT core(s)): samples arrive late and regulation may never act; use a "
+                     "longer sampling period");
+}
+
+}  // namespace rosguard::hw

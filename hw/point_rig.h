@@ -1,0 +1,72 @@
+// The per-point rig of the hw backend: the topics, nRT / RT nodes and controller of one point,
+// wired and run through the wait protocol, then measured.
+//
+// Contract: built, run and destroyed on the engine's thread. The destructor (and teardown())
+// returns every nRT node to nominal first, then stops the RT nodes, then the controller, and joins
+// every thread, on every exit path. outcome() is valid after teardown().
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "backend/backend.h"
+#include "hw/backend.h"
+#include "hw/nodes/controller.h"
+#include "hw/nodes/nrt_node.h"
+#include "hw/nodes/rt_node.h"
+#include "hw/wait.h"
+
+namespace rosguard::hw {
+
+class NodeMeter;
+
+class PointRig {
+ public:
+  PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
+           std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace);
+  ~PointRig();
+  PointRig(const PointRig&) = delete;
+  PointRig& operator=(const PointRig&) = delete;
+
+  // Starts every thread; returns their scheduling outcomes.
+  std::vector<SchedOutcome> start();
+  // The wait protocol: (no RT node: activate first) nRT nodes begin, loop workloads warm up, RT
+  // nodes go, wait for them (and `once` nRT nodes), then for the controller to process every
+  // signal; with a silent controller, for the watchdogs. Returns early when `ctx` asks to stop or
+  // a node thread failed.
+  void drive(RunContext& ctx);
+  void teardown();
+  // After teardown(): throws RunError for a failed node thread or a dropped command.
+  void check_errors() const;
+  PointOutcome outcome(RunContext& ctx) const;
+  std::size_t nrt_count() const { return nrts_.size(); }
+
+ private:
+  void wire_nodes(const PmcSource& source);
+  bool wait_for_signals(RunContext& ctx);
+  void report_external_lag(RunContext& ctx) const;
+
+  const Scenario& s_;
+  const MetricPlan& plan_;
+  const HwOptions& options_;
+  const bool trace_;
+  const TimeNs origin_;
+  Waker engine_waker_;
+  ErrorBox errors_{engine_waker_};
+  Topic<RtEventMsg> rt_topic_;
+  Topic<SampleMsg> samples_;
+  std::vector<std::unique_ptr<Topic<ControlMsg>>> controls_;
+  std::size_t engine_pub_ = 0;  // the activation when there is no RT node
+  std::vector<std::unique_ptr<NrtRunner>> nrts_;
+  std::vector<std::unique_ptr<RtRunner>> rts_;
+  std::unique_ptr<NodeMeter> meter_;
+  std::unique_ptr<Controller> controller_;
+  bool torn_down_ = false;
+};
+
+// Builds the point's regulator from the run's policy registry.
+std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
+                                                const Baselines& baselines,
+                                                const PolicyRegistry& policies);
+
+}  // namespace rosguard::hw

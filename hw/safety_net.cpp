@@ -1,0 +1,79 @@
+#include "hw/safety_net.h"
+
+#include <string>
+
+#include "core/error.h"
+#include "hw/common/sys.h"
+
+namespace rosguard::hw {
+
+// After every task no thread that the task started may remain under a real-time policy (they
+// have all been joined by now). Threads that were real-time before the task (e.g. rosguard
+// itself started with chrt) are not the task's.
+std::set<pid_t> realtime_tids() {
+  std::set<pid_t> out;
+  for (const auto& t : realtime_threads())
+    out.insert(t.tid);
+  return out;
+}
+
+std::size_t left_realtime(const std::set<pid_t>& before) {
+  std::size_t n = 0;
+  for (const auto& t : realtime_threads())
+    n += before.count(t.tid) ? 0 : 1;
+  return n;
+}
+
+void check_no_realtime_threads(const std::set<pid_t>& before) {
+  std::string names;
+  for (const auto& t : realtime_threads())
+    if (!before.count(t.tid))
+      names += (names.empty() ? "" : ", ") + t.name + " (" + std::to_string(t.tid) + ")";
+  if (!names.empty())
+    throw RunError("after the point, thread(s) still under a real-time policy: " + names);
+}
+
+// One stable message per kind of refusal (the runner keeps each distinct fallback once).
+void report_sched(const std::vector<SchedOutcome>& outcomes, RunContext& ctx) {
+  std::set<std::string> fifo, nice, pin;
+  for (const auto& o : outcomes) {
+    if (!o.fifo) fifo.insert(o.fifo_error);
+    if (!o.nice_error.empty()) nice.insert(o.nice_error);
+    if (!o.pinned) pin.insert(o.pin_error);
+  }
+  const auto join = [](const std::set<std::string>& v) {
+    std::string s;
+    for (const auto& x : v)
+      s += (s.empty() ? "" : ", ") + x;
+    return s;
+  };
+  if (!fifo.empty())
+    ctx.fallback("sched_fifo",
+                 "SCHED_FIFO refused (" + join(fifo) +
+                     "): the node threads run under SCHED_OTHER with nice values in the same "
+                     "priority order; the throttle and the callback priorities are approximate" +
+                     (nice.empty() ? std::string()
+                                   : "; raising priorities with nice was refused too (" +
+                                         join(nice) + "), so they share the CPU at nice 0"));
+  if (!pin.empty())
+    ctx.fallback("affinity",
+                 "a thread could not be pinned to its core (" + join(pin) + "): it runs unpinned");
+}
+
+void report_shared_core(const Scenario& s, RunContext& ctx) {
+  const int c = s.nodes.controller_core;
+  for (const auto& n : s.nodes.rt)
+    if (n.core == c)
+      ctx.fallback("shared_controller_core",
+                   "the controller shares core " + std::to_string(c) + " with RT node '" + n.name +
+                       "' (this host has " + std::to_string(usable_cpus().size()) +
+                       " usable CPUs): its callbacks preempt the RT node's job");
+  for (const auto& n : s.nodes.nrt)
+    if (n.core == c)
+      ctx.fallback("shared_controller_core",
+                   "the controller shares core " + std::to_string(c) + " with nRT node '" + n.name +
+                       "' (this host has " + std::to_string(usable_cpus().size()) +
+                       " usable CPUs): it preempts the node's throttle when it runs");
+}
+
+}  // namespace rosguard::hw

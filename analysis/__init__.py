@@ -1,6 +1,6 @@
 """Plots and sim-vs-measured comparison of rosguard results folders.
 
-A results folder is what ``rosguard run`` writes (DESIGN.md section 7): ``manifest.json``,
+A results folder is what ``rosguard run`` writes (docs/design.md section 6): ``manifest.json``,
 ``points.csv`` (one row per point and repetition) and ``samples.csv`` (distributions).
 
 Entry points:

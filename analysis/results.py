@@ -1,4 +1,4 @@
-"""Loading a results folder (DESIGN.md section 7) into a clean structure.
+"""Loading a results folder (docs/design.md section 6) into a clean structure.
 
 ``load_results(folder)`` reads ``manifest.json``, ``points.csv`` and the optional
 ``samples.csv``. Cells are typed: known text columns stay strings, every other column is a
@@ -23,7 +23,7 @@ import numpy as np
 
 SCHEMA_VERSION = 1
 
-# The columns DESIGN.md fixes, in order (model/results/results.cpp writes them first).
+# The columns docs/design.md fixes, in order (model/results/results.cpp writes them first).
 FIXED_COLUMNS = (
     "point", "rep", "backend", "rt_workload", "nrt_workload", "policy", "sampling", "scope",
     "threshold_pct", "sampling_period_us", "regulation_period_us", "rt_time_us",

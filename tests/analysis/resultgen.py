@@ -1,6 +1,6 @@
 """Writes small, realistic results folders for the analysis tests.
 
-The folders follow DESIGN.md section 7 exactly as model/results/results.cpp and
+The folders follow docs/design.md section 6 exactly as model/results/results.cpp and
 tools/rosguard/runner.cpp write them: points.csv with the fixed columns, the extra columns
 and one ``param:`` column per sweep key; samples.csv; manifest.json. Values come from a
 toy model of regulation (lower threshold: RT closer to isolation, nRT slower; monolithic
@@ -20,7 +20,7 @@ import json
 import random
 from pathlib import Path
 
-# Written out here, not imported from analysis.results: the fixtures mirror DESIGN.md, so a
+# Written out here, not imported from analysis.results: the fixtures mirror docs/design.md, so a
 # drift of the reader's column list fails the tests instead of following it silently.
 FIXED_COLUMNS = [
     "point", "rep", "backend", "rt_workload", "nrt_workload", "policy", "sampling", "scope",

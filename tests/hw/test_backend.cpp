@@ -138,7 +138,7 @@ Protection protection_attempt(int attempt) {
     paired.push_back(slow_none[i] - slow_interval[i]);
     reps_text += " " + std::to_string(slow_none[i]) + "/" + std::to_string(slow_interval[i]);
   }
-  // Bound (DESIGN section 3): per regulation period the nRT node may use its budget plus what it
+  // Bound (docs/design.md section 3.1): per regulation period the nRT node may use its budget plus what it
   // moves, unregulated, in one sampling period and one activation delay.
   const auto& r = s.regulation;
   const double budget_mbps = r.threshold_pct / 100.0 * r.reference_mbps;

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Fails if C++ under a folder (model/) uses SystemC, Linux/POSIX headers, threads or clocks.
 
-model/ is the pure regulator core: the host passes time and counter values in (docs: DESIGN
+model/ is the pure regulator core: the host passes time and counter values in (docs/design.md,
 section 2). This scans every C++ file below ROOT, after removing comments and string literals,
 for includes of such headers and for uses of clocks, sleeps and thread primitives that could
 reach the code through another header. Prints file:line: what, and exits 1 on any finding.

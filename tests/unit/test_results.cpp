@@ -1,4 +1,4 @@
-// Results rows: the fixed columns of DESIGN section 7, CSV quoting, medians.
+// Results rows: the fixed columns of docs/design.md section 6, CSV quoting, medians.
 #include <catch2/catch.hpp>
 #include <cmath>
 

@@ -33,7 +33,6 @@ const PolicyRegistry& test_policies() {
   return registry;
 }
 
-
 const std::string kScenarios = std::string(ROSGUARD_TEST_SOURCE_DIR) + "/tests/hw/scenarios/";
 
 class TestContext : public RunContext {
@@ -138,8 +137,8 @@ Protection protection_attempt(int attempt) {
     paired.push_back(slow_none[i] - slow_interval[i]);
     reps_text += " " + std::to_string(slow_none[i]) + "/" + std::to_string(slow_interval[i]);
   }
-  // Bound (docs/design.md section 3.1): per regulation period the nRT node may use its budget plus what it
-  // moves, unregulated, in one sampling period and one activation delay.
+  // Bound (docs/design.md section 3.1): per regulation period the nRT node may use its budget plus
+  // what it moves, unregulated, in one sampling period and one activation delay.
   const auto& r = s.regulation;
   const double budget_mbps = r.threshold_pct / 100.0 * r.reference_mbps;
   const double overshoot_us = static_cast<double>(r.sampling_period_us) + maximum(delays);

@@ -1,5 +1,5 @@
-// The regulator core, rule by rule (docs/design.md section 3.1, regulator/regulator.h). Every expected
-// command sequence is written out by hand; budgets come from the formula
+// The regulator core, rule by rule (docs/design.md section 3.1, regulator/regulator.h). Every
+// expected command sequence is written out by hand; budgets come from the formula
 //   budget = threshold/100 x reference_mbps x 1024 x 1024 B/s x period,
 // never from the code's own helper (see regulator_support.h for the reference setup).
 #include <catch2/catch.hpp>

@@ -5,7 +5,6 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-
 namespace rosguard {
 
 // hostname, kernel, machine, cpus_online, cpu_model (when /proc/cpuinfo names one).

@@ -230,7 +230,6 @@ class Top : public sc_core::sc_module {
     rep.outcome.samples = std::move(rec_.samples);
     if (controller_) rep.windows = controller_->driver().windows();
     rep.activations = rt_.activations();
-    rep.memory_resolves = memory_.resolves();
     rep.memory_solves = memory_.solves();
     return rep;
   }

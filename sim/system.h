@@ -61,10 +61,8 @@ struct SimReport {
   PointOutcome outcome;
   std::vector<std::vector<JobStats>> rt_jobs;  // per RT node
   std::vector<WindowUsage> windows;            // per regulation window and nRT node
-  TimeNs regulation_start_ns = -1;             // first activation seen by the controller
   TimeNs end_ns = 0;                           // simulated time at the end
   std::uint64_t activations = 0;               // SystemC process activations of the model
-  std::uint64_t memory_resolves = 0;           // quantum boundaries where demand changed
   std::uint64_t memory_solves = 0;             // fixed points computed (others memoised)
 };
 

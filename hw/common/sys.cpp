@@ -83,11 +83,4 @@ std::vector<ThreadSchedInfo> realtime_threads() {
   return out;
 }
 
-double host_cpu_mhz() {
-  std::ifstream f("/proc/cpuinfo");
-  for (std::string line; std::getline(f, line);)
-    if (line.rfind("cpu MHz", 0) == 0) return std::atof(line.substr(line.find(':') + 1).c_str());
-  return 0.0;
-}
-
 }  // namespace rosguard::hw

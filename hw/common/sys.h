@@ -60,7 +60,4 @@ std::vector<ThreadSchedInfo> process_threads(pid_t pid = 0);  // 0: this process
 // Threads of this process under a real-time policy (SCHED_FIFO / SCHED_RR).
 std::vector<ThreadSchedInfo> realtime_threads();
 
-// Name of the host CPU frequency source and its value in MHz (cpuinfo "cpu MHz"), 0 if unknown.
-double host_cpu_mhz();
-
 }  // namespace rosguard::hw

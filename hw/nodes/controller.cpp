@@ -57,16 +57,16 @@ TimeNs Controller::now() {
 
 void Controller::send(const DriverCommand& c) {
   const TimeNs now = cfg_.clock();
-  ControlMsg m{ControlMsg::Kind::Command, c.command, now, c.cause};
+  ControlMsg m{ControlMsg::Kind::Command, c.command, c.cause};
   if (!controls_[c.entity]->publish(control_pubs_[c.entity], m))
     throw RunError("control topic of nRT entity " + std::to_string(c.entity) +
                    " is full: a command was lost");
   trace_.instant(now - origin_, cfg_.entity_cores[c.entity], nullptr, to_string(c.command).data());
 }
 
-// Publishes what the driver decided at t, and reads the counters it asked for (each read is a
+// Publishes what the driver decided, and reads the counters it asked for (each read is a
 // sample, handled in turn).
-void Controller::handle(TimeNs t) {
+void Controller::handle() {
   while (true) {
     for (const DriverCommand& c : out_.commands)
       send(c);
@@ -81,7 +81,7 @@ void Controller::handle(TimeNs t) {
       }
     }
     for (std::size_t e : out_.keepalives)
-      controls_[e]->publish(control_pubs_[e], {ControlMsg::Kind::Keepalive, Command::On, t, 0});
+      controls_[e]->publish(control_pubs_[e], {ControlMsg::Kind::Keepalive, Command::On, 0});
     const std::vector<std::size_t> reads = out_.reads;
     out_.clear();
     if (reads.empty()) return;
@@ -118,7 +118,7 @@ bool Controller::serve() {
     busy = true;
     const TimeNs t = now();
     driver_.rt_signal(t, ev.rt, ev.started, out_);
-    handle(t);
+    handle();
     rt_events_.fetch_add(1, std::memory_order_acq_rel);
     engine_waker_.notify();
   }
@@ -133,13 +133,13 @@ bool Controller::serve() {
                    out_);
     trace_bandwidth(s.entity, s.t_published,
                     driver_.regulator().entity(s.entity).bytes_active - before);
-    handle(t);
+    handle();
   }
   const TimeNs t = now();
   if (const auto due = driver_.next_wakeup(); due && t >= *due) {
     busy = true;
     driver_.wake(t, out_);
-    handle(t);
+    handle();
   }
   return busy;
 }

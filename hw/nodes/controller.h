@@ -72,7 +72,7 @@ class Controller {
 
  private:
   void main();
-  void handle(TimeNs t);
+  void handle();
   void send(const DriverCommand& c);
   void read_entities(const std::vector<std::size_t>& entities);
   void trace_bandwidth(std::size_t e, TimeNs measured, double bytes);

@@ -36,7 +36,6 @@ struct ControlMsg {
   enum class Kind : std::uint8_t { Command, Keepalive };
   Kind kind = Kind::Command;
   Command command = Command::Off;
-  TimeNs t_sent = 0;
   TimeNs t_cause = 0;  // the sample that caused it: published (self) or read (external)
 };
 

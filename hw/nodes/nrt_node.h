@@ -107,7 +107,6 @@ class NrtRunner {
   const std::vector<double>& pmc_reads_us() const { return read_us_; }
   const std::vector<double>& sampling_overheads_us() const { return overhead_us_; }
   std::vector<const TraceLog*> traces() const { return {&cfb_trace_, &thr_trace_, &pmc_trace_}; }
-  const std::string& error() const { return command_error_; }
 
  private:
   void cfb_main();
@@ -152,7 +151,6 @@ class NrtRunner {
   static constexpr int kOverheadPeriods = 10;
   int overhead_periods_ = 0;  // PMC thread only
   std::vector<double> activation_us_, pmc_us_, read_us_, overhead_us_;
-  std::string command_error_;
   TraceLog cfb_trace_, thr_trace_, pmc_trace_;
 
   std::unique_ptr<RtThread> cfb_, thr_, pmc_, nct_;

@@ -70,101 +70,140 @@ PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file) 
   return p;
 }
 
-Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std::string& file) {
-  const auto fail = [&file](const std::string& path, const std::string& msg) {
-    throw InputError(file, path, msg);
-  };
+namespace {
 
-  Scenario s;
-  s.file = file;
-  s.document = doc;
-  s.name = doc.at("name").get<std::string>();
-  s.description = doc.value("description", "");
-  s.backend = doc.at("backend").get<std::string>();
-  s.seed = doc.at("seed").get<std::uint64_t>();
-  s.repetitions = doc.at("repetitions").get<int>();
-  s.platform = std::move(refs.platform);
-  const PlatformInfo& plat = s.platform;
+// Assigns nodes to cores: each core exists on the platform and runs at most one application
+// node, and node names are unique. Throws InputError at the offending node.
+class NodePlacer {
+ public:
+  NodePlacer(const PlatformInfo& plat, const std::string& file) : plat_(plat), file_(file) {}
 
-  // Nodes: cores exist, names unique, one application node per core.
-  const auto& nodes = doc.at("nodes");
-  s.nodes.controller_core = nodes.at("controller").at("core").get<int>();
-  if (s.nodes.controller_core >= plat.cores())
-    fail("/nodes/controller/core", "core " + std::to_string(s.nodes.controller_core) +
-                                       " does not exist on platform " + plat.name + " (" +
-                                       core_range(plat) + ")");
+  // Throws when `core` is not on the platform; `at` is the JSON pointer of the core value.
+  void check_core_exists(const std::string& at, int core) const {
+    if (core >= plat_.cores())
+      throw InputError(file_, at,
+                       "core " + std::to_string(core) + " does not exist on platform " +
+                           plat_.name + " (" + core_range(plat_) + ")");
+  }
 
-  std::map<int, std::string> core_owner;
-  std::map<std::string, std::string> name_owner;
-  const auto place = [&](const std::string& base, const std::string& name, int core) {
-    if (core >= plat.cores())
-      fail(base + "/core", "core " + std::to_string(core) + " does not exist on platform " +
-                               plat.name + " (" + core_range(plat) + ")");
-    if (auto it = core_owner.find(core); it != core_owner.end())
-      fail(base + "/core", "core " + std::to_string(core) + " already runs node '" + it->second +
-                               "' (one RT or nRT node per core: a throttled node's idle loop " +
-                               "would starve the other)");
-    if (auto it = name_owner.find(name); it != name_owner.end())
-      fail(base + "/name", "node name '" + name + "' is already used at " + it->second);
-    core_owner[core] = name;
-    name_owner[name] = base;
-  };
+  // `base` is the node's JSON pointer ("/nodes/rt/0").
+  void place(const std::string& base, const std::string& name, int core) {
+    check_core_exists(base + "/core", core);
+    if (auto it = core_owner_.find(core); it != core_owner_.end())
+      throw InputError(file_, base + "/core",
+                       "core " + std::to_string(core) + " already runs node '" + it->second +
+                           "' (one RT or nRT node per core: a throttled node's idle loop " +
+                           "would starve the other)");
+    if (auto it = name_owner_.find(name); it != name_owner_.end())
+      throw InputError(file_, base + "/name",
+                       "node name '" + name + "' is already used at " + it->second);
+    core_owner_[core] = name;
+    name_owner_[name] = base;
+  }
 
-  const auto& rt = nodes.at("rt");
-  if (refs.rt_workloads.size() != rt.size()) fail("/nodes/rt", "unresolved workloads");
+ private:
+  const PlatformInfo& plat_;
+  const std::string& file_;
+  std::map<int, std::string> core_owner_;
+  std::map<std::string, std::string> name_owner_;
+};
+
+void build_rt_nodes(const nlohmann::json& rt, std::vector<WorkloadInfo>& workloads,
+                    NodePlacer& placer, const std::string& file, NodesSpec& nodes) {
+  if (workloads.size() != rt.size()) throw InputError(file, "/nodes/rt", "unresolved workloads");
   for (std::size_t i = 0; i < rt.size(); ++i) {
-    const std::string base = "/nodes/rt/" + std::to_string(i);
     RtNodeSpec n;
     n.name = rt[i].at("name").get<std::string>();
     n.core = rt[i].at("core").get<int>();
-    n.workload = std::move(refs.rt_workloads[i]);
+    n.workload = std::move(workloads[i]);
     n.iterations = rt[i].at("iterations").get<int>();
     if (rt[i].contains("period_us")) n.period_us = rt[i].at("period_us").get<std::int64_t>();
-    place(base, n.name, n.core);
-    s.nodes.rt.push_back(std::move(n));
+    placer.place("/nodes/rt/" + std::to_string(i), n.name, n.core);
+    nodes.rt.push_back(std::move(n));
   }
+}
 
-  const auto& nrt = nodes.at("nrt");
-  if (refs.nrt_workloads.size() != nrt.size()) fail("/nodes/nrt", "unresolved workloads");
+void build_nrt_nodes(const nlohmann::json& nrt, bool has_rt, std::vector<WorkloadInfo>& workloads,
+                     NodePlacer& placer, const std::string& file, NodesSpec& nodes) {
+  if (workloads.size() != nrt.size()) throw InputError(file, "/nodes/nrt", "unresolved workloads");
   for (std::size_t i = 0; i < nrt.size(); ++i) {
     const std::string base = "/nodes/nrt/" + std::to_string(i);
     NrtNodeSpec n;
     n.name = nrt[i].at("name").get<std::string>();
     n.core = nrt[i].at("core").get<int>();
-    n.workload = std::move(refs.nrt_workloads[i]);
+    n.workload = std::move(workloads[i]);
     // Without an RT node nothing would end a loop: nRT nodes then run once.
-    const std::string mode = nrt[i].value("mode", rt.empty() ? "once" : "loop");
-    if (mode == "loop" && rt.empty())
-      fail(base + "/mode",
-           "'loop' restarts the workload until the RT nodes finish, and there is "
-           "no RT node; use \"once\"");
+    const std::string mode = nrt[i].value("mode", has_rt ? "loop" : "once");
+    if (mode == "loop" && !has_rt)
+      throw InputError(file, base + "/mode",
+                       "'loop' restarts the workload until the RT nodes finish, and there is "
+                       "no RT node; use \"once\"");
     n.mode = mode == "loop" ? NrtMode::Loop : NrtMode::Once;
-    place(base, n.name, n.core);
-    s.nodes.nrt.push_back(std::move(n));
+    placer.place(base, n.name, n.core);
+    nodes.nrt.push_back(std::move(n));
   }
-  if (s.nodes.rt.empty() && s.nodes.nrt.empty())
-    fail("/nodes", "no RT and no nRT node: nothing to run");
+}
 
-  const auto check_backend = [&](const std::string& base, const WorkloadInfo& w) {
-    if (w.is_command() && s.backend == "sim")
-      fail(base + "/workload",
-           "an external command runs only on the hw backend (run with --backend hw)");
-    if (!w.is_command() && s.backend == "sim" && !w.doc.contains("sim"))
-      fail(base + "/workload", "workload '" + w.name + "' (" + w.origin +
-                                   ") has no \"sim\" profile, so the sim backend cannot run it");
-    if (!w.is_command() && s.backend == "hw" && !w.doc.contains("hw"))
-      fail(base + "/workload",
-           "workload '" + w.name + "' (" + w.origin +
-               ") has no \"hw\" implementation, so the hw backend cannot run it");
-  };
-  for (std::size_t i = 0; i < s.nodes.rt.size(); ++i)
-    check_backend("/nodes/rt/" + std::to_string(i), s.nodes.rt[i].workload);
-  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
-    check_backend("/nodes/nrt/" + std::to_string(i), s.nodes.nrt[i].workload);
+// The node at `base` runs workload `w`: the scenario's backend must be able to run it.
+void check_workload_runs_on(const std::string& backend, const std::string& base,
+                            const WorkloadInfo& w, const std::string& file) {
+  const std::string at = base + "/workload";
+  if (w.is_command() && backend == "sim")
+    throw InputError(file, at,
+                     "an external command runs only on the hw backend (run with --backend hw)");
+  if (!w.is_command() && backend == "sim" && !w.doc.contains("sim"))
+    throw InputError(file, at,
+                     "workload '" + w.name + "' (" + w.origin +
+                         ") has no \"sim\" profile, so the sim backend cannot run it");
+  if (!w.is_command() && backend == "hw" && !w.doc.contains("hw"))
+    throw InputError(file, at,
+                     "workload '" + w.name + "' (" + w.origin +
+                         ") has no \"hw\" implementation, so the hw backend cannot run it");
+}
 
-  // Regulation.
-  const auto& reg = doc.at("regulation");
-  RegulationSpec& r = s.regulation;
+// Nodes: cores exist, names unique, one application node per core, workloads the backend runs.
+NodesSpec build_nodes(const nlohmann::json& nodes, ResolvedRefs& refs, const std::string& backend,
+                      const std::string& file) {
+  const PlatformInfo& plat = refs.platform;
+  NodesSpec out;
+  NodePlacer placer(plat, file);
+  out.controller_core = nodes.at("controller").at("core").get<int>();
+  placer.check_core_exists("/nodes/controller/core", out.controller_core);
+
+  const auto& rt = nodes.at("rt");
+  build_rt_nodes(rt, refs.rt_workloads, placer, file, out);
+  build_nrt_nodes(nodes.at("nrt"), !rt.empty(), refs.nrt_workloads, placer, file, out);
+  if (out.rt.empty() && out.nrt.empty())
+    throw InputError(file, "/nodes", "no RT and no nRT node: nothing to run");
+
+  for (std::size_t i = 0; i < out.rt.size(); ++i)
+    check_workload_runs_on(backend, "/nodes/rt/" + std::to_string(i), out.rt[i].workload, file);
+  for (std::size_t i = 0; i < out.nrt.size(); ++i)
+    check_workload_runs_on(backend, "/nodes/nrt/" + std::to_string(i), out.nrt[i].workload, file);
+  return out;
+}
+
+// The metric's events, each one the platform's PMU provides.
+std::vector<MetricEvent> build_metric_events(const nlohmann::json& events, const PlatformInfo& plat,
+                                             const std::string& file) {
+  std::vector<MetricEvent> out;
+  for (const auto& [event, weight] : events.items()) {
+    if (std::find(plat.pmu_events.begin(), plat.pmu_events.end(), event) == plat.pmu_events.end()) {
+      std::string known;
+      for (const auto& e : plat.pmu_events)
+        known += (known.empty() ? "" : ", ") + e;
+      throw InputError(file, "/regulation/metric/events/" + event,
+                       "event '" + event + "' is not provided by platform " + plat.name +
+                           " (it has: " + known + ")");
+    }
+    out.push_back({event, weight.get<double>()});
+  }
+  return out;
+}
+
+RegulationSpec build_regulation(const nlohmann::json& reg, const PlatformInfo& plat,
+                                const std::string& file) {
+  RegulationSpec r;
   r.policy = reg.at("policy").get<std::string>();
   r.sampling = parse_sampling(reg.at("sampling").get<std::string>());
   r.sampling_period_us = reg.at("sampling_period_us").get<std::int64_t>();
@@ -177,30 +216,41 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
   const auto& metric = reg.at("metric");
   r.metric.line_bytes = metric.at("line_bytes").get<std::uint32_t>();
   r.metric.counter_bits = plat.counter_bits;
-  r.metric.events.clear();
-  for (const auto& [event, weight] : metric.at("events").items()) {
-    if (std::find(plat.pmu_events.begin(), plat.pmu_events.end(), event) == plat.pmu_events.end()) {
-      std::string known;
-      for (const auto& e : plat.pmu_events)
-        known += (known.empty() ? "" : ", ") + e;
-      fail("/regulation/metric/events/" + event, "event '" + event +
-                                                     "' is not provided by platform " + plat.name +
-                                                     " (it has: " + known + ")");
-    }
-    r.metric.events.push_back({event, weight.get<double>()});
-  }
+  r.metric.events = build_metric_events(metric.at("events"), plat, file);
+  return r;
+}
+
+HwSettings build_hw_settings(const nlohmann::json& hw) {
+  HwSettings out;
+  out.pmc_source = parse_pmc_source(hw.at("pmc_source").get<std::string>());
+  out.scheduler =
+      hw.at("scheduler").get<std::string>() == "fifo" ? SchedulerKind::Fifo : SchedulerKind::Other;
+  out.watchdog_ms = hw.at("watchdog_ms").get<std::int64_t>();
+  return out;
+}
+
+}  // namespace
+
+Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std::string& file) {
+  Scenario s;
+  s.file = file;
+  s.document = doc;
+  s.name = doc.at("name").get<std::string>();
+  s.description = doc.value("description", "");
+  s.backend = doc.at("backend").get<std::string>();
+  s.seed = doc.at("seed").get<std::uint64_t>();
+  s.repetitions = doc.at("repetitions").get<int>();
+  s.nodes = build_nodes(doc.at("nodes"), refs, s.backend, file);
+  s.platform = std::move(refs.platform);
+  s.regulation = build_regulation(doc.at("regulation"), s.platform, file);
 
   // Rules of the built-in policies; a policy registered elsewhere is checked by the backends
   // (check_policy with the run's registry).
-  if (const PolicyInfo* p = find_builtin_policy(r.policy)) check_policy_rules(s, p->traits);
+  if (const PolicyInfo* p = find_builtin_policy(s.regulation.policy))
+    check_policy_rules(s, p->traits);
 
-  // Backend settings.
   s.sim.quantum_us = doc.at("sim").at("quantum_us").get<double>();
-  const auto& hw = doc.at("hw");
-  s.hw.pmc_source = parse_pmc_source(hw.at("pmc_source").get<std::string>());
-  s.hw.scheduler =
-      hw.at("scheduler").get<std::string>() == "fifo" ? SchedulerKind::Fifo : SchedulerKind::Other;
-  s.hw.watchdog_ms = hw.at("watchdog_ms").get<std::int64_t>();
+  s.hw = build_hw_settings(doc.at("hw"));
   return s;
 }
 

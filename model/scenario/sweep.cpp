@@ -2,7 +2,6 @@
 
 #include <cctype>
 #include <cstdio>
-#include <stdexcept>
 
 #include "core/hash.h"
 
@@ -24,7 +23,7 @@ std::vector<PathSegment> parse_sweep_path(const std::string& path) {
   std::vector<PathSegment> out;
   std::size_t i = 0;
   const auto fail = [&](const std::string& why) {
-    throw std::invalid_argument("malformed sweep path '" + path + "': " + why);
+    throw InputError("", "", "malformed sweep path '" + path + "': " + why);
   };
   while (true) {
     PathSegment seg;
@@ -72,20 +71,22 @@ void set_at_path(nlohmann::json& doc, const std::vector<PathSegment>& path,
   for (std::size_t s = 0; s < path.size(); ++s) {
     const PathSegment& seg = path[s];
     if (!node->is_object())
-      throw std::out_of_range("'" + walked + "' is not an object, it has no key '" + seg.key + "'");
+      throw InputError("", "",
+                       "'" + walked + "' is not an object, it has no key '" + seg.key + "'");
     walked += (walked.empty() ? "" : ".") + seg.key;
     const bool last_key = s + 1 == path.size();
     if (!node->contains(seg.key)) {
       if (!seg.indexes.empty())
-        throw std::out_of_range("'" + walked + "' does not exist, so it cannot be indexed");
+        throw InputError("", "", "'" + walked + "' does not exist, so it cannot be indexed");
       if (!last_key) (*node)[seg.key] = nlohmann::json::object();
     }
     node = &(*node)[seg.key];
     for (std::size_t index : seg.indexes) {
-      if (!node->is_array()) throw std::out_of_range("'" + walked + "' is not an array");
+      if (!node->is_array()) throw InputError("", "", "'" + walked + "' is not an array");
       if (index >= node->size())
-        throw std::out_of_range("'" + walked + "' has " + std::to_string(node->size()) +
-                                " element(s), no index " + std::to_string(index));
+        throw InputError("", "",
+                         "'" + walked + "' has " + std::to_string(node->size()) +
+                             " element(s), no index " + std::to_string(index));
       walked += '[';
       walked += std::to_string(index);
       walked += ']';
@@ -111,23 +112,31 @@ SweepPlan::SweepPlan(const nlohmann::json& doc, const std::vector<std::string>& 
   const nlohmann::json& sweep = doc.contains("sweep") ? doc.at("sweep") : empty;
   base_.erase("sweep");
   if (key_order.size() != sweep.size())
-    throw std::invalid_argument("sweep key order does not match the sweep object");
+    throw ContractError("sweep key order does not match the sweep object");
   for (const auto& key : key_order) {
+    const std::string where = "/sweep" + to_json_pointer({{key, {}}});
     Key k{key, split_sweep_key(key), {}, &sweep.at(key)};
-    for (const auto& name : k.names)
-      k.paths.push_back(parse_sweep_path(name));
+    for (const auto& name : k.names) {
+      try {
+        k.paths.push_back(parse_sweep_path(name));
+      } catch (const InputError& e) {
+        throw InputError("", where, e.message());
+      }
+    }
     if (!k.values->is_array() || k.values->empty())
-      throw std::invalid_argument("sweep '" + key + "' must be a non-empty list");
+      throw InputError("", where, "sweep '" + key + "' must be a non-empty list");
     if (k.names.size() > 1)
       for (std::size_t i = 0; i < k.values->size(); ++i)
         if (!(*k.values)[i].is_array() || (*k.values)[i].size() != k.names.size())
-          throw std::invalid_argument(
-              "sweep '" + key + "' joins " + std::to_string(k.names.size()) +
-              " paths, so each value must be a list of " + std::to_string(k.names.size()) +
-              " values (value " + std::to_string(i) + " is not)");
+          throw InputError("", where + "/" + std::to_string(i),
+                           "sweep '" + key + "' joins " + std::to_string(k.names.size()) +
+                               " paths, so each value must be a list of " +
+                               std::to_string(k.names.size()) + " values (value " +
+                               std::to_string(i) + " is not)");
     if (__builtin_mul_overflow(count_, static_cast<std::uint64_t>(k.values->size()), &count_))
-      throw std::invalid_argument("the sweep has more points than a 64-bit count can hold (" +
-                                  std::to_string(UINT64_MAX) + ")");
+      throw InputError("", "/sweep",
+                       "the sweep has more points than a 64-bit count can hold (" +
+                           std::to_string(UINT64_MAX) + ")");
     keys_.push_back(std::move(k));
   }
 }
@@ -156,8 +165,8 @@ SweepPoint SweepPlan::point(std::uint64_t index) const {
       const auto& v = key.names.size() > 1 ? value[c] : value;
       try {
         set_at_path(p.document, key.paths[c], v);
-      } catch (const std::out_of_range& e) {
-        throw SweepPathError(key.key, e.what());
+      } catch (const InputError& e) {
+        throw SweepPathError(key.key, e.message());
       }
       p.params.push_back({key.names[c], v, digit[k], key.key, c});
     }

@@ -9,9 +9,10 @@
 
 #include <cstdint>
 #include <nlohmann/json.hpp>
-#include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "core/error.h"
 
 namespace rosguard {
 
@@ -40,14 +41,15 @@ struct PathSegment {
 // tuples: "regulation.sampling_period_us+regulation.regulation_period_us": [[500, 2500], ...]).
 std::vector<std::string> split_sweep_key(const std::string& key);
 
-// Parses "nodes.rt[0].workload". Throws std::invalid_argument on a malformed path.
+// Parses "nodes.rt[0].workload". Throws InputError (no file, no JSON path: the caller knows
+// where the path was written) on a malformed path.
 std::vector<PathSegment> parse_sweep_path(const std::string& path);
 
 // JSON pointer ("/nodes/rt/0/workload") of a dotted path.
 std::string to_json_pointer(const std::vector<PathSegment>& path);
 
 // Writes `value` at `path` in `doc`. Missing object keys are created; arrays must already hold
-// the index. Throws std::out_of_range saying which segment does not exist.
+// the index. Throws InputError (no file, no JSON path) saying which segment does not exist.
 void set_at_path(nlohmann::json& doc, const std::vector<PathSegment>& path,
                  const nlohmann::json& value);
 
@@ -56,10 +58,14 @@ std::string point_id(const std::vector<SweepParam>& params);
 
 // A sweep value that cannot be written at its path in one point: an earlier sweep key reshaped
 // the document (e.g. "nodes.rt": [[]] empties the array that "nodes.rt[0].core" indexes).
-class SweepPathError : public std::out_of_range {
+// Its JSON path is the sweep key ("/sweep/nodes.rt[0].core"); it has no file.
+class SweepPathError : public InputError {
  public:
-  SweepPathError(std::string key, const std::string& what)
-      : std::out_of_range(what), key_(std::move(key)) {}
+  SweepPathError(std::string key, const std::string& why)
+      : InputError("", "/sweep" + to_json_pointer({{key, {}}}),
+                   "this path does not exist in every point: " + why +
+                       " (another sweep key changes what it points into)"),
+        key_(std::move(key)) {}
   const std::string& key() const { return key_; }  // the sweep key whose value did not fit
 
  private:
@@ -69,8 +75,9 @@ class SweepPathError : public std::out_of_range {
 // The points of a sweep, counted without building them; point(i) builds one on demand.
 // `doc` holds a "sweep" object (possibly empty); `key_order` is the order its keys were written
 // in (JSON objects here are sorted, so the loader passes it). The plan refers to `doc`, which
-// must outlive it. The constructor throws std::invalid_argument naming the offending key (a
-// malformed path or value list, or a product of list sizes beyond 2^64 - 1).
+// must outlive it. The constructor throws InputError (no file) at the offending key (a malformed
+// path or value list) or at "/sweep" (a product of list sizes beyond 2^64 - 1), and
+// ContractError when `key_order` does not list the sweep's keys.
 class SweepPlan {
  public:
   SweepPlan(const nlohmann::json& doc, const std::vector<std::string>& key_order);

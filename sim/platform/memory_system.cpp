@@ -37,7 +37,6 @@ void MemorySystem::mark_dirty() {
 void MemorySystem::resolve() {
   rt_.guarded([&] {
     scheduled_ = false;
-    ++resolves_;
     std::vector<CoreDemand>& demands = demands_;
     std::vector<std::uintptr_t>& key = key_;
     demands.clear();

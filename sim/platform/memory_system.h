@@ -44,7 +44,6 @@ class MemorySystem : public sc_core::sc_module {
     return model_.rates(phase, l3_hit, cluster, capf, state_);
   }
   std::uint64_t solves() const { return solves_; }
-  std::uint64_t resolves() const { return resolves_; }
 
  private:
   void resolve();
@@ -59,8 +58,7 @@ class MemorySystem : public sc_core::sc_module {
   std::vector<std::uintptr_t> key_;  // scratch of resolve()
   sc_core::sc_event ev_;
   bool scheduled_ = false;
-  std::uint64_t solves_ = 0;    // fixed points computed
-  std::uint64_t resolves_ = 0;  // quantum boundaries where something changed
+  std::uint64_t solves_ = 0;  // fixed points computed
 };
 
 }  // namespace rosguard::sim

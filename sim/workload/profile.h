@@ -59,7 +59,6 @@ class WorkloadRun {
   std::size_t phase_index() const { return profile_->phase_index(segment_); }
   bool finished() const { return segment_ >= profile_->segments(); }
   double remaining_in_segment() const { return remaining_; }
-  double retired_in_run() const { return retired_in_run_; }
   std::uint64_t runs_completed() const { return runs_completed_; }
   // Instructions retired over every run so far (completed runs plus the current one).
   double retired_total() const {

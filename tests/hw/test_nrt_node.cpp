@@ -43,7 +43,7 @@ struct Rig {
     node->start();
     node->begin();
   }
-  void send(Command c) { control.publish(pub, {ControlMsg::Kind::Command, c, now_ns(), now_ns()}); }
+  void send(Command c) { control.publish(pub, {ControlMsg::Kind::Command, c, now_ns()}); }
   bool wait_state(NodeState s, TimeNs timeout) {
     const TimeNs end = now_ns() + timeout;
     while (now_ns() < end) {
@@ -114,7 +114,7 @@ TEST_CASE("keepalives hold the watchdog off", "[hw][nrt][safety]") {
   rig.send(Command::On);
   REQUIRE(rig.wait_state(NodeState::On, kNsPerS));
   for (int i = 0; i < 10; ++i) {
-    rig.control.publish(rig.pub, {ControlMsg::Kind::Keepalive, Command::On, now_ns(), 0});
+    rig.control.publish(rig.pub, {ControlMsg::Kind::Keepalive, Command::On, 0});
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   CHECK(rig.node->state() == NodeState::On);

@@ -124,7 +124,10 @@ TEST_CASE("memory model: saturation is bounded (latency finite, utilisation belo
     d.push_back(demand(br, 0));
   const MemoryState st = m.solve(d);
   CHECK(st.l3_util[0] < 1.0);
+  CHECK(st.dram_util > 0.0);
+  CHECK(st.dram_util < 1.0);
   CHECK(std::isfinite(st.l3_ns[0]));
+  CHECK(std::isfinite(st.dram_ns));
   CHECK(speeds(m, d)[0] > 0.0);
 }
 

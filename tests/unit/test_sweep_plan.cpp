@@ -45,7 +45,12 @@ TEST_CASE("SweepPlan refuses a product beyond 64 bits", "[sweep]") {
     order.push_back(key);
   }
   const json doc = doc_with(sweep);
-  CHECK_THROWS_AS(SweepPlan(doc, order), std::invalid_argument);
+  try {
+    SweepPlan plan(doc, order);
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(e.json_path() == "/sweep");
+  }
   order.pop_back();
   json nine = doc;
   nine["sweep"].erase("k9");
@@ -60,6 +65,8 @@ TEST_CASE("SweepPlan names the key whose path another key made disappear", "[swe
     FAIL("no error");
   } catch (const SweepPathError& e) {
     CHECK(e.key() == "list[1]");
+    CHECK(e.json_path() == "/sweep/list[1]");
+    CHECK(e.file().empty());
   }
 }
 

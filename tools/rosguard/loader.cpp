@@ -99,6 +99,103 @@ std::vector<std::uint64_t> selected_points(std::uint64_t count,
   return {chosen.begin(), chosen.end()};
 }
 
+// The order the sweep's keys were written in (JSON objects here are sorted by key; the sweep
+// runs in the written order).
+std::vector<std::string> sweep_key_order(const std::string& text) {
+  std::vector<std::string> keys;
+  const auto ordered = nlohmann::ordered_json::parse(text, nullptr, false);
+  if (ordered.is_object() && ordered.contains("sweep"))
+    for (const auto& [k, _] : ordered["sweep"].items())
+      keys.push_back(k);
+  return keys;
+}
+
+// A model error (it names no file) placed in the scenario `file`.
+InputError in_file(const std::string& file, const InputError& e) {
+  return InputError(file, e.json_path(), e.message());
+}
+
+// Each sweep path must name a place in a scenario: tries it on the base document `expanded`.
+// Returns each dotted path's JSON pointer.
+std::map<std::string, std::string> check_sweep_paths(const json& expanded,
+                                                     const std::vector<std::string>& keys,
+                                                     const std::string& file) {
+  std::map<std::string, std::string> pointers;
+  for (const auto& key : keys) {
+    const std::string where = "/sweep/" + escape_token(key);
+    const auto paths = split_sweep_key(key);
+    const json& values = expanded.at("sweep").at(key);
+    for (std::size_t i = 0; paths.size() > 1 && i < values.size(); ++i)
+      if (!values[i].is_array() || values[i].size() != paths.size())
+        throw InputError(file, where + "/" + std::to_string(i),
+                         "this key joins " + std::to_string(paths.size()) +
+                             " paths, so each value must be a list of " +
+                             std::to_string(paths.size()) + " values, one per path");
+    for (std::size_t c = 0; c < paths.size(); ++c) {
+      std::vector<PathSegment> path;
+      try {
+        path = parse_sweep_path(paths[c]);
+      } catch (const InputError& e) {
+        throw InputError(file, where, e.message());
+      }
+      const json& first = values.at(0);
+      json trial = expanded;
+      try {
+        set_at_path(trial, path,
+                    paths.size() > 1 && first.is_array() && c < first.size() ? first[c] : first);
+      } catch (const InputError& e) {
+        throw InputError(file, where, "this path does not exist: " + e.message());
+      }
+      pointers[paths[c]] = to_json_pointer(path);
+    }
+  }
+  return pointers;
+}
+
+// The plan of the sweep in `expanded`; refuses more than kMaxSweepPoints points.
+SweepPlan plan_sweep(const json& expanded, const std::vector<std::string>& keys,
+                     const std::string& file) {
+  SweepPlan plan = [&] {
+    try {
+      return SweepPlan(expanded, keys);
+    } catch (const InputError& e) {
+      throw in_file(file, e);
+    }
+  }();
+  if (plan.count() > kMaxSweepPoints) {
+    std::string product;
+    for (const auto n : plan.sizes())
+      product += (product.empty() ? "" : " x ") + std::to_string(n);
+    throw InputError(file, "/sweep",
+                     "the sweep has " + std::to_string(plan.count()) + " points (" + product +
+                         "), more than the " + std::to_string(kMaxSweepPoints) +
+                         " one scenario may have (every point is validated and held in memory "
+                         "before the first one runs); split it into several scenarios");
+  }
+  return plan;
+}
+
+// The controller may share a core with an application node (2-CPU machines): allowed, said
+// once per node and core.
+std::vector<std::string> controller_sharing_warnings(const std::vector<LoadedPoint>& points) {
+  std::vector<std::string> warnings;
+  std::set<std::string> said;
+  for (const auto& lp : points) {
+    const auto& n = lp.scenario.nodes;
+    const auto warn = [&](const std::string& name) {
+      const std::string w = "the controller shares core " + std::to_string(n.controller_core) +
+                            " with node '" + name +
+                            "' (fine on small machines; its callbacks compete with the node)";
+      if (said.insert(w).second) warnings.push_back(w);
+    };
+    for (const auto& r : n.rt)
+      if (r.core == n.controller_core) warn(r.name);
+    for (const auto& r : n.nrt)
+      if (r.core == n.controller_core) warn(r.name);
+  }
+  return warnings;
+}
+
 }  // namespace
 
 Home Home::locate() {
@@ -311,6 +408,53 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
   return w;
 }
 
+Scenario Loader::build_point(json document, const std::string& file) {
+  const fs::path base = fs::path(file).parent_path();
+  schemas_.apply_defaults(document, SchemaKind::Scenario);
+  if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
+    throw InputError(file, err->first, err->second);
+  ResolvedRefs refs;
+  refs.platform = resolve_platform(document["platform"], base, file, "/platform");
+  const auto& nodes = document["nodes"];
+  for (std::size_t i = 0; i < nodes["rt"].size(); ++i)
+    refs.rt_workloads.push_back(resolve_workload(nodes["rt"][i]["workload"], base, file,
+                                                 "/nodes/rt/" + std::to_string(i) + "/workload"));
+  for (std::size_t i = 0; i < nodes["nrt"].size(); ++i)
+    refs.nrt_workloads.push_back(resolve_workload(nodes["nrt"][i]["workload"], base, file,
+                                                  "/nodes/nrt/" + std::to_string(i) + "/workload"));
+  return build_scenario(document, std::move(refs), file);
+}
+
+InputError Loader::attribute_to_sweep(const InputError& e, const SweepPoint& p,
+                                      const LoadedScenario& out,
+                                      const std::map<std::string, std::string>& sweep_pointers) {
+  const std::string& file = out.file;
+  const std::string& path = e.json_path();
+  const std::string& msg = e.message();
+  for (const SweepParam& q : p.params) {
+    const std::string& sp = sweep_pointers.at(q.path);
+    if (path == sp || path.rfind(sp + "/", 0) == 0 || sp.rfind(path + "/", 0) == 0) {
+      const std::string where = "/sweep/" + escape_token(q.key);
+      // An unknown key on the sweep path means the path is wrong; one inside the swept value
+      // (an object) is that value's fault.
+      const bool inside_value = path.rfind(sp + "/", 0) == 0;
+      if (msg.rfind("unknown key", 0) == 0 && !inside_value)
+        return InputError(file, where, "this path does not exist in a scenario: " + msg);
+      std::string at = where + "/" + std::to_string(q.value_index);
+      if (q.key != q.path) at += "/" + std::to_string(q.component);
+      return InputError(file, at, msg + (path == sp ? "" : " (at " + path + ")"));
+    }
+  }
+  json unswept = out.expanded;
+  unswept.erase("sweep");
+  try {
+    build_point(unswept, file);
+  } catch (const InputError& b) {
+    if (b.json_path() == path && b.message() == msg) return b;
+  }
+  return InputError(file, path, msg + " (in sweep point " + params_text(p) + ")");
+}
+
 LoadedScenario Loader::load(const std::string& file, const std::optional<std::string>& backend,
                             PointSelection selection) {
   LoadedScenario out;
@@ -318,150 +462,41 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
   const std::string text = read_text_file(file, file);
   out.given = parse_json_text(text, file);
   schemas_.validate(out.given, SchemaKind::Scenario, file);
-
-  // JSON objects here are sorted by key; the sweep runs in the order its keys were written.
-  {
-    const auto ordered = nlohmann::ordered_json::parse(text, nullptr, false);
-    if (ordered.is_object() && ordered.contains("sweep"))
-      for (const auto& [k, _] : ordered["sweep"].items())
-        out.sweep_keys.push_back(k);
-  }
+  out.sweep_keys = sweep_key_order(text);
 
   out.expanded = out.given;
   if (backend) out.expanded["backend"] = *backend;
   schemas_.apply_defaults(out.expanded, SchemaKind::Scenario);
   schemas_.validate(out.expanded, SchemaKind::Scenario, file);
 
-  // Each sweep path must name a place in a scenario: try it on the base document.
-  std::map<std::string, std::string> sweep_pointers;  // dotted path -> JSON pointer
-  for (const auto& key : out.sweep_keys) {
-    const std::string where = "/sweep/" + escape_token(key);
-    const auto paths = split_sweep_key(key);
-    const json& values = out.expanded["sweep"][key];
-    for (std::size_t i = 0; paths.size() > 1 && i < values.size(); ++i)
-      if (!values[i].is_array() || values[i].size() != paths.size())
-        throw InputError(file, where + "/" + std::to_string(i),
-                         "this key joins " + std::to_string(paths.size()) +
-                             " paths, so each value must be a list of " +
-                             std::to_string(paths.size()) + " values, one per path");
-    for (std::size_t c = 0; c < paths.size(); ++c) {
-      try {
-        const auto path = parse_sweep_path(paths[c]);
-        const json& first = out.expanded["sweep"][key][0];
-        json trial = out.expanded;
-        set_at_path(trial, path,
-                    paths.size() > 1 && first.is_array() && c < first.size() ? first[c] : first);
-        sweep_pointers[paths[c]] = to_json_pointer(path);
-      } catch (const std::invalid_argument& e) {
-        throw InputError(file, where, e.what());
-      } catch (const std::out_of_range& e) {
-        throw InputError(file, where, std::string("this path does not exist: ") + e.what());
-      }
-    }
-  }
-  std::optional<SweepPlan> plan;
-  try {
-    plan.emplace(out.expanded, out.sweep_keys);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(file, "/sweep", e.what());
-  }
-  out.point_count = plan->count();
-  if (out.point_count > kMaxSweepPoints) {
-    std::string product;
-    for (const auto n : plan->sizes())
-      product += (product.empty() ? "" : " x ") + std::to_string(n);
-    throw InputError(file, "/sweep",
-                     "the sweep has " + std::to_string(out.point_count) + " points (" + product +
-                         "), more than the " + std::to_string(kMaxSweepPoints) +
-                         " one scenario may have (every point is validated and held in memory "
-                         "before the first one runs); split it into several scenarios");
-  }
+  const auto sweep_pointers = check_sweep_paths(out.expanded, out.sweep_keys, file);
+  const SweepPlan plan = plan_sweep(out.expanded, out.sweep_keys, file);
+  out.point_count = plan.count();
 
-  const fs::path base = fs::path(file).parent_path();
-  const auto build = [&](json document) {
-    schemas_.apply_defaults(document, SchemaKind::Scenario);
-    if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
-      throw InputError(file, err->first, err->second);
-    ResolvedRefs refs;
-    refs.platform = resolve_platform(document["platform"], base, file, "/platform");
-    const auto& nodes = document["nodes"];
-    for (std::size_t i = 0; i < nodes["rt"].size(); ++i)
-      refs.rt_workloads.push_back(resolve_workload(nodes["rt"][i]["workload"], base, file,
-                                                   "/nodes/rt/" + std::to_string(i) + "/workload"));
-    for (std::size_t i = 0; i < nodes["nrt"].size(); ++i)
-      refs.nrt_workloads.push_back(
-          resolve_workload(nodes["nrt"][i]["workload"], base, file,
-                           "/nodes/nrt/" + std::to_string(i) + "/workload"));
-    return build_scenario(document, std::move(refs), file);
-  };
-
-  // An error in one point names the sweep value that caused it. An error the scenario has
-  // without any sweep value is reported plainly.
-  const auto attribute = [&](const InputError& e, const SweepPoint& p) -> InputError {
-    const std::string& path = e.json_path();
-    const std::string& msg = e.message();
-    for (const SweepParam& q : p.params) {
-      const std::string& sp = sweep_pointers.at(q.path);
-      if (path == sp || path.rfind(sp + "/", 0) == 0 || sp.rfind(path + "/", 0) == 0) {
-        const std::string where = "/sweep/" + escape_token(q.key);
-        // An unknown key on the sweep path means the path is wrong; one inside the swept value
-        // (an object) is that value's fault.
-        const bool inside_value = path.rfind(sp + "/", 0) == 0;
-        if (msg.rfind("unknown key", 0) == 0 && !inside_value)
-          return InputError(file, where, "this path does not exist in a scenario: " + msg);
-        std::string at = where + "/" + std::to_string(q.value_index);
-        if (q.key != q.path) at += "/" + std::to_string(q.component);
-        return InputError(file, at, msg + (path == sp ? "" : " (at " + path + ")"));
-      }
-    }
-    json unswept = out.expanded;
-    unswept.erase("sweep");
-    try {
-      build(unswept);
-    } catch (const InputError& b) {
-      if (b.json_path() == path && b.message() == msg) return b;
-    }
-    return InputError(file, path, msg + " (in sweep point " + params_text(p) + ")");
-  };
-
-  for (const std::uint64_t index : selected_points(out.point_count, plan->sizes(), selection)) {
+  // An error in one point names the sweep value that caused it (a problem inside a platform or
+  // workload file is reported as it is).
+  for (const std::uint64_t index : selected_points(out.point_count, plan.sizes(), selection)) {
     SweepPoint p;
     try {
-      p = plan->point(index);
+      p = plan.point(index);
     } catch (const SweepPathError& e) {
-      throw InputError(file, "/sweep/" + escape_token(e.key()),
-                       std::string("this path does not exist in every point: ") + e.what() +
-                           " (another sweep key changes what it points into)");
+      throw in_file(file, e);
     }
     try {
-      Scenario s = build(p.document);
+      Scenario s = build_point(p.document, file);
       p.document = s.document;
       out.points.push_back({std::move(p), std::move(s)});
     } catch (const InputError& e) {
-      if (e.file() != file) throw;  // a problem inside a platform or workload file
-      throw attribute(e, p);
+      if (e.file() != file) throw;
+      throw attribute_to_sweep(e, p, out, sweep_pointers);
     }
   }
 
   for (const auto& key : out.sweep_keys)
     for (const auto& path : split_sweep_key(key))
       out.sweep_paths.push_back(path);
-
-  // The controller may share a core with an application node (2-CPU machines): allowed, said.
-  std::set<std::string> said;
-  for (const auto& lp : out.points) {
-    const auto& n = lp.scenario.nodes;
-    const auto warn = [&](const std::string& name) {
-      const std::string w = "the controller shares core " + std::to_string(n.controller_core) +
-                            " with node '" + name +
-                            "' (fine on small machines; its callbacks compete with the node)";
-      if (said.insert(w).second) out.warnings.push_back(w);
-    };
-    for (const auto& r : n.rt)
-      if (r.core == n.controller_core) warn(r.name);
-    for (const auto& r : n.nrt)
-      if (r.core == n.controller_core) warn(r.name);
-  }
+  for (auto& w : controller_sharing_warnings(out.points))
+    out.warnings.push_back(std::move(w));
   return out;
 }
 

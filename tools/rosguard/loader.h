@@ -76,6 +76,12 @@ class Loader {
   const Home& home() const { return home_; }
 
  private:
+  // One point's scenario from its document (defaults applied here): schema, references, rules.
+  Scenario build_point(nlohmann::json document, const std::string& file);
+  // The error `e` of point `p`, at the sweep value that caused it; an error the scenario has
+  // without any sweep value is reported plainly.
+  InputError attribute_to_sweep(const InputError& e, const SweepPoint& p, const LoadedScenario& out,
+                                const std::map<std::string, std::string>& sweep_pointers);
   PlatformInfo resolve_platform(const nlohmann::json& ref, const std::filesystem::path& base,
                                 const std::string& file, const std::string& pointer);
   WorkloadInfo resolve_workload(const nlohmann::json& ref, const std::filesystem::path& base,

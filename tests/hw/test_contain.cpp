@@ -19,10 +19,13 @@
 
 #include "core/error.h"
 #include "hw/workload/workload.h"
+#include "hw_test_files.h"
 
 using namespace rosguard;
 using namespace rosguard::hw;
 namespace fs = std::filesystem;
+
+using rosguard::test::slurp;
 
 namespace {
 
@@ -32,13 +35,6 @@ struct Proc {
   pid_t sid = 0;
   std::string comm;
 };
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
 
 // Live processes whose environment holds the entry `mark` (zombies have no environment left:
 // they have ended and only wait to be reaped).

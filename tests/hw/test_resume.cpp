@@ -17,26 +17,15 @@
 #include <thread>
 #include <vector>
 
+#include "hw_test_files.h"
 #include "results/results.h"
 
 namespace fs = std::filesystem;
 
+using rosguard::test::lines_of;
+using rosguard::test::slurp;
+
 namespace {
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-std::vector<std::string> lines_of(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream s(text);
-  for (std::string l; std::getline(s, l);)
-    if (!l.empty()) out.push_back(l);
-  return out;
-}
 
 // Starts `rosguard run SCENARIO --backend hw --out OUT [extra]` with stderr into `err`.
 pid_t start_run(const std::string& scenario, const fs::path& out, const fs::path& err,

@@ -13,28 +13,15 @@
 #include <sstream>
 #include <thread>
 
+#include "hw_test_files.h"
 #include "results/results.h"
 
 namespace fs = std::filesystem;
 
-namespace {
+using rosguard::test::lines_of;
+using rosguard::test::slurp;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-std::vector<std::string> lines_of(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream s(text);
-  for (std::string l; std::getline(s, l);)
-    if (!l.empty()) out.push_back(l);
-  return out;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 TEST_CASE("SIGINT mid-run: exit 130, only complete rows, nothing left under SCHED_FIFO",
           "[hw][safety][sigint]") {

@@ -30,6 +30,12 @@ struct StringMaker<rosguard::NodeState> {
 
 namespace rosguard::test {
 
+// The commands, short, as the tests write their expected sequences.
+constexpr auto On = Command::On;
+constexpr auto Off = Command::Off;
+constexpr auto Thr = Command::Thr;
+constexpr auto Rep = Command::Replenish;
+
 constexpr TimeNs ms(std::int64_t v) {
   return v * kNsPerMs;
 }

@@ -14,11 +14,6 @@ using namespace rosguard::test;
 
 namespace {
 
-constexpr auto On = Command::On;
-constexpr auto Off = Command::Off;
-constexpr auto Thr = Command::Thr;
-constexpr auto Rep = Command::Replenish;
-
 // Readings the test sets by hand; records when the driver read them.
 struct FakeMeter : EntityMeter {
   std::map<std::size_t, EntityReading> now;

@@ -14,13 +14,6 @@
 using namespace rosguard;
 using namespace rosguard::test;
 
-namespace {
-constexpr auto On = Command::On;
-constexpr auto Off = Command::Off;
-constexpr auto Thr = Command::Thr;
-constexpr auto Rep = Command::Replenish;
-}  // namespace
-
 // --- budgets -------------------------------------------------------------------------------
 
 TEST_CASE("interval: budget scales with the regulation period", "[regulator][interval]") {

@@ -1,0 +1,66 @@
+// What `rosguard calibrate` measures on a host and what the fit reads: the contract between the
+// hw measurement suite (hw/calibration/) and the sim model fit (sim/calibration/). Serialised as
+// the "measurements" object of DIR/calibration.json (to_json / from_json below).
+//
+// Units: every time per line is in ns per 64-byte cache line touched (bandwidth kernels: one
+// access per line; the latency kernel: one dependent load per line, a pointer chase), medians
+// over `samples` repeated runs with their coefficient of variation. Costs are raw samples in us.
+//
+// Contract: pure C++ (no SystemC, no OS calls), plain data; from_json throws InputError(file,
+// JSON path, message) for a document that does not match.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace rosguard::calibration {
+
+// The host as the suite saw it (rosguard platform probe).
+struct HostFacts {
+  std::string hostname;
+  std::string cpu_model;
+  int cpus = 0;                // usable CPUs
+  int clusters = 1;            // sets of CPUs that share the last-level cache
+  int cores_per_cluster = 1;
+  double freq_mhz = 0.0;
+  int line_bytes = 64;
+  double l1d_kb = 0.0, l2_kb = 0.0, l3_kb_per_cluster = 0.0;
+  std::string date;            // ISO 8601 UTC, when the suite started
+};
+
+// One built-in kernel ("bandwidth_read", "bandwidth_write", "latency") over one working set,
+// alone on `core` (idle cores around it), or with `corunners` running on the other cores of the
+// same cluster for the whole measurement (each entry a kernel at a working set). `ns_per_line`
+// is the median over `samples` runs; `cv` their coefficient of variation (sd / mean).
+struct KernelRun {
+  std::string kernel;
+  double working_set_kb = 0.0;
+  struct Corunner {
+    std::string kernel;
+    double working_set_kb = 0.0;
+  };
+  std::vector<Corunner> corunners;  // empty: isolation
+  double ns_per_line = 0.0;
+  double cv = 0.0;
+  int samples = 0;
+};
+
+struct Measurements {
+  HostFacts host;
+  std::vector<KernelRun> runs;  // isolation sweeps, bandwidth-latency (0..N-1 co-runners), pairs
+  // Middleware and OS costs as raw samples in us, keyed by the sim cost they calibrate:
+  // "pmc_callback", "publish", "message_latency", "controller_callback",
+  // "throttle_activation", "external_read" (the names of the platform's "costs" object).
+  std::map<std::string, std::vector<double>> costs_us;
+  double wall_s = 0.0;  // how long the suite took
+};
+
+void to_json(nlohmann::json& j, const Measurements& m);
+// `file` names the document in errors; `base` is the JSON path of the object.
+Measurements measurements_from_json(const nlohmann::json& j, const std::string& file,
+                                    const std::string& base = "");
+
+}  // namespace rosguard::calibration

@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "core/error.h"
+#include "host_model.h"
 #include "loader.h"
 #include "runner.h"
 #include "version.h"
@@ -134,6 +135,21 @@ int main(int argc, char** argv) {
                    "workloads | platforms | policies | backends | pmc-sources (default: all)")
       ->check(CLI::IsMember({"workloads", "platforms", "policies", "backends", "pmc-sources"}));
 
+  std::string probe_out;
+  auto* platform = app.add_subcommand("platform", "Describe this machine as a platform.");
+  platform->require_subcommand(1);
+  auto* probe = platform->add_subcommand(
+      "probe",
+      "Probe this machine (usable CPUs, clusters sharing a last-level cache, caches, frequency, "
+      "the PMU events that open, SCHED_FIFO) and print it as a platform JSON: what \"platform\": "
+      "\"host\" uses on the hw backend.");
+  probe->add_option("--out", probe_out, "Write the platform JSON to this file (atomically)");
+  probe->footer(
+      "Reference, memory model and costs come from the installed host model (rosguard calibrate "
+      "--install) when there is one; otherwise the reference bandwidth is measured now "
+      "(bandwidth_read, about half a second) and there is no memory model, so the sim backend "
+      "cannot run the result. Notes on what is missing or not usable go to stderr.");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -155,6 +171,7 @@ int main(int argc, char** argv) {
           check_backend.empty() ? std::nullopt : std::optional<std::string>(check_backend),
           check_points);
     if (*list) return list_catalogue(loader, policies, backends, list_what);
+    if (*probe) return platform_probe_command(SchemaSet(loader.home().schemas()), probe_out);
     if (*plot) {
       std::vector<std::string> args = {"plot", plot_dir};
       if (!plot_out.empty()) args.insert(args.end(), {"--out", plot_out});

@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
   probe->footer(
       "Reference, memory model and costs come from the installed host model (rosguard calibrate "
       "--install) when there is one; otherwise the reference bandwidth is measured now "
-      "(bandwidth_read, about half a second) and there is no memory model, so the sim backend "
+      "(bandwidth_read, under a second) and there is no memory model, so the sim backend "
       "cannot run the result. Notes on what is missing or not usable go to stderr.");
 
   try {

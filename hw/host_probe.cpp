@@ -532,7 +532,8 @@ json host_platform_document(const HostProbe& p, const std::optional<InstalledMod
       " (sched_getaffinity, online), clusters = usable CPUs sharing a last-level cache (" +
       p.cache_source + "): " + cluster_text +
       (exact ? ""
-             : " - not equal clusters numbered 0..n-1 in order, so described as "
+             : " - the usable CPUs are not 0..n-1 in equal clusters numbered in order, so "
+               "described as "
                "one cluster of CPUs 0-" +
                    std::to_string(p.usable_cpus.back()) +
                    " (scenario cores are Linux CPU numbers; the hw backend refuses "

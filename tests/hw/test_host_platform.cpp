@@ -154,6 +154,60 @@ TEST_CASE("the host platform document validates, with and without an installed m
   CHECK_THROWS_AS(host_platform_document(without, std::nullopt), ContractError);
 }
 
+TEST_CASE("unequal clusters and CPUs outside the affinity mask: what is usable, said in cpu.source",
+          "[hw][host]") {
+  const SchemaSet schemas(kSource / "scenarios" / "schema");
+  HostProbe p;
+  p.hostname = "h";
+  p.cpu_model = "test";
+  p.date = "2026-01-01T00:00:00Z";
+  p.l1d_kb = 32;
+  p.l2_kb = 512;
+  p.l3_kb_per_cluster = 8192;
+  p.freq_mhz = 2000;
+  p.cache_source = "sysfs";
+  p.hardware_events = {{"cpu_cycles", true, "cycles"}, {"l3d_cache", false, "ENOENT"}};
+  p.reference = ReferenceRun{1000.0, {900.0, 1000.0, 1100.0}, 0, 2048, 10, 100};
+  const auto doc_of = [&] {
+    const json d = host_platform_document(p, std::nullopt);
+    INFO(d.dump(2));
+    CHECK_NOTHROW(schemas.validate(d, SchemaKind::Platform, "synthetic"));
+    return d;
+  };
+
+  // Two equal clusters numbered in order: described exactly.
+  p.usable_cpus = {0, 1, 2, 3};
+  p.clusters = {{{0, 1}, {0, 1}, 3, 8192}, {{2, 3}, {2, 3}, 3, 8192}};
+  json d = doc_of();
+  CHECK(d["cpu"]["clusters"] == 2);
+  CHECK(d["cpu"]["cores_per_cluster"] == 2);
+  CHECK(d["pmu"]["events"] == json({"cpu_cycles", "l2d_cache_refill", "l2d_cache_wb"}));
+  CHECK(host_facts(p).clusters == 2);
+  CHECK(host_facts(p).cores_per_cluster == 2);
+
+  // Unequal clusters (4 + 2): one cluster over every usable CPU, said in the source.
+  p.usable_cpus = {0, 1, 2, 3, 4, 5};
+  p.clusters = {{{0, 1, 2, 3}, {0, 1, 2, 3}, 3, 8192}, {{4, 5}, {4, 5}, 3, 4096}};
+  d = doc_of();
+  CHECK(d["cpu"]["clusters"] == 1);
+  CHECK(d["cpu"]["cores_per_cluster"] == 6);
+  CHECK(d["cpu"]["source"].get<std::string>().find("not 0..n-1 in equal clusters") !=
+        std::string::npos);
+  CHECK(host_facts(p).clusters == 2);
+  CHECK(host_facts(p).cores_per_cluster == 2);  // what every cluster offers
+  CHECK(host_facts(p).cpus == 6);
+
+  // CPUs 0-1 outside the affinity mask: cores up to the highest usable CPU, the others named.
+  p.usable_cpus = {2, 3};
+  p.clusters = {{{2, 3}, {0, 1, 2, 3}, 3, 8192}};
+  d = doc_of();
+  CHECK(d["cpu"]["clusters"] == 1);
+  CHECK(d["cpu"]["cores_per_cluster"] == 4);
+  CHECK(d["cpu"]["source"].get<std::string>().find("refuses CPUs outside 2-3") !=
+        std::string::npos);
+  CHECK(host_facts(p).cpus == 2);
+}
+
 TEST_CASE("platform probe prints a valid platform, --out writes it, a bad --out exits 2",
           "[hw][host][cli]") {
   Tmp tmp;
@@ -178,6 +232,20 @@ TEST_CASE("platform probe prints a valid platform, --out writes it, a bad --out 
   CHECK(test::slurp(log.string() + ".err").find("does not exist") != std::string::npos);
   CHECK(run_rosguard("platform probe --out '" + tmp.path.string() + "'", missing_model, log) == 2);
   CHECK(run_rosguard("platform", missing_model, log) == 2);  // a subcommand is required
+
+  // A CPU outside the affinity mask: described as unusable, and a note says so.
+  const auto cpus = usable_cpus();
+  if (cpus.size() >= 2 && std::system("command -v taskset > /dev/null") == 0) {
+    const fs::path one = tmp.path / "one.json";
+    const std::string last = std::to_string(cpus.back());
+    const std::string cmd = "ROSGUARD_HOST_MODEL='" + missing_model.string() + "' taskset -c " +
+                            last + " '" + ROSGUARD_BINARY + "' platform probe --out '" +
+                            one.string() + "' 2> '" + log.string() + "'";
+    REQUIRE(std::system(cmd.c_str()) == 0);
+    CHECK(test::slurp(log).find("this process may use 1 of the") != std::string::npos);
+    CHECK(json::parse(test::slurp(one))["cpu"]["source"].get<std::string>().find(
+              "refuses CPUs outside " + last) != std::string::npos);
+  }
 }
 
 TEST_CASE("a host scenario passes check and runs a short hw point, the manifest has the probe",

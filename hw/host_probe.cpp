@@ -375,8 +375,9 @@ ReferenceRun measure_reference(int cpu) {
   std::exception_ptr error;
   std::thread worker([&] {
     try {
-      apply_to_current_thread({"rg-probe-bw", cpu, SchedClass::Other, prio::kNct},
-                              system_sched_ops());
+      r.pinned = apply_to_current_thread({"rg-probe-bw", cpu, SchedClass::Other, prio::kNct},
+                                         system_sched_ops())
+                     .pinned;
       const auto make = [&](std::uint64_t passes) {
         WorkloadInfo w{"bandwidth_read", "rosguard platform probe",
                        json{{"name", "bandwidth_read"},
@@ -477,10 +478,13 @@ json to_json(const HostProbe& p) {
          {"sched_fifo", {{"available", p.sched_fifo}, {"detail", p.sched_fifo_detail}}},
          {"notes", p.notes}};
   if (p.reference)
-    j["reference"] = {
-        {"mbps", p.reference->mbps},     {"run_mbps", p.reference->run_mbps},
-        {"cpu", p.reference->cpu},       {"working_set_kb", p.reference->working_set_kb},
-        {"passes", p.reference->passes}, {"wall_ms", p.reference->wall_ms}};
+    j["reference"] = {{"mbps", p.reference->mbps},
+                      {"run_mbps", p.reference->run_mbps},
+                      {"cpu", p.reference->cpu},
+                      {"pinned", p.reference->pinned},
+                      {"working_set_kb", p.reference->working_set_kb},
+                      {"passes", p.reference->passes},
+                      {"wall_ms", p.reference->wall_ms}};
   return j;
 }
 
@@ -599,6 +603,7 @@ json host_platform_document(const HostProbe& p, const std::optional<InstalledMod
                        fixed(r.working_set_kb, 0) + " KB working set, one load per 64-byte line, " +
                        std::to_string(r.passes) + " passes per run) alone on CPU " +
                        std::to_string(r.cpu) +
+                       (r.pinned ? "" : " (asked; the pinning was refused)") +
                        " under SCHED_OTHER, after a 100 ms warm-up: median of " +
                        std::to_string(r.run_mbps.size()) + " runs (" + runs +
                        " MB/s); one short measurement, so it carries the host's noise at that "

@@ -48,6 +48,7 @@ struct ReferenceRun {
   double mbps = 0.0;             // median of run_mbps
   std::vector<double> run_mbps;  // every measured run
   int cpu = -1;
+  bool pinned = true;  // false: the affinity could not be set, the run floated
   double working_set_kb = 0.0;
   std::uint64_t passes = 0;  // per run
   double wall_ms = 0.0;      // the whole measurement, warm-up included

@@ -167,7 +167,7 @@ TEST_CASE("unequal clusters and CPUs outside the affinity mask: what is usable, 
   p.freq_mhz = 2000;
   p.cache_source = "sysfs";
   p.hardware_events = {{"cpu_cycles", true, "cycles"}, {"l3d_cache", false, "ENOENT"}};
-  p.reference = ReferenceRun{1000.0, {900.0, 1000.0, 1100.0}, 0, 2048, 10, 100};
+  p.reference = ReferenceRun{1000.0, {900.0, 1000.0, 1100.0}, 0, true, 2048, 10, 100};
   const auto doc_of = [&] {
     const json d = host_platform_document(p, std::nullopt);
     INFO(d.dump(2));

@@ -618,7 +618,8 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
   doc["name"] = std::move(name);
   doc["description"] = "This host as measured by rosguard calibrate" +
                        (h.hostname.empty() ? std::string() : " on " + h.hostname) + " at " +
-                       h.date + " (" + std::to_string(h.cpus) + " CPUs, " + h.cpu_model +
+                       h.date + " (" + std::to_string(h.cpus) + " CPUs" +
+                       (h.cpu_model.empty() ? std::string() : ", " + h.cpu_model) +
                        "): memory model and kernel models fitted to its measurements, costs from "
                        "its samples.";
   json cpu = {{"clusters", p.clusters},

@@ -331,7 +331,7 @@ TEST_CASE("fit: the fitted platform validates, and sim runs it as the fit predic
     const double lines = ws_kb * 1024.0 / 64.0 * passes;
     INFO(kernel << " " << ws_kb << " KB: sim " << iso.time_us << " us, predicted "
                 << ns * lines / 1e3 << " us");
-    CHECK(iso.time_us == Approx(ns * lines / 1e3).epsilon(0.005));
+    CHECK(iso.time_us == Approx(ns * lines / 1e3).epsilon(1e-4));
     // Eq. 1 of the isolation run: the L3 lines it moved (write: refills and write-backs).
     CHECK(iso.mbps ==
           Approx((kernel == "bandwidth_write" ? 2.0 : 1.0) * 64.0 * 1e9 / ns / 1048576.0)

@@ -344,7 +344,8 @@ def _figure(report: dict, pairs):
     titles["excess"] = (f"excess slowdown where measured ≥ {EXCESS_MIN:g}: error RT "
                         f"{pct(overall['rt']['excess_error_pct'])}, nRT "
                         f"{pct(overall['nrt']['excess_error_pct'])} (goal ≤ 20 %)")
-    note = (f"{_host_line(report).replace('`', '')}. Markers: mean over repetitions; error bars: min–max over "
+    host = _host_line(report).replace("`", "")
+    note = (f"{host}. Markers: mean over repetitions; error bars: min–max over "
             "repetitions; shaded: ±5 % / ±10 % (left, middle) and ±20 % (right) of the "
             "measured value.")
     return figure.draw(pairs, names, titles, EXCESS_MIN, note)

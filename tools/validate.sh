@@ -28,7 +28,10 @@ if [[ ${1:-} == --readme ]]; then
   exit 0
 fi
 rosguard=${1:-build/rosguard}
-[[ -x $rosguard ]] || { echo "validate: $rosguard not found; build first (make build)" >&2; exit 1; }
+if [[ ! -x $rosguard ]]; then
+  echo "validate: $rosguard not found; build first (make build)" >&2
+  exit 1
+fi
 
 # The sim side of `platform: host` is the installed calibrated model; make one if missing.
 if [[ $platform == host ]]; then

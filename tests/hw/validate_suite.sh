@@ -12,7 +12,10 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
-if [ "$(nproc)" -lt 2 ]; then echo "SKIPPED: the suite needs 2 CPUs, this host has $(nproc)"; exit 0; fi
+if [ "$(nproc)" -lt 2 ]; then
+  echo "SKIPPED: the suite needs 2 CPUs, this host has $(nproc)"
+  exit 0
+fi
 mkdir "$tmp/suite"
 # Small: 2 thresholds x 2 repetitions, one RT job.
 /usr/bin/python3 - "$src/scenarios/validation/interval-self-thresholds.json" "$tmp/suite" <<'PY'
@@ -62,8 +65,9 @@ if "$rosguard" --help 2>/dev/null | grep -E '^ +calibrate +' >/dev/null; then
   exit 0
 fi
 set +e
-ROSGUARD_VALIDATE_PLATFORM=host ROSGUARD_HOST_MODEL=$tmp/none.json ROSGUARD_VALIDATE_SUITE=$tmp/suite \
-  ROSGUARD_VALIDATE_OUT=$tmp/out2 "$src/tools/validate.sh" "$rosguard" > "$tmp/log2" 2>&1
+ROSGUARD_VALIDATE_PLATFORM=host ROSGUARD_HOST_MODEL=$tmp/none.json \
+  ROSGUARD_VALIDATE_SUITE=$tmp/suite ROSGUARD_VALIDATE_OUT=$tmp/out2 \
+  "$src/tools/validate.sh" "$rosguard" > "$tmp/log2" 2>&1
 code=$?
 set -e
 cat "$tmp/log2"

@@ -189,3 +189,18 @@ def test_readme_without_markers_and_bad_report_are_input_errors(suite, tmp_path)
     assert done.returncode == 2 and "not a validation report" in done.stderr
     done = run_cli("validate", tmp_path / "missing", tmp_path / "missing2", "--out", out)
     assert done.returncode == 2 and "no such folder" in done.stderr
+
+
+def test_figure_limits_ignore_disturbed_points_and_say_so():
+    from analysis.figures import validation as figure
+    stat = validation.Stat.of
+    calm = [validation.Pair("a", f"p{i}", "rt", stat([1.0 + i / 100, 1.01 + i / 100]),
+                            stat([1.02 + i / 100])) for i in range(5)]
+    wild = validation.Pair("b", "px", "rt", stat([1.0, 108.0]), stat([1.05]))
+    assert figure.disturbed(wild) and not any(figure.disturbed(p) for p in calm)
+    fig = figure.draw(calm + [wild], ["a", "b"], {}, validation.EXCESS_MIN, "note")
+    rt_panel = fig.axes[0]
+    assert rt_panel.get_xlim()[1] < 1.2            # the 54.5 mean is left outside
+    texts = [t.get_text() for t in rt_panel.texts]
+    assert any("1 point(s) with disturbed hw repetitions" in t for t in texts), texts
+    assert rt_panel.get_xscale() == "linear"

@@ -49,8 +49,8 @@ if [[ $platform == host ]]; then
   fi
   echo "validate: platform host (sim model: $model)"
 else
-  echo "validate: platform $platform (scenarios/platforms/$platform.json on both backends;" \
-       "set PLATFORM=host in tools/validate.sh to validate the calibrated host model)"
+  echo "validate: platform $platform on both backends (set PLATFORM=host in" \
+       "tools/validate.sh to validate the calibrated host model)"
 fi
 
 shopt -s nullglob
@@ -78,9 +78,15 @@ open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' \
   for backend in hw sim; do
     t0=$(date +%s%N)
     log=$out/logs/$name-$backend.log
-    if ! "$rosguard" run "$file" --backend "$backend" --out "$out/$backend/$name" --overwrite \
-         > "$log" 2>&1; then
-      echo " $backend FAILED (exit status in $log)"
+    rc=0
+    "$rosguard" run "$file" --backend "$backend" --out "$out/$backend/$name" --overwrite \
+      > "$log" 2>&1 || rc=$?
+    if ((rc == 130 || rc == 143)); then
+      echo " $backend interrupted; stopping (the folders hold the complete rows)" >&2
+      exit "$rc"
+    fi
+    if ((rc != 0)); then
+      echo " $backend FAILED (exit $rc; see $log)"
       tail -n 5 "$log" | sed 's/^/    /'
       failed+=("$name=the $backend run failed; see $log")
       status=failed

@@ -308,11 +308,13 @@ def markdown(report: dict) -> str:
         lines += ["", "## Not compared", ""]
         lines += [f"- **{f['scenario']}**: {f['reason']}" for f in report["failed"]]
     lines += ["", "## Points", "",
-              "| scenario | point | node | hw | sim | error | excess error |",
-              "|---|---|---|---:|---:|---:|---:|"]
+              "Means over repetitions; hw min–max beside the hw mean.", "",
+              "| scenario | point | node | hw | hw min–max | sim | error | excess error |",
+              "|---|---|---|---:|---:|---:|---:|---:|"]
     for p in report["points"]:
         lines.append(f"| {p['scenario']} | {p['point']} | {p['node']} | "
-                     f"{p['hw_mean']:.3f} | {p['sim_mean']:.3f} | {p['error_pct']:+.1f} % | "
+                     f"{p['hw_mean']:.3f} | {p['hw_min']:.3f}–{p['hw_max']:.3f} | "
+                     f"{p['sim_mean']:.3f} | {p['error_pct']:+.1f} % | "
                      f"{_signed_pct(p['excess_error_pct'])} |")
     lines += ["", f"Figure: [{FIGURE_STEM}.png]({FIGURE_STEM}.png) "
               f"([PDF]({FIGURE_STEM}.pdf)).", "",

@@ -229,7 +229,9 @@ def _cell(errors: dict, goals: dict, node: str, metric: str) -> str:
     if value is None or not math.isfinite(value):
         return "n/a"
     extra = f" (n={errors[node]['excess_pairs']})" if metric == "excess_error_pct" else ""
-    return f"{pct(value)}{extra} {_mark(goals[key])}"
+    # Two decimals where one would round onto the bound (5.03 % missed, not "5.0 % missed").
+    digits = 2 if abs(value - goals[key]["bound"]) < 0.05 else 1
+    return f"{pct(value, digits)}{extra} {_mark(goals[key])}"
 
 
 def summary_table(report: dict) -> list:

@@ -204,3 +204,13 @@ def test_figure_limits_ignore_disturbed_points_and_say_so():
     texts = [t.get_text() for t in rt_panel.texts]
     assert any("1 point(s) with disturbed hw repetitions" in t for t in texts), texts
     assert rt_panel.get_xscale() == "linear"
+
+
+def test_a_value_just_over_its_bound_does_not_print_as_the_bound():
+    errors = {"rt": {"mape_pct": 5.033, "excess_error_pct": math.nan, "excess_pairs": 0},
+              "nrt": {"mape_pct": 9.2, "excess_error_pct": 20.01, "excess_pairs": 3}}
+    goals = validation.goal_marks(errors)
+    assert validation._cell(errors, goals, "rt", "mape_pct") == "5.03 % **missed**"
+    assert validation._cell(errors, goals, "nrt", "mape_pct") == "9.2 % met"
+    assert validation._cell(errors, goals, "nrt", "excess_error_pct") == \
+        "20.01 % (n=3) **missed**"

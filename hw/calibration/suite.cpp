@@ -584,13 +584,18 @@ SuiteResult Suite::run() {
 
   // Co-run blocks, one per co-runner kind: the bandwidth-latency curve (1..N-1 co-runners) and
   // the pair matrix (one co-runner).
-  const int others = static_cast<int>(cores_.size()) - 1;
-  const int max_n = shape_.max_corunners < 0 ? others : std::min(others, shape_.max_corunners);
+  const int max_n = static_cast<int>(cores_.size()) - 1;
+  std::set<int> counts;
+  for (int nco = 1; nco <= max_n; ++nco)
+    if (shape_.corunner_counts.empty() ||
+        std::find(shape_.corunner_counts.begin(), shape_.corunner_counts.end(), nco) !=
+            shape_.corunner_counts.end())
+      counts.insert(nco);
   std::map<Corunner, std::set<Config>> blocks;
   for (const char* ck : {kBwRead, kBwWrite})
     for (double ckb : {shape_.dram_kb, shape_.workload_kb}) {
       auto& b = blocks[{ck, ckb}];
-      for (int nco = 1; nco <= max_n; ++nco)
+      for (int nco : counts)
         for (const char* k : {kLatency, kBwRead, kBwWrite})
           for (double kb : {shape_.in_l3_kb, shape_.dram_kb})
             b.insert({k, kb, nco});
@@ -652,6 +657,9 @@ SuiteShape shape_for(const calibration::HostFacts& host, bool quick, int cores) 
   s.workload_kb = 2048.0;
   if (quick) {
     s.isolation_kb = {std::max(16.0, l2 / 2.0)};
+    for (int n = 1; n < cores - 1; n *= 2)
+      s.corunner_counts.push_back(n);
+    if (cores > 1) s.corunner_counts.push_back(cores - 1);
     s.repetitions = 7;
     s.window_ms = 20.0;
     s.warmup_ms = 20.0;

@@ -32,7 +32,9 @@ struct SuiteShape {
   double in_l3_kb = 0.0;             // bandwidth-latency curve: measured working sets
   double dram_kb = 0.0;              // (and the co-runners' DRAM working set)
   double workload_kb = 2048.0;       // the shipped workloads' working set (co-runners, matrix)
-  int max_corunners = -1;            // -1: every other core of `cores`
+  // Co-runner counts of the bandwidth-latency curve (each at most cores - 1); empty: every count
+  // 1..cores - 1. The pair matrix always uses one.
+  std::vector<int> corunner_counts;
   int repetitions = 5;
   double window_ms = 20.0;         // one timed window
   double warmup_ms = 20.0;         // at most this long waiting for a kernel to stream (one pass)
@@ -62,7 +64,8 @@ struct SuiteResult {
 
 // Working sets etc. for this host: isolation from 16 KB doubling up to the DRAM working set
 // (4x the L3, at least 16 MB, at most 256 MB, and within a quarter of the available memory across
-// the cores); quick: one set in the L2, 2048 KB, one in the L3, one in DRAM.
+// the cores); quick: one set in the L2, 2048 KB, one in the L3, one in DRAM, and co-runner counts
+// 1, 2, 4, ... and cores - 1 only.
 SuiteShape shape_for(const calibration::HostFacts& host, bool quick, int cores);
 
 SuiteResult run_suite(const SuiteOptions& options);

@@ -40,7 +40,7 @@ SuiteShape tiny_shape() {
   s.in_l3_kb = 64;
   s.dram_kb = 256;
   s.workload_kb = 32;
-  s.max_corunners = 1;
+  s.corunner_counts = {1};
   s.repetitions = 2;
   s.window_ms = 2.0;
   s.warmup_ms = 2.0;
@@ -175,4 +175,24 @@ TEST_CASE("a calibration suite asked to stop returns at once, marked partial",
   CHECK(r.stopped);
   CHECK(r.measurements.runs.empty());
   CHECK(r.measurements.costs_us.empty());
+}
+
+TEST_CASE("the suite's shape follows the host's caches and cores", "[hw][calibration]") {
+  calibration::HostFacts h;
+  h.l2_kb = 1024;
+  h.l3_kb_per_cluster = 32768;
+  const SuiteShape quick = shape_for(h, true, 16);
+  // 4x the L3, or less (not under 2x) where memory is short.
+  CHECK(quick.dram_kb <= 4 * 32768);
+  CHECK(quick.dram_kb >= 2 * 32768);
+  CHECK(quick.in_l3_kb == 4096);  // 4x the L2, within half the L3
+  CHECK(quick.isolation_kb == std::vector<double>{512});
+  CHECK(quick.corunner_counts == std::vector<int>{1, 2, 4, 8, 15});
+  const SuiteShape full = shape_for(h, false, 16);
+  CHECK(full.corunner_counts.empty());  // every count
+  REQUIRE_FALSE(full.isolation_kb.empty());
+  CHECK(full.isolation_kb.front() == 16);
+  CHECK(full.isolation_kb.back() * 2 == full.dram_kb);
+  CHECK(full.repetitions > quick.repetitions);
+  CHECK(shape_for(h, true, 2).corunner_counts == std::vector<int>{1});
 }

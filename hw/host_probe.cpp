@@ -588,8 +588,9 @@ json host_platform_document(const HostProbe& p, const std::optional<InstalledMod
     doc["reference"]["source"] =
         "from the installed model of this host (" + installed->path +
         "): " + installed->doc.at("reference").at("source").get<std::string>();
-    for (const char* section : {"memory", "costs"})
-      if (installed->doc.contains(section)) doc[section] = installed->doc.at(section);
+    // The model's own sections (memory, costs, kernels, ...): what the probe cannot measure.
+    for (const auto& [key, value] : installed->doc.items())
+      if (!doc.contains(key) && key != "$schema") doc[key] = value;
   } else {
     const auto& r = *p.reference;
     std::string runs;

@@ -92,7 +92,8 @@ struct InstalledModel {
 };
 
 // The platform document of the probed host, named "host": cpu, caches and pmu from the probe;
-// reference, memory and costs from `installed` when given (the calibrated model of this host),
+// reference and the model's other sections (memory, costs, kernels) from `installed` when given
+// (the calibrated model of this host),
 // else the reference measured by the probe and no memory / costs sections (the sim backend
 // cannot run it). Every section's "source" says where its numbers come from. Throws
 // ContractError when neither `installed` nor probe.reference is there.

@@ -1,4 +1,5 @@
-"""Command line: ``python3 -m analysis plot|compare ...`` (what ``rosguard plot|compare`` run).
+"""Command line: ``python3 -m analysis plot|compare|calibration ...`` (what ``rosguard plot``,
+``rosguard compare`` and ``rosguard calibrate`` run).
 
 Exit codes: 0 success, 2 invalid input (usage, a folder that is not a results folder, two
 folders without a common point), 1 runtime failure (e.g. an output folder that cannot be
@@ -49,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python3 -m analysis", description=DESCRIPTION, epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command", metavar="{plot,compare}")
+    sub = parser.add_subparsers(dest="command", metavar="{plot,compare,calibration}")
 
     plot = sub.add_parser("plot", help="draw every figure a results folder supports",
                           description=PLOT_HELP)
@@ -65,6 +66,12 @@ def build_parser() -> argparse.ArgumentParser:
                          help="results folder compared with it (e.g. simulated)")
     compare.add_argument("--out", metavar="DIR",
                          help="where the comparison goes (default: RESULTS_B/compare)")
+    calibration = sub.add_parser(
+        "calibration", help="draw a calibration's measured vs fitted figures",
+        description="Figures of a `rosguard calibrate` folder (calibration.json, platform.json):"
+                    " isolation curves, co-run slowdowns and cost distributions, measured vs"
+                    " fitted, into DIR/figures.")
+    calibration.add_argument("folder", metavar="DIR", help="output folder of rosguard calibrate")
     return parser
 
 
@@ -80,6 +87,9 @@ def main(argv=None) -> int:
         if args.command == "plot":
             from analysis import plot
             return plot.run(args.results, args.out)
+        if args.command == "calibration":
+            from analysis import calibration
+            return calibration.run(args.folder)
         from analysis import compare
         return compare.run(args.results_a, args.results_b, args.out)
     except InvalidInput as e:

@@ -1,0 +1,146 @@
+#include "calibrate.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <iostream>
+
+#include "calibration/measurements.h"
+#include "commands.h"
+#include "core/error.h"
+#include "files.h"
+#include "host_model.h"
+#include "schema.h"
+#include "stop_signal.h"
+#include "version.h"
+
+#if ROSGUARD_WITH_SIM
+#include "sim/calibration/fit.h"
+#endif
+#if ROSGUARD_WITH_HW
+#include "hw/calibration/suite.h"
+#include "hw/host_probe.h"
+#endif
+
+namespace rosguard {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// The measurements of an earlier calibration: a calibration.json (its "measurements") or a
+// bare measurements document.
+calibration::Measurements read_measurements(const std::string& file) {
+  const json doc = read_json_file(file, file);
+  if (doc.is_object() && doc.contains("measurements"))
+    return calibration::measurements_from_json(doc.at("measurements"), file, "/measurements");
+  return calibration::measurements_from_json(doc, file);
+}
+
+calibration::Measurements measure(const CalibrateOptions& opt) {
+#if ROSGUARD_WITH_HW
+  const hw::HostProbe probe = hw::probe_host();
+  hw::calibration::SuiteOptions suite;
+  suite.host = hw::host_facts(probe);
+  suite.quick = opt.quick;
+  suite.stop = [] { return stop_signal() != 0; };
+  if (!opt.quiet)
+    suite.progress = [](int step, int steps, const std::string& what) {
+      std::cerr << "[" << step << "/" << steps << "] " << what << "\n";
+    };
+  std::cerr << "calibrate: measuring " << suite.host.hostname << " (" << suite.host.cpus
+            << " CPUs, " << (opt.quick ? "quick" : "full") << " suite)\n";
+  return hw::calibration::run_suite(suite);
+#else
+  (void)opt;
+  throw InputError("", "",
+                   "this rosguard was built without the hw backend: it cannot measure the host "
+                   "(use --from CALIBRATION.json to refit earlier measurements)");
+#endif
+}
+
+json calibration_document(const calibration::Measurements& m, const std::string& status) {
+  return json{{"rosguard", kVersion}, {"revision", kGitRevision}, {"status", status},
+              {"measurements", m}};
+}
+
+std::string fmt(double v, int prec = 3) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", prec, v);
+  return buf;
+}
+
+}  // namespace
+
+int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
+#if !ROSGUARD_WITH_SIM
+  (void)opt;
+  (void)loader;
+  throw InputError("", "",
+                   "this rosguard was built without the sim backend: there is no model to fit");
+#else
+  const fs::path dir = opt.out.empty() ? fs::path("results/calibration") : fs::path(opt.out);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw InputError("", "", "--out " + dir.string() + ": cannot create the folder (" +
+                                 ec.message() + ")");
+
+  StopSignalGuard signals;
+  const calibration::Measurements m = opt.from.empty() ? measure(opt) : read_measurements(opt.from);
+  if (const int sig = stop_signal()) {
+    std::cerr << "calibrate: interrupted; nothing written\n";
+    return 128 + sig;
+  }
+  const fs::path cal_file = dir / "calibration.json";
+  write_file_atomic(cal_file, calibration_document(m, "measured").dump(2) + "\n");
+
+  sim::calibration::FitReport report;
+  try {
+    report = sim::calibration::fit_platform(m);
+  } catch (const RunError& e) {
+    json doc = calibration_document(m, "fit refused");
+    doc["error"] = e.what();
+    write_file_atomic(cal_file, doc.dump(2) + "\n");
+    throw RunError(std::string(e.what()) + " (the measurements are kept in " +
+                   cal_file.string() + ")");
+  }
+
+  // The platform must be one the loader accepts and the sim can run.
+  json platform = sim::calibration::fitted_platform(m, report, "host");
+  const fs::path platform_file = dir / "platform.json";
+  SchemaSet(loader.home().schemas()).validate(platform, SchemaKind::Platform,
+                                              platform_file.string());
+  json doc = calibration_document(m, "fitted");
+  doc["fit"] = sim::calibration::to_json(report);
+  write_file_atomic(platform_file, platform.dump(2) + "\n");
+  write_file_atomic(cal_file, doc.dump(2) + "\n");
+
+  std::cout << "fit converged: " << report.iterations << " iterations, RMS residual "
+            << fmt(100.0 * report.rms_residual) << " % over " << report.residuals.size()
+            << " measurements\n";
+  for (const auto& p : report.parameters)
+    std::cout << "  " << p.name << " = " << fmt(p.value, 4) << " " << p.unit
+              << (p.fitted ? " +- " + fmt(p.stderr_value, 2) : std::string(" (") + p.how + ")")
+              << "\n";
+
+  const int plot = run_analysis(loader.home(), {"calibration", dir.string()});
+  if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";
+
+  std::cout << "wrote " << platform_file.string() << ", " << cal_file.string() << ", "
+            << (dir / "figures").string() << "/\n";
+  if (opt.install) {
+    const fs::path target = host_model_path();
+    fs::create_directories(target.parent_path(), ec);
+    write_file_atomic(target, platform.dump(2) + "\n");
+    std::cout << "installed as this host's model: " << target.string()
+              << " (\"platform\": \"host\" uses it in sim)\n";
+  }
+  return 0;
+#endif
+}
+
+}  // namespace rosguard

@@ -3,6 +3,7 @@
 #   make test   installs what is missing, builds, runs every test
 #   make install [PREFIX=/usr/local]   installs bin/rosguard, share/rosguard/, the CMake package
 #   make test-nosim   builds without the sim backend (no SystemC) in $(BUILD)-nosim, runs its tests
+#   make validate     runs scenarios/validation/ on hw and in sim, writes results/validation/report.md
 BUILD ?= build
 JOBS ?= $(shell nproc)
 PREFIX ?= /usr/local
@@ -15,7 +16,8 @@ CMAKE_ARGS ?=
 PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
-.PHONY: all deps configure build test test-nosim run install reproduce bench format clean
+.PHONY: all deps configure build test test-nosim run install reproduce validate validate-readme \
+        bench format clean
 
 all: build
 
@@ -50,6 +52,15 @@ run: build
 # then the README gallery (docs/figures/) and the paper-vs-sim table regenerated from them.
 reproduce: build
 	@tools/reproduce.sh $(ROSGUARD)
+
+# The sim-vs-hw validation suite (scenarios/validation/, held out from the calibration): hw and
+# sim runs into results/validation/{hw,sim}/, then report.md / report.json and the
+# predicted-vs-measured figure. validate-readme puts the last report into README.md.
+validate: build
+	@tools/validate.sh $(ROSGUARD)
+
+validate-readme:
+	@tools/validate.sh --readme
 
 bench: build
 	$(BUILD)/tests/bench/rosguard_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true

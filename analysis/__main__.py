@@ -1,5 +1,7 @@
-"""Command line: ``python3 -m analysis plot|compare|calibration ...`` (what ``rosguard plot``,
-``rosguard compare`` and ``rosguard calibrate`` run).
+"""Command line: ``python3 -m analysis plot|compare|calibration|validate|validate-table ...``.
+
+``rosguard plot|compare`` run the first two, ``rosguard calibrate`` the third;
+``tools/validate.sh`` (``make validate``) the others.
 
 Exit codes: 0 success, 2 invalid input (usage, a folder that is not a results folder, two
 folders without a common point), 1 runtime failure (e.g. an output folder that cannot be
@@ -25,6 +27,12 @@ examples:
   python3 -m analysis compare results/exp4-hw results/exp4-sim
       compare.csv, summary.json and compare_scatter.png/pdf in results/exp4-sim/compare
 
+  python3 -m analysis validate results/validation/hw results/validation/sim \
+          --out results/validation
+      report.md, report.json and validation_scatter.png/pdf in results/validation
+  python3 -m analysis validate-table results/validation/report.json
+      the README's validation block (markdown) on stdout
+
 exit codes: 0 success, 2 invalid input, 1 runtime failure
 """
 
@@ -44,13 +52,27 @@ percentage error, the max error, the Spearman rank agreement of the configuratio
 points found on one side only. Writes compare.csv, summary.json and compare_scatter.png/pdf.
 """
 
+VALIDATE_HELP = """\
+The sim-vs-hw validation report of a suite: HW_ROOT and SIM_ROOT hold one results folder per
+scenario, by name. Per scenario and over all points: RT- and nRT-slowdown MAPE, the error on the
+excess slowdown (slowdown - 1) where the measured excess is >= 0.05, the hw repetitions' spread,
+each against its goal (RT MAPE <= 5 %, nRT MAPE <= 10 %, excess error <= 20 %). Writes
+report.json, report.md and validation_scatter.png/pdf (simulated vs measured slowdown).
+"""
+
+VALIDATE_TABLE_HELP = """\
+Print the README's validation block (figure link, host and date, the per-scenario table) from a
+report.json; with --readme, replace the block between <!-- validation:begin --> and
+<!-- validation:end --> in that file and copy the figure into --figure-dir.
+"""
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of the two subcommands."""
     parser = argparse.ArgumentParser(
         prog="python3 -m analysis", description=DESCRIPTION, epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command", metavar="{plot,compare,calibration}")
+    sub = parser.add_subparsers(dest="command", metavar="{plot,compare,calibration,validate,validate-table}")
 
     plot = sub.add_parser("plot", help="draw every figure a results folder supports",
                           description=PLOT_HELP)
@@ -72,6 +94,30 @@ def build_parser() -> argparse.ArgumentParser:
                     " isolation curves, co-run slowdowns and cost distributions, measured vs"
                     " fitted, into DIR/figures.")
     calibration.add_argument("folder", metavar="DIR", help="output folder of rosguard calibrate")
+
+    validate = sub.add_parser("validate", help="sim-vs-hw validation report of a suite",
+                              description=VALIDATE_HELP)
+    validate.add_argument("hw_root", metavar="HW_ROOT", help="one hw results folder per scenario")
+    validate.add_argument("sim_root", metavar="SIM_ROOT",
+                          help="one sim results folder per scenario (same names)")
+    validate.add_argument("--out", metavar="DIR", required=True,
+                          help="where report.json, report.md and the figure go")
+    validate.add_argument("--scenarios", metavar="NAMES",
+                          help="comma-separated scenario names (default: every folder of "
+                               "HW_ROOT)")
+    validate.add_argument("--failed", metavar="NAME=REASON", action="append", default=[],
+                          help="a scenario that could not be run, and why (listed in the "
+                               "report; repeatable)")
+    validate.add_argument("--note", metavar="TEXT", action="append", default=[],
+                          help="a line on the conditions (e.g. the load), printed with the "
+                               "host (repeatable)")
+
+    table = sub.add_parser("validate-table", help="the README's validation block",
+                           description=VALIDATE_TABLE_HELP)
+    table.add_argument("report", metavar="REPORT_JSON", help="report.json of `validate`")
+    table.add_argument("--readme", metavar="FILE", help="replace the block in this file")
+    table.add_argument("--figure-dir", metavar="DIR", default="docs/figures",
+                       help="where --readme copies the figure (default: docs/figures)")
     return parser
 
 
@@ -90,8 +136,18 @@ def main(argv=None) -> int:
         if args.command == "calibration":
             from analysis import calibration
             return calibration.run(args.folder)
-        from analysis import compare
-        return compare.run(args.results_a, args.results_b, args.out)
+        if args.command == "compare":
+            from analysis import compare
+            return compare.run(args.results_a, args.results_b, args.out)
+        from analysis import validation
+        if args.command == "validate":
+            names = [n for n in args.scenarios.split(",") if n] \
+                if args.scenarios is not None else None
+            failed = [dict(zip(("scenario", "reason"), f.split("=", 1) + [""]))
+                      for f in args.failed]
+            return validation.run(args.hw_root, args.sim_root, args.out, names, failed,
+                                  args.note)
+        return validation.table(args.report, args.readme, args.figure_dir)
     except InvalidInput as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

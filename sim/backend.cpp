@@ -12,11 +12,14 @@ TimeNs us_to_ns(double us) {
   return static_cast<TimeNs>(std::llround(us * 1e3));
 }
 
-WorkloadProfile profile_of(const Scenario& s, const WorkloadInfo& w, const std::string& node) {
+// The workload's profile on this platform: from the platform's model of its hw kernel when there
+// is one, else its "sim" section (workload/profile.h: profile_for).
+WorkloadProfile profile_of(const Scenario& s, const SimPlatform& platform, const WorkloadInfo& w,
+                           const std::string& node) {
   const bool inline_doc = w.origin == "inline";
   try {
-    return parse_profile(w, inline_doc ? s.file : w.origin,
-                         inline_doc ? node + "/workload/sim" : "/sim");
+    return profile_for(w, platform, inline_doc ? s.file : w.origin,
+                       inline_doc ? node + "/workload/sim" : "/sim");
   } catch (const InputError& e) {
     if (inline_doc) throw;
     throw InputError(
@@ -92,7 +95,7 @@ RunConfig isolation_config(const Scenario& s, const WorkloadInfo& workload, int 
   RtSpec r;
   r.name = workload.name;
   r.core = core;
-  r.profile = profile_of(s, workload, "/nodes");
+  r.profile = profile_of(s, cfg.platform, workload, "/nodes");
   cfg.rt.push_back(std::move(r));
   return cfg;
 }
@@ -105,7 +108,7 @@ RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint
     RtSpec r;
     r.name = n.name;
     r.core = n.core;
-    r.profile = profile_of(s, n.workload, "/nodes/rt/" + std::to_string(i));
+    r.profile = profile_of(s, cfg.platform, n.workload, "/nodes/rt/" + std::to_string(i));
     r.iterations = n.iterations;
     if (n.period_us) r.period_ns = *n.period_us * kNsPerUs;
     cfg.rt.push_back(std::move(r));
@@ -115,7 +118,7 @@ RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint
     NrtSpec r;
     r.name = n.name;
     r.core = n.core;
-    r.profile = profile_of(s, n.workload, "/nodes/nrt/" + std::to_string(i));
+    r.profile = profile_of(s, cfg.platform, n.workload, "/nodes/nrt/" + std::to_string(i));
     r.loop = n.mode == NrtMode::Loop;
     cfg.nrt.push_back(std::move(r));
   }
@@ -134,9 +137,9 @@ RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint
 void SimBackend::validate(const Scenario& s) const {
   const SimPlatform platform = platform_of(s);
   for (std::size_t i = 0; i < s.nodes.rt.size(); ++i)
-    profile_of(s, s.nodes.rt[i].workload, "/nodes/rt/" + std::to_string(i));
+    profile_of(s, platform, s.nodes.rt[i].workload, "/nodes/rt/" + std::to_string(i));
   for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
-    profile_of(s, s.nodes.nrt[i].workload, "/nodes/nrt/" + std::to_string(i));
+    profile_of(s, platform, s.nodes.nrt[i].workload, "/nodes/nrt/" + std::to_string(i));
 
   const RegulationSpec& r = s.regulation;
   check_policy(s, policies_);

@@ -144,14 +144,24 @@ void build_nrt_nodes(const nlohmann::json& nrt, bool has_rt, std::vector<Workloa
   }
 }
 
+// The workload's hw kernel has a model in the platform's "kernels": sim runs it from that model
+// (sim/workload/profile.h: profile_for), no "sim" section needed.
+bool kernel_modelled(const WorkloadInfo& w, const PlatformInfo& plat) {
+  if (w.is_command() || !w.doc.contains("hw") || !plat.doc.contains("kernels")) return false;
+  const std::string kernel = w.doc.at("hw").value("kernel", "");
+  const auto& kernels = plat.doc.at("kernels");
+  return kernels.contains(kernel) && kernels.at(kernel).is_object();
+}
+
 // The node at `base` runs workload `w`: the scenario's backend must be able to run it.
 void check_workload_runs_on(const std::string& backend, const std::string& base,
-                            const WorkloadInfo& w, const std::string& file) {
+                            const WorkloadInfo& w, const PlatformInfo& plat,
+                            const std::string& file) {
   const std::string at = base + "/workload";
   if (w.is_command() && backend == "sim")
     throw InputError(file, at,
                      "an external command runs only on the hw backend (run with --backend hw)");
-  if (!w.is_command() && backend == "sim" && !w.doc.contains("sim"))
+  if (!w.is_command() && backend == "sim" && !w.doc.contains("sim") && !kernel_modelled(w, plat))
     throw InputError(file, at,
                      "workload '" + w.name + "' (" + w.origin +
                          ") has no \"sim\" profile, so the sim backend cannot run it");
@@ -177,9 +187,11 @@ NodesSpec build_nodes(const nlohmann::json& nodes, ResolvedRefs& refs, const std
     throw InputError(file, "/nodes", "no RT and no nRT node: nothing to run");
 
   for (std::size_t i = 0; i < out.rt.size(); ++i)
-    check_workload_runs_on(backend, "/nodes/rt/" + std::to_string(i), out.rt[i].workload, file);
+    check_workload_runs_on(backend, "/nodes/rt/" + std::to_string(i), out.rt[i].workload, plat,
+                           file);
   for (std::size_t i = 0; i < out.nrt.size(); ++i)
-    check_workload_runs_on(backend, "/nodes/nrt/" + std::to_string(i), out.nrt[i].workload, file);
+    check_workload_runs_on(backend, "/nodes/nrt/" + std::to_string(i), out.nrt[i].workload, plat,
+                           file);
   return out;
 }
 
@@ -256,8 +268,23 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
 
 namespace {
 
-// One run of a sim workload at its base IPC, in seconds; nullopt without a sim profile.
-std::optional<double> min_run_seconds(const WorkloadInfo& w, double freq_mhz) {
+// One run of a sim workload at its base IPC, in seconds; nullopt without a sim profile. A
+// built-in kernel with a model in the platform's "kernels" runs from that model in sim
+// (sim/workload/profile.h: kernel_profile): its lines at the faster of its two base times.
+std::optional<double> min_run_seconds(const WorkloadInfo& w, const PlatformInfo& platform) {
+  const double freq_mhz = platform.freq_mhz;
+  if (!w.is_command() && w.doc.contains("hw") && platform.doc.contains("kernels")) {
+    const auto& hw = w.doc.at("hw");
+    const auto& kernels = platform.doc.at("kernels");
+    const std::string kernel = hw.value("kernel", "");
+    if (kernels.contains(kernel) && kernels.at(kernel).is_object()) {
+      const auto& k = kernels.at(kernel);
+      const double lines = hw.value("working_set_kb", 2048.0) * 1024.0 / 64.0;
+      const double ns =
+          std::min(k.at("ns_per_line_l2").get<double>(), k.at("ns_per_line_l3").get<double>());
+      return lines * hw.value("passes", 1.0) * ns * 1e-9;
+    }
+  }
   if (!w.doc.contains("sim") || freq_mhz <= 0.0) return std::nullopt;
   const auto& sim = w.doc.at("sim");
   const double instructions = sim.at("instructions").get<double>();
@@ -273,7 +300,7 @@ std::optional<double> min_run_seconds(const WorkloadInfo& w, double freq_mhz) {
 std::optional<double> min_simulated_seconds(const Scenario& s) {
   double longest = 0.0;
   for (const auto& rt : s.nodes.rt) {
-    const auto job = min_run_seconds(rt.workload, s.platform.freq_mhz);
+    const auto job = min_run_seconds(rt.workload, s.platform);
     if (!job) return std::nullopt;
     const double slot =
         rt.period_us ? std::max(*job, static_cast<double>(*rt.period_us) * 1e-6) : *job;
@@ -281,7 +308,7 @@ std::optional<double> min_simulated_seconds(const Scenario& s) {
   }
   if (s.nodes.rt.empty())
     for (const auto& nrt : s.nodes.nrt) {
-      const auto run = min_run_seconds(nrt.workload, s.platform.freq_mhz);
+      const auto run = min_run_seconds(nrt.workload, s.platform);
       if (!run) return std::nullopt;
       longest = std::max(longest, *run);
     }

@@ -137,6 +137,17 @@ SimPlatform parse_sim_platform(const PlatformInfo& p) {
   s.costs.controller_callback = dist("controller_callback_us");
   s.costs.throttle_activation = dist("throttle_activation_us");
   s.costs.external_read = dist("external_read_us");
+
+  s.l2_kb = caches.at("l2_kb").get<double>();
+  if (doc.contains("kernels"))
+    for (const auto& [name, k] : doc.at("kernels").items()) {
+      if (!k.is_object()) continue;  // the kernels object's own "source"
+      KernelModel m;
+      m.ns_per_line_l2 = k.at("ns_per_line_l2").get<double>();
+      m.ns_per_line_l3 = k.at("ns_per_line_l3").get<double>();
+      m.mlp = k.at("mlp").get<double>();
+      s.kernels.emplace(name, m);
+    }
   return s;
 }
 

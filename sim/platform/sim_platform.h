@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,17 @@ struct CoreParams {
   double idle_loop_ipc = 1.0;
 };
 
+// How one built-in hw kernel (hw/workload/kernels.cpp: "bandwidth_read", "bandwidth_write",
+// "latency") runs on this platform (the platform's optional "kernels" object). A workload whose
+// hw.kernel has a model here runs in sim from its hw section (kernel_profile() in
+// workload/profile.h) instead of its hand-written "sim" section. Times are per 64-byte line
+// touched (the kernels' stride).
+struct KernelModel {
+  double ns_per_line_l2 = 1.0;  // working set within the private L2: core-bound
+  double ns_per_line_l3 = 1.0;  // working set within the L3, unloaded: the base time per line
+  double mlp = 1.0;             // L3 misses in flight (the latency kernel's pointer chase: 1)
+};
+
 struct CostParams {
   Distribution pmc_callback;
   Distribution publish;
@@ -69,6 +81,8 @@ struct SimPlatform {
   DramParams dram;
   CoreParams core;
   CostParams costs;
+  double l2_kb = 0.0;                          // private L2 per core (kernel models)
+  std::map<std::string, KernelModel> kernels;  // by hw kernel name; empty: none
 
   int cores() const { return clusters * cores_per_cluster; }
   int cluster_of(int core_id) const { return core_id / cores_per_cluster; }

@@ -43,6 +43,36 @@ WorkloadProfile parse_profile(const WorkloadInfo& w, const std::string& file,
   return p;
 }
 
+WorkloadProfile kernel_profile(const std::string& name, const std::string& kernel,
+                               const KernelModel& model, double working_set_kb, double passes,
+                               const SimPlatform& platform) {
+  const bool in_l2 = working_set_kb <= platform.l2_kb;
+  WorkloadProfile p;
+  p.name = name;
+  p.instructions = working_set_kb * 1024.0 / kKernelLineBytes * passes;
+  p.footprint_kb = working_set_kb;
+  p.l3_hit = working_set_kb <= platform.l3.capacity_kb ? 1.0 : 0.0;
+  Phase ph;
+  ph.base_ipc = 1.0 / ((in_l2 ? model.ns_per_line_l2 : model.ns_per_line_l3) * platform.freq_ghz());
+  ph.refill_pki = in_l2 ? 0.0 : 1000.0;
+  ph.wb_pki = !in_l2 && kernel == "bandwidth_write" ? 1000.0 : 0.0;
+  ph.mlp = model.mlp;
+  p.phases.push_back(ph);
+  return p;
+}
+
+WorkloadProfile profile_for(const WorkloadInfo& w, const SimPlatform& platform,
+                            const std::string& file, const std::string& base) {
+  if (!w.is_command() && w.doc.contains("hw")) {
+    const auto& hw = w.doc.at("hw");
+    const std::string kernel = hw.value("kernel", "");
+    if (const auto it = platform.kernels.find(kernel); it != platform.kernels.end())
+      return kernel_profile(w.name, kernel, it->second, hw.value("working_set_kb", 2048.0),
+                            hw.value("passes", 1.0), platform);
+  }
+  return parse_profile(w, file, base);
+}
+
 void WorkloadRun::retire(double n) {
   n = std::clamp(n, 0.0, remaining_);
   remaining_ -= n;

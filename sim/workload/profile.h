@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "platform/sim_platform.h"
 #include "scenario/scenario.h"
 
 namespace rosguard::sim {
@@ -48,6 +49,32 @@ struct WorkloadProfile {
 // and "/nodes/rt/0/workload/sim" for an inline workload.
 WorkloadProfile parse_profile(const WorkloadInfo& workload, const std::string& file,
                               const std::string& base);
+
+// Bytes between two accesses of the built-in kernels (hw/workload/kernels.cpp): one 64-byte line.
+inline constexpr double kKernelLineBytes = 64.0;
+
+// The profile of built-in kernel `kernel` ("bandwidth_read", "bandwidth_write", "latency") over
+// `working_set_kb`, `passes` times, on `platform`, from its model there:
+//   - one "instruction" per line touched: the IPC columns then count lines per cycle, and
+//     inst_retired lines, so ns per line = 1 / (IPC x f);
+//   - within the L2 (working set <= l2_kb): base_ipc = 1 / (ns_per_line_l2 x f), no L2 misses;
+//   - beyond it: base_ipc = 1 / (ns_per_line_l3 x f), one L2 refill per line (l2_refill_pki
+//     1000) and, for bandwidth_write, one write-back per line too (the line is dirty);
+//   - l3_hit = 1 when the working set fits the cluster's L3, else 0 (a cyclic stream through an
+//     LRU cache larger than the cache misses on every line); footprint = the working set;
+//     mlp from the model.
+// The model's steady state then gives ns_per_line_l3 + (L3 queueing + DRAM latency) / mlp per
+// line beyond the L2 (platform/contention.h). sim/calibration/fit.h fits the models with this
+// function, so the fit predicts with exactly the profile the sim runs.
+WorkloadProfile kernel_profile(const std::string& name, const std::string& kernel,
+                               const KernelModel& model, double working_set_kb, double passes,
+                               const SimPlatform& platform);
+
+// The profile the sim runs for `workload` on `platform`: kernel_profile() when the workload's
+// hw.kernel has a model in the platform's "kernels" (its hw working_set_kb and passes), else
+// parse_profile() of its "sim" section.
+WorkloadProfile profile_for(const WorkloadInfo& workload, const SimPlatform& platform,
+                            const std::string& file, const std::string& base);
 
 // Progress of one run of a profile. Instructions are doubles: rates are fractional per ns.
 class WorkloadRun {

@@ -1,0 +1,437 @@
+"""``validate HW_ROOT SIM_ROOT --out DIR``: the sim-vs-hw validation report (``make validate``).
+
+HW_ROOT and SIM_ROOT hold one results folder per validation scenario, by the scenario's name
+(``tools/validate.sh`` runs ``scenarios/validation/*.json`` into them). Each scenario's folders
+are matched point by point as ``compare`` does (``compare.compare_results``: means over
+repetitions), and for the RT and nRT node of every common point the report computes:
+
+* slowdown error: ``|s_sim - s_hw| / s_hw`` (MAPE: its mean over points, in %);
+* excess-slowdown error, where the measured excess ``s_hw - 1`` is at least ``EXCESS_MIN``:
+  ``|(s_sim - 1) - (s_hw - 1)| / (s_hw - 1)`` (mean and max over those points, in %);
+* the measured noise: per point, the spread of the hw repetitions ``(max - min) / mean``
+  (median over points), to read the errors against;
+
+per scenario and over the whole suite (every point of every scenario pooled), and marks the
+goals (``GOALS``) met or missed. Writes ``DIR/report.json``, ``DIR/report.md`` and
+``DIR/validation_scatter.png`` / ``.pdf`` (``analysis/figures/validation.py``).
+
+``readme_section(report)`` is the README's table (``tools/validate.sh --readme``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from analysis import compare, style
+from analysis.figures import validation as figure
+from analysis.results import InvalidInput, Stat, load_results
+
+REPORT_SCHEMA_VERSION = 1
+EXCESS_MIN = 0.05
+# goal key -> (node, metric in the node's errors, bound in %, words)
+GOALS = {
+    "rt_mape": ("rt", "mape_pct", 5.0, "RT-slowdown MAPE"),
+    "nrt_mape": ("nrt", "mape_pct", 10.0, "nRT-slowdown MAPE"),
+    "rt_excess": ("rt", "excess_error_pct", 20.0, "RT excess-slowdown error (mean)"),
+    "nrt_excess": ("nrt", "excess_error_pct", 20.0, "nRT excess-slowdown error (mean)"),
+}
+FIGURE_STEM = "validation_scatter"
+DEFINITIONS = {
+    "slowdown": "per point, mean over repetitions of the node's time / its isolation time",
+    "mape_pct": "mean over points of |s_sim - s_hw| / s_hw x 100",
+    "bias": "mean over points of s_sim - s_hw (positive: sim predicts more slowdown)",
+    "excess_error_pct": (f"mean over points with s_hw - 1 >= {EXCESS_MIN} of "
+                         "|(s_sim - 1) - (s_hw - 1)| / (s_hw - 1) x 100"),
+    "excess_error_max_pct": "the largest of those",
+    "hw_spread_pct": ("median over points of (max - min) / mean of the hw repetitions x 100: "
+                      "the measurement noise the errors sit on"),
+    "overall": "every common point of every scenario pooled",
+}
+
+
+@dataclass
+class Pair:
+    """One node of one point: its slowdown measured (hw) and simulated (sim)."""
+
+    scenario: str
+    point: str
+    node: str          # "rt" | "nrt"
+    hw: Stat
+    sim: Stat
+
+    @property
+    def error_pct(self) -> float:
+        """|s_sim - s_hw| / s_hw x 100 (signed: sim - hw)."""
+        return 100.0 * (self.sim.mean - self.hw.mean) / self.hw.mean
+
+    @property
+    def excess_error_pct(self) -> float:
+        """Signed relative error of the excess slowdown in %, NaN where the measured excess
+        is below EXCESS_MIN."""
+        excess = self.hw.mean - 1.0
+        if excess < EXCESS_MIN:
+            return math.nan
+        return 100.0 * ((self.sim.mean - 1.0) - excess) / excess
+
+
+def node_errors(pairs) -> dict:
+    """The error figures of one node's pairs (see DEFINITIONS); NaN / None where empty."""
+    summary = compare.error_summary([(p.point, p.hw.mean, p.sim.mean) for p in pairs])
+    excess = [abs(p.excess_error_pct) for p in pairs if math.isfinite(p.excess_error_pct)]
+    spread = [100.0 * (p.hw.max - p.hw.min) / p.hw.mean for p in pairs if p.hw.n > 1]
+    return {
+        "pairs": summary.pairs,
+        "mape_pct": summary.mape_pct,
+        "bias": summary.mean_error,
+        "max_abs_error": summary.max_abs_error,
+        "max_abs_error_point": summary.max_abs_error_point,
+        "spearman": summary.spearman,
+        "excess_pairs": len(excess),
+        "excess_error_pct": float(np.mean(excess)) if excess else math.nan,
+        "excess_error_max_pct": float(np.max(excess)) if excess else math.nan,
+        "hw_spread_pct": float(np.median(spread)) if spread else math.nan,
+    }
+
+
+def goal_marks(errors: dict) -> dict:
+    """goal key -> {'value', 'bound', 'status': 'met' | 'missed' | 'n/a'}."""
+    marks = {}
+    for key, (node, metric, bound, _) in GOALS.items():
+        value = errors[node][metric]
+        status = "n/a" if not math.isfinite(value) else ("met" if value <= bound else "missed")
+        marks[key] = {"value": value, "bound": bound, "status": status}
+    return marks
+
+
+def scenario_pairs(name: str, hw, sim) -> tuple:
+    """([Pair], Comparison) of one scenario's loaded hw and sim folders."""
+    comp = compare.compare_results(hw, sim)
+    pairs = []
+    for pa, pb in comp.common:
+        for node in ("rt", "nrt"):
+            a, b = pa.stat(f"{node}_slowdown"), pb.stat(f"{node}_slowdown")
+            if a and b and a.mean != 0:
+                pairs.append(Pair(name, pa.id, node, a, b))
+    return pairs, comp
+
+
+def _errors(pairs) -> dict:
+    return {node: node_errors([p for p in pairs if p.node == node]) for node in ("rt", "nrt")}
+
+
+def _description(results) -> str:
+    scenario = (results.manifest.get("scenario") or {}).get("given") or {}
+    return str(scenario.get("description", "")) if isinstance(scenario, dict) else ""
+
+
+def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None) -> tuple:
+    """(report dict, [Pair]) for the scenarios in ``names`` (default: every folder of
+    hw_root). ``failed``: [{'scenario', 'reason'}] of scenarios that could not be run. A
+    scenario whose folders are missing or share no point is added to them; the others are
+    compared. ``notes``: lines about the conditions (e.g. the load), shown with the host."""
+    hw_root, sim_root = Path(hw_root), Path(sim_root)
+    if names is None:
+        if not hw_root.is_dir():
+            raise InvalidInput(f"{hw_root}: no such folder")
+        names = sorted(p.name for p in hw_root.iterdir() if (p / "manifest.json").is_file())
+    failed = list(failed)
+    if not names and not failed:
+        raise InvalidInput(f"{hw_root}: no results folder to validate")
+    scenarios, pairs, manifests = [], [], []
+    for name in names:
+        try:
+            hw, sim = load_results(hw_root / name), load_results(sim_root / name)
+            found, comp = scenario_pairs(name, hw, sim)
+        except InvalidInput as e:
+            failed.append({"scenario": name, "reason": str(e)})
+            continue
+        manifests.append(hw.manifest)
+        pairs += found
+        errors = _errors(found)
+        scenarios.append({
+            "name": name,
+            "description": _description(hw),
+            "hw": compare._side(hw),
+            "sim": compare._side(sim),
+            "repetitions": {"hw": hw.repetitions, "sim": sim.repetitions},
+            "common_points": len(comp.common),
+            "only_hw": [p.id for p in comp.only_a],
+            "only_sim": [p.id for p in comp.only_b],
+            "settings_mismatch": len(comp.mismatches),
+            **errors,
+            "goals": goal_marks(errors),
+        })
+    overall = _errors(pairs)
+    manifest = manifests[0] if manifests else {}
+    starts = sorted(str(m["start_time"]) for m in manifests if m.get("start_time"))
+    ends = sorted(str(m["end_time"]) for m in manifests if m.get("end_time"))
+    report = {
+        "schema_version": REPORT_SCHEMA_VERSION,
+        "generated": (now or datetime.now(timezone.utc)).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "measured_from": starts[0] if starts else None,
+        "measured_to": ends[-1] if ends else None,
+        "notes": list(notes),
+        "host": manifest.get("host") or {},
+        "rosguard": manifest.get("tool") or {},
+        "platform": {"hw": scenarios[0]["hw"]["platform"] if scenarios else None,
+                     "sim": scenarios[0]["sim"]["platform"] if scenarios else None},
+        "hw_root": str(hw_root),
+        "sim_root": str(sim_root),
+        "goals": {k: {"node": n, "metric": m, "bound_pct": b, "words": w}
+                  for k, (n, m, b, w) in GOALS.items()},
+        "excess_min": EXCESS_MIN,
+        "definitions": DEFINITIONS,
+        "overall": {**overall, "goals": goal_marks(overall)},
+        "scenarios": scenarios,
+        "failed": failed,
+        "points": [{"scenario": p.scenario, "point": p.point, "node": p.node,
+                    "hw_mean": p.hw.mean, "hw_min": p.hw.min, "hw_max": p.hw.max,
+                    "hw_reps": p.hw.n, "sim_mean": p.sim.mean, "sim_min": p.sim.min,
+                    "sim_max": p.sim.max, "sim_reps": p.sim.n, "error_pct": p.error_pct,
+                    "excess_error_pct": p.excess_error_pct} for p in pairs],
+    }
+    return report, pairs
+
+
+def _clean(value):
+    """JSON-safe: NaN / inf -> None, recursively."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_clean(v) for v in value]
+    return value
+
+
+def pct(value, digits: int = 1) -> str:
+    """12.345 -> '12.3 %', None / NaN -> 'n/a'."""
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    return f"{value:.{digits}f} %"
+
+
+def _mark(goal: dict) -> str:
+    return {"met": "met", "missed": "**missed**"}.get(goal["status"], "n/a")
+
+
+def _cell(errors: dict, goals: dict, node: str, metric: str) -> str:
+    key = f"{node}_{'mape' if metric == 'mape_pct' else 'excess'}"
+    value = errors[node][metric]
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    extra = f" (n={errors[node]['excess_pairs']})" if metric == "excess_error_pct" else ""
+    # Two decimals where one would round onto the bound (5.03 % missed, not "5.0 % missed").
+    digits = 2 if abs(value - goals[key]["bound"]) < 0.05 else 1
+    return f"{pct(value, digits)}{extra} {_mark(goals[key])}"
+
+
+def summary_table(report: dict) -> list:
+    """Markdown lines: one row per scenario and one for the whole suite."""
+    lines = ["| scenario | points | RT MAPE (≤ 5 %) | nRT MAPE (≤ 10 %) | RT excess error "
+             "(≤ 20 %) | nRT excess error (≤ 20 %) | hw noise RT / nRT |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    rows = [(s["name"], s["common_points"], s, s["goals"]) for s in report["scenarios"]]
+    overall = report["overall"]
+    rows.append(("**all**", sum(s["common_points"] for s in report["scenarios"]), overall,
+                 overall["goals"]))
+    for name, points, errors, goals in rows:
+        lines.append(
+            f"| {name} | {points} | {_cell(errors, goals, 'rt', 'mape_pct')} | "
+            f"{_cell(errors, goals, 'nrt', 'mape_pct')} | "
+            f"{_cell(errors, goals, 'rt', 'excess_error_pct')} | "
+            f"{_cell(errors, goals, 'nrt', 'excess_error_pct')} | "
+            f"{pct(errors['rt']['hw_spread_pct'])} / {pct(errors['nrt']['hw_spread_pct'])} |")
+    return lines
+
+
+def _host_line(report: dict) -> str:
+    host = report.get("host") or {}
+    tool = report.get("rosguard") or {}
+    parts = [str(host.get(k)) for k in ("hostname", "cpu_model", "kernel") if host.get(k)]
+    if host.get("cpus_online"):
+        parts.append(f"{host['cpus_online']} CPUs online")
+    version = " ".join(str(tool.get(k)) for k in ("version", "git_revision") if tool.get(k))
+    notes = "".join(f"; {n}" for n in report.get("notes") or [])
+    when = report.get("measured_from") or "?"
+    if report.get("measured_to"):
+        when += f" to {report['measured_to']}"
+    return (f"measured {when} on {', '.join(parts) or '?'}; "
+            f"rosguard {version or '?'}; platform hw `{report['platform']['hw']}`, "
+            f"sim `{report['platform']['sim']}`{notes}")
+
+
+def verdict(report: dict) -> str:
+    """One line: goals met / missed over the whole suite."""
+    goals = report["overall"]["goals"]
+    missed = [GOALS[k][3] for k, g in goals.items() if g["status"] == "missed"]
+    met = sum(1 for g in goals.values() if g["status"] == "met")
+    if not missed:
+        return f"all {met} goals met over the suite"
+    return f"{met} of {len(goals)} goals met over the suite; missed: {', '.join(missed)}"
+
+
+def markdown(report: dict) -> str:
+    """report.md."""
+    lines = ["# rosguard validation: sim vs hw", "",
+             _host_line(report) + f"; report generated {report['generated']}.", "",
+             f"**{verdict(report)}.**", "",
+             "Goals: RT-slowdown MAPE ≤ 5 %, nRT-slowdown MAPE ≤ 10 %, and the error on the "
+             f"excess slowdown (slowdown − 1) ≤ 20 % where the measured excess is ≥ "
+             f"{EXCESS_MIN:g} (mean over those points). hw noise: median spread "
+             "(max − min) / mean of a point's hw repetitions.", ""]
+    lines += summary_table(report)
+    lines += ["", "## Scenarios", ""]
+    for s in report["scenarios"]:
+        lines.append(f"- **{s['name']}** ({s['common_points']} points, hw x"
+                     f"{s['repetitions']['hw']} / sim x{s['repetitions']['sim']} repetitions; "
+                     f"hw status {s['hw']['status']}, sim {s['sim']['status']}): "
+                     f"{s['description']}")
+        for node in ("rt", "nrt"):
+            e = s[node]
+            if e["pairs"]:
+                lines.append(f"  - {node.upper() if node == 'rt' else 'nRT'}: bias "
+                             f"{e['bias']:+.3f}, max |sim − hw| {e['max_abs_error']:.3f} at "
+                             f"{e['max_abs_error_point']}, excess error max "
+                             f"{pct(e['excess_error_max_pct'])}")
+        if s["only_hw"] or s["only_sim"] or s["settings_mismatch"]:
+            lines.append(f"  - unmatched: {len(s['only_hw'])} point(s) only in hw, "
+                         f"{len(s['only_sim'])} only in sim, {s['settings_mismatch']} with "
+                         "different settings")
+    if report["failed"]:
+        lines += ["", "## Not compared", ""]
+        lines += [f"- **{f['scenario']}**: {f['reason']}" for f in report["failed"]]
+    lines += ["", "## Points", "",
+              "Means over repetitions; hw min–max beside the hw mean.", "",
+              "| scenario | point | node | hw | hw min–max | sim | error | excess error |",
+              "|---|---|---|---:|---:|---:|---:|---:|"]
+    for p in report["points"]:
+        lines.append(f"| {p['scenario']} | {p['point']} | {p['node']} | "
+                     f"{p['hw_mean']:.3f} | {p['hw_min']:.3f}–{p['hw_max']:.3f} | "
+                     f"{p['sim_mean']:.3f} | {p['error_pct']:+.1f} % | "
+                     f"{_signed_pct(p['excess_error_pct'])} |")
+    lines += ["", f"Figure: [{FIGURE_STEM}.png]({FIGURE_STEM}.png) "
+              f"([PDF]({FIGURE_STEM}.pdf)).", "",
+              "Definitions: " + "; ".join(f"`{k}`: {v}" for k, v in DEFINITIONS.items()) + "."]
+    return "\n".join(lines) + "\n"
+
+
+def _signed_pct(value) -> str:
+    if value is None or not math.isfinite(value):
+        return "–"
+    return f"{value:+.1f} %"
+
+
+def readme_section(report: dict, figure_path: str) -> str:
+    """The README's validation block (between its markers): figure, verdict, table."""
+    return "\n".join([
+        f"![sim vs hw validation]({figure_path})", "",
+        f"{_host_line(report)}. {verdict(report)[0].upper() + verdict(report)[1:]}.", "",
+        *summary_table(report), ""])
+
+
+def _figure(report: dict, pairs):
+    names = [s["name"] for s in report["scenarios"]]
+    overall = report["overall"]
+    titles = {node: f"MAPE {pct(overall[node]['mape_pct'])} "
+                    f"(goal ≤ {GOALS[node + '_mape'][2]:g} %: "
+                    f"{overall['goals'][node + '_mape']['status']}), {overall[node]['pairs']} "
+                    "points" for node in ("rt", "nrt")}
+    titles["excess"] = (f"excess slowdown where measured ≥ {EXCESS_MIN:g}: error RT "
+                        f"{pct(overall['rt']['excess_error_pct'])}, nRT "
+                        f"{pct(overall['nrt']['excess_error_pct'])} (goal ≤ 20 %)")
+    host = _host_line(report).replace("`", "")
+    note = (f"{host}. Markers: mean over repetitions; error bars: min–max over "
+            "repetitions; shaded: ±5 % / ±10 % (left, middle) and ±20 % (right) of the "
+            "measured value.")
+    return figure.draw(pairs, names, titles, EXCESS_MIN, note)
+
+
+def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdout) -> int:
+    """Builds the report and writes report.json, report.md and the figure into ``out``."""
+    report, pairs = build_report(hw_root, sim_root, names, failed, notes)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = style.save(_figure(report, pairs), out, FIGURE_STEM)
+    report["figure"] = [p.name for p in written]
+    (out / "report.json").write_text(json.dumps(_clean(report), indent=2) + "\n",
+                                     encoding="utf-8")
+    (out / "report.md").write_text(markdown(_clean(report)), encoding="utf-8")
+    print("\n".join(summary_table(_clean(report))), file=stream)
+    print(verdict(report), file=stream)
+    for f in report["failed"]:
+        print(f"not compared: {f['scenario']}: {f['reason']}", file=stream)
+    print(f"written: {out / 'report.md'}, {out / 'report.json'}, "
+          + ", ".join(str(p) for p in written), file=stream)
+    return 0
+
+
+def load_report(path) -> dict:
+    """A report.json written by ``run``; InvalidInput when it is not one."""
+    path = Path(path)
+    try:
+        report = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as e:
+        raise InvalidInput(f"{path}: cannot read a validation report ({e})") from e
+    if not isinstance(report, dict) or report.get("schema_version") != REPORT_SCHEMA_VERSION:
+        raise InvalidInput(f"{path}: not a validation report (schema_version "
+                           f"{REPORT_SCHEMA_VERSION} expected); run make validate")
+    return _restore(report)
+
+
+def _restore(value):
+    """JSON null in the error figures back to NaN (what the formatting helpers expect)."""
+    if isinstance(value, dict):
+        return {k: (math.nan if v is None and k.endswith(("_pct", "bias", "spearman",
+                                                           "max_abs_error", "value"))
+                    else _restore(v)) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_restore(v) for v in value]
+    return value
+
+
+README_BEGIN, README_END = "<!-- validation:begin -->", "<!-- validation:end -->"
+
+
+def replace_block(text: str, block: str, where: str) -> str:
+    """text with the part between README_BEGIN and README_END replaced by block."""
+    start, end = text.find(README_BEGIN), text.find(README_END)
+    if start < 0 or end < start:
+        raise InvalidInput(f"{where}: no {README_BEGIN} ... {README_END} block to replace")
+    return text[:start + len(README_BEGIN)] + "\n" + block + text[end:]
+
+
+def table(report_path, readme=None, figure_dir="docs/figures", stream=sys.stdout) -> int:
+    """Prints the README block of a report.json; with ``readme``, writes it there between the
+    markers and copies the figure (PNG and PDF) into figure_dir (README-relative link)."""
+    report_path = Path(report_path)
+    report = load_report(report_path)
+    if readme is None:
+        print(readme_section(report, f"{FIGURE_STEM}.png"), file=stream, end="")
+        return 0
+    readme = Path(readme)
+    figure_dir = Path(figure_dir)
+    sources = [report_path.parent / f"{FIGURE_STEM}{suffix}" for suffix in (".png", ".pdf")]
+    for source in sources:
+        if not source.is_file():
+            raise InvalidInput(f"{source}: the report's figure is missing; run make validate")
+    link = Path(os.path.relpath(figure_dir.resolve(), readme.resolve().parent)) / \
+        f"{FIGURE_STEM}.png"
+    # Everything checked (markers included) before anything is written.
+    text = replace_block(readme.read_text(encoding="utf-8"),
+                         readme_section(report, link.as_posix()), str(readme))
+    figure_dir.mkdir(parents=True, exist_ok=True)
+    for source in sources:
+        (figure_dir / source.name).write_bytes(source.read_bytes())
+    readme.write_text(text, encoding="utf-8")
+    print(f"written: {readme} (validation block), {figure_dir / (FIGURE_STEM + '.png')}",
+          file=stream)
+    return 0

@@ -1,0 +1,121 @@
+// The sim platform model fitted to host measurements (issue 11, `rosguard calibrate`).
+//
+// Called by the calibrate command with what the hw suite measured (model/calibration/
+// measurements.h). fit() chooses the model's free parameters from what the data can identify,
+// fits them by non-linear least squares (Eigen's Levenberg-Marquardt) on relative residuals
+// log(predicted / measured ns_per_line), and reports every parameter with its standard error and
+// every run with its residual. Predictions are exactly the sim's: the kernel's profile
+// (sim/workload/profile.h: kernel_profile) on the memory model's steady state
+// (sim/platform/contention.h), the measured kernel on core 0 of cluster 0 and its co-runners on
+// the next cores of that cluster.
+//
+// Parameters (all strictly positive: fitted as logarithms, which keeps them in bounds):
+//   fitted: per kernel ns_per_line_l2 (isolation within the L2), ns_per_line_l3 (isolation within
+//     the L3), mlp (runs beyond the L3, given the DRAM latency); l3.queue_ns and
+//     l3.bandwidth_mbps (co-runs within the L3); dram.latency_ns (the latency kernel beyond the
+//     L3); dram.queue_ns and dram.bandwidth_mbps (co-runs beyond the L3); l3.capacity_exponent
+//     when some run's resident footprints exceed the L3 while its own working set fits.
+//   fixed or derived: kernels.latency.mlp = 1 (a pointer chase has one load in flight);
+//     l3.latency_ns = the fitted kernels.latency.ns_per_line_l3 (the model only uses latencies
+//     above it, so no time measurement can identify it; the pointer chase within the L3 is its
+//     load-to-use latency); l3.capacity_exponent = FitOptions::capacity_exponent without such
+//     runs; anything named in FitOptions::fixed.
+//
+// Contract: pure C++ (no SystemC, no OS calls). fit() throws RunError naming what is missing
+// when the data cannot identify a parameter it must fit, and RunError with the LM status when
+// the fit does not converge, the Jacobian is rank-deficient for a fitted parameter (or its
+// standard error exceeds FitOptions::max_log_std_error), or the RMS residual exceeds
+// FitOptions::max_rms_residual.
+#pragma once
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "calibration/measurements.h"
+#include "platform/sim_platform.h"
+
+namespace rosguard::calibration {
+
+struct FitOptions {
+  int max_evaluations = 400;      // LM residual evaluations (each one predicts every run)
+  double max_rms_residual = 0.5;  // refuse a fit worse than this (log units: 0.5 is ~65 %)
+  // Refuse a fitted parameter whose logarithm has a larger standard error (1: the data leave it
+  // free within a factor e either way): the data do not identify it.
+  double max_log_std_error = 1.0;
+  double capacity_exponent = 0.35;  // when no run identifies it (as orin-agx)
+  // Parameters held at a given value instead of fitted, by their report name
+  // ("l3.queue_ns", "kernels.bandwidth_read.mlp", ...): for what this host's data cannot
+  // identify. Reported as fixed.
+  std::map<std::string, double> fixed;
+};
+
+struct FittedParameter {
+  std::string name;  // "dram.latency_ns", "kernels.bandwidth_read.mlp"
+  double value = 0.0;
+  double std_error = 0.0;  // in the parameter's units (delta method from the log scale); 0 if
+                           // not fitted
+  bool fitted = false;     // false: fixed or derived (see `how`)
+  std::string how;         // what identifies it, or why and from what it is fixed
+};
+
+struct FittedRun {
+  std::size_t index = 0;     // into Measurements::runs
+  std::string label;         // "bandwidth_read 2048 KB + bandwidth_read 2048 KB"
+  double measured_ns = 0.0;  // ns per line
+  double predicted_ns = 0.0;
+  double residual = 0.0;  // log(predicted / measured)
+  bool used = false;      // false: not modelled (see note), not in the fit
+  std::string note;
+};
+
+struct CostFit {
+  nlohmann::json distribution;  // the platform "costs" entry, without its source
+  std::size_t samples = 0;
+  double min_us = 0.0, median_us = 0.0, p90_us = 0.0, max_us = 0.0;
+};
+
+struct FitReport {
+  sim::SimPlatform platform;  // the fitted model (memory, kernels; no costs): predicts with it
+  std::vector<FittedParameter> parameters;
+  std::vector<FittedRun> runs;
+  std::map<std::string, CostFit> costs;  // by cost name ("publish", ...): from costs_us
+  double rms_residual = 0.0;             // over the used runs, log units
+  int lm_status = 0;                     // Eigen's LevenbergMarquardtSpace::Status
+  std::string lm_status_text;
+  int evaluations = 0;
+  int iterations = 0;
+  bool converged = false;
+  std::vector<std::string> notes;  // fixed parameters, runs left out, poorly determined values
+};
+
+// The model's skeleton for `host`: CPU, caches (L2, L3 capacity), and placeholder memory
+// parameters (orin-agx's defaults); no kernels, no costs.
+sim::SimPlatform model_platform(const HostFacts& host);
+
+// ns per line of `run` predicted by `platform` (which must model the run's kernels): the sim's
+// profile and steady state. Throws RunError for a kernel without a model or more co-runners than
+// the cluster has other cores.
+double predict_ns_per_line(const sim::SimPlatform& platform, const KernelRun& run);
+
+// The fit (see above). Costs: each costs_us entry with samples becomes a distribution (fit_cost).
+FitReport fit(const Measurements& measurements, const FitOptions& options = {});
+
+// A cost distribution from raw samples (us): a shifted lognormal through the samples' 10th, 50th
+// and 90th percentiles (its location clamped to [0, smallest sample]), clipped at the largest;
+// a normal by mean and sd truncated to the samples' range when they are not right-skewed; a
+// constant when every sample is equal. Throws RunError without samples.
+CostFit fit_cost(std::vector<double> samples_us);
+
+// A full platform document (validates against platform.schema.json, runs in sim): cpu and
+// caches from the host facts, memory and kernels from the fit, costs from the samples, reference
+// = the measured bandwidth_read 2048 KB isolation bandwidth; every "source" says what was fitted
+// on which host and when, with what residual. Throws RunError when a cost has no samples.
+nlohmann::json fitted_platform(const Measurements& measurements, const FitReport& report,
+                               std::string name);
+
+// The report as the "fit" object of calibration.json.
+nlohmann::json to_json(const FitReport& report);
+
+}  // namespace rosguard::calibration

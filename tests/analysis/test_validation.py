@@ -1,0 +1,216 @@
+"""`validate HW SIM --out DIR` and `validate-table`: hand-computed errors and goal marks,
+the report files and figure, failed scenarios, the README block."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import pytest
+
+import resultgen
+from analysis import validation
+from checks import assert_figure_files, run_cli
+
+# scenario -> point -> [(rt_slowdown, nrt_slowdown) per repetition]; hw measured, sim predicted.
+HW = {
+    "alpha": {"p0000000001": [(1.0, 2.0), (1.2, 2.0)],     # means 1.1, 2.0
+              "p0000000002": [(1.02, 3.0)],
+              "p0000000003": [(1.5, 1.04)]},                # only in hw
+    "beta": {"p0000000004": [(1.25, 5.0)]},
+}
+SIM = {
+    "alpha": {"p0000000001": [(1.188, 2.2)],
+              "p0000000002": [(1.02, 2.4), (1.02, 2.4)]},
+    "beta": {"p0000000004": [(1.30, 5.5)]},
+}
+
+
+def write_folder(folder, points, backend):
+    """A results folder with only the cells validate needs (as in test_compare)."""
+    folder.mkdir(parents=True)
+    header = resultgen.FIXED_COLUMNS + resultgen.EXTRA_COLUMNS
+    with (folder / "points.csv").open("w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(header)
+        for index, (pid, reps) in enumerate(points.items()):
+            for rep, (rt, nrt) in enumerate(reps):
+                cells = {"point": pid, "rep": rep, "backend": backend,
+                         "rt_workload": "bandwidth_read", "nrt_workload": "bandwidth_read",
+                         "policy": "interval", "sampling": "self", "scope": "core",
+                         "threshold_pct": 10 * (index + 1), "sampling_period_us": 250,
+                         "regulation_period_us": 5000, "rt_slowdown": rt, "nrt_slowdown": nrt,
+                         "platform": "vm-2core"}
+                w.writerow([cells.get(c, "") for c in header])
+    (folder / "manifest.json").write_text(json.dumps({
+        "schema_version": 1, "backend": backend, "status": "complete",
+        "start_time": f"2026-01-01T00:0{len(points)}:00Z",
+        "end_time": f"2026-01-01T00:1{len(points)}:00Z",
+        "tool": {"name": "rosguard", "version": "0.1.0", "git_revision": "abc123"},
+        "host": {"hostname": "testhost", "cpu_model": "Test CPU", "cpus_online": 2},
+        "scenario": {"given": {"description": f"checks {folder.name}"}}}))
+    return folder
+
+
+@pytest.fixture
+def suite(tmp_path):
+    for root, values, backend in (("hw", HW, "hw"), ("sim", SIM, "sim")):
+        for name, points in values.items():
+            write_folder(tmp_path / root / name, points, backend)
+    return tmp_path / "hw", tmp_path / "sim"
+
+
+def test_hand_computed_errors(suite):
+    report, pairs = validation.build_report(*suite)
+    assert [s["name"] for s in report["scenarios"]] == ["alpha", "beta"]
+    alpha = report["scenarios"][0]
+    assert alpha["common_points"] == 2 and alpha["only_hw"] == ["p0000000003"]
+    assert alpha["description"] == "checks alpha"
+    # RT alpha: |1.188 - 1.1| / 1.1 = 8 %, 0 % -> MAPE 4 %; excess: only hw 1.1 >= 1.05,
+    # |0.188 - 0.1| / 0.1 = 88 %.
+    assert alpha["rt"]["mape_pct"] == pytest.approx(4.0)
+    assert alpha["rt"]["excess_pairs"] == 1
+    assert alpha["rt"]["excess_error_pct"] == pytest.approx(88.0)
+    # nRT alpha: 10 %, 20 % -> 15 %; excess |1.2 - 1| / 1 = 20 %, |1.4 - 2| / 2 = 30 % -> 25 %.
+    assert alpha["nrt"]["mape_pct"] == pytest.approx(15.0)
+    assert alpha["nrt"]["excess_error_pct"] == pytest.approx(25.0)
+    assert alpha["nrt"]["excess_error_max_pct"] == pytest.approx(30.0)
+    # hw spread: RT point 1 (1.2 - 1.0) / 1.1; point 2 has one repetition (not counted).
+    assert alpha["rt"]["hw_spread_pct"] == pytest.approx(100 * 0.2 / 1.1)
+    assert alpha["goals"]["rt_mape"]["status"] == "met"
+    assert alpha["goals"]["nrt_mape"]["status"] == "missed"
+    assert alpha["goals"]["rt_excess"]["status"] == "missed"
+    # Overall: every point pooled. RT: 8, 0, 4 % -> 4 %; nRT: 10, 20, 10 % -> 40/3.
+    overall = report["overall"]
+    assert overall["rt"]["pairs"] == 3 and overall["nrt"]["pairs"] == 3
+    assert overall["rt"]["mape_pct"] == pytest.approx(4.0)
+    assert overall["nrt"]["mape_pct"] == pytest.approx(40.0 / 3)
+    # RT excess: 88 % (alpha), |0.30 - 0.25| / 0.25 = 20 % (beta).
+    assert overall["rt"]["excess_error_pct"] == pytest.approx(54.0)
+    assert overall["nrt"]["excess_error_pct"] == pytest.approx((20 + 30 + 12.5) / 3)
+    assert overall["goals"]["nrt_excess"]["status"] == "missed"
+    assert len(pairs) == 6
+    assert report["measured_from"] == "2026-01-01T00:01:00Z"       # beta (1 point) first
+    assert report["measured_to"] == "2026-01-01T00:13:00Z"
+
+
+def test_excess_only_where_measured_excess_is_large():
+    stat = validation.Stat.of
+    small = validation.Pair("s", "p", "rt", stat([1.04]), stat([1.5]))
+    assert math.isnan(small.excess_error_pct)
+    assert small.error_pct == pytest.approx(100 * 0.46 / 1.04)
+    edge = validation.Pair("s", "p", "rt", stat([1.05]), stat([1.0]))
+    assert edge.excess_error_pct == pytest.approx(-100.0)
+    errors = validation.node_errors([small])
+    assert errors["excess_pairs"] == 0 and math.isnan(errors["excess_error_pct"])
+
+
+@pytest.mark.parametrize("value, status", [(4.99, "met"), (5.0, "met"), (5.01, "missed"),
+                                           (math.nan, "n/a")])
+def test_goal_marks(value, status):
+    errors = {"rt": {"mape_pct": value, "excess_error_pct": math.nan},
+              "nrt": {"mape_pct": 1.0, "excess_error_pct": 25.0}}
+    marks = validation.goal_marks(errors)
+    assert marks["rt_mape"]["status"] == status
+    assert marks["nrt_mape"]["status"] == "met"
+    assert marks["rt_excess"]["status"] == "n/a"
+    assert marks["nrt_excess"]["status"] == "missed"
+
+
+def test_missing_and_failed_scenarios_are_listed(suite):
+    hw, sim = suite
+    report, _ = validation.build_report(hw, sim, ["alpha", "gamma"],
+                                        [{"scenario": "delta", "reason": "hw run failed"}])
+    assert [s["name"] for s in report["scenarios"]] == ["alpha"]
+    failed = {f["scenario"]: f["reason"] for f in report["failed"]}
+    assert failed["delta"] == "hw run failed"
+    assert "gamma" in failed["gamma"] and "no such folder" in failed["gamma"]
+
+
+def test_run_writes_report_and_figure(suite, tmp_path):
+    out = tmp_path / "out"
+    done = run_cli("validate", *suite, "--out", out, "--note", "load 1.5",
+                   "--failed", "delta=the hw run failed")
+    assert done.returncode == 0, done.stderr
+    assert "1 of 4 goals met over the suite; missed: nRT-slowdown MAPE" in done.stdout
+    report = json.loads((out / "report.json").read_text())
+    assert report["overall"]["rt"]["excess_error_pct"] == pytest.approx(54.0)
+    assert report["notes"] == ["load 1.5"]
+    assert report["failed"] == [{"scenario": "delta", "reason": "the hw run failed"}]
+    assert report["figure"] == ["validation_scatter.png", "validation_scatter.pdf"]
+    md = (out / "report.md").read_text()
+    assert "| alpha | 2 | 4.0 % met | 15.0 % **missed** |" in md
+    assert "| **all** | 3 |" in md
+    assert "testhost" in md and "0.1.0 abc123" in md and "load 1.5" in md
+    assert "**delta**: the hw run failed" in md
+    assert_figure_files(out, "validation_scatter")
+
+
+def test_nan_survives_the_json_round_trip(suite, tmp_path):
+    out = tmp_path / "out"
+    assert run_cli("validate", *suite, "--out", out).returncode == 0
+    report = validation.load_report(out / "report.json")
+    assert report["scenarios"][1]["rt"]["hw_spread_pct"] != report["scenarios"][1]["rt"][
+        "hw_spread_pct"]                                           # NaN: one repetition
+    assert "n/a" in "\n".join(validation.summary_table(report))
+
+
+def test_readme_block(suite, tmp_path):
+    out = tmp_path / "out"
+    assert run_cli("validate", *suite, "--out", out).returncode == 0
+    shown = run_cli("validate-table", out / "report.json")
+    assert shown.returncode == 0, shown.stderr
+    assert shown.stdout.startswith("![sim vs hw validation](validation_scatter.png)")
+    readme = tmp_path / "README.md"
+    readme.write_text("intro\n<!-- validation:begin -->\nold\n<!-- validation:end -->\nend\n")
+    done = run_cli("validate-table", out / "report.json", "--readme", readme,
+                   "--figure-dir", tmp_path / "docs" / "figures")
+    assert done.returncode == 0, done.stderr
+    text = readme.read_text()
+    assert "old" not in text and text.startswith("intro\n<!-- validation:begin -->\n")
+    assert "](docs/figures/validation_scatter.png)" in text
+    assert "| alpha | 2 |" in text and text.endswith("<!-- validation:end -->\nend\n")
+    assert_figure_files(tmp_path / "docs" / "figures", "validation_scatter")
+
+
+def test_readme_without_markers_and_bad_report_are_input_errors(suite, tmp_path):
+    out = tmp_path / "out"
+    assert run_cli("validate", *suite, "--out", out).returncode == 0
+    readme = tmp_path / "README.md"
+    readme.write_text("no markers\n")
+    figures = tmp_path / "figures"
+    done = run_cli("validate-table", out / "report.json", "--readme", readme,
+                   "--figure-dir", figures)
+    assert done.returncode == 2 and "validation:begin" in done.stderr
+    assert not figures.exists() and readme.read_text() == "no markers\n"
+    (tmp_path / "other.json").write_text('{"a": 1}')
+    done = run_cli("validate-table", tmp_path / "other.json")
+    assert done.returncode == 2 and "not a validation report" in done.stderr
+    done = run_cli("validate", tmp_path / "missing", tmp_path / "missing2", "--out", out)
+    assert done.returncode == 2 and "no such folder" in done.stderr
+
+
+def test_figure_limits_ignore_disturbed_points_and_say_so():
+    from analysis.figures import validation as figure
+    stat = validation.Stat.of
+    calm = [validation.Pair("a", f"p{i}", "rt", stat([1.0 + i / 100, 1.01 + i / 100]),
+                            stat([1.02 + i / 100])) for i in range(5)]
+    wild = validation.Pair("b", "px", "rt", stat([1.0, 108.0]), stat([1.05]))
+    assert figure.disturbed(wild) and not any(figure.disturbed(p) for p in calm)
+    fig = figure.draw(calm + [wild], ["a", "b"], {}, validation.EXCESS_MIN, "note")
+    rt_panel = fig.axes[0]
+    assert rt_panel.get_xlim()[1] < 1.2            # the 54.5 mean is left outside
+    texts = [t.get_text() for t in rt_panel.texts]
+    assert any("1 point(s) with disturbed hw repetitions" in t for t in texts), texts
+    assert rt_panel.get_xscale() == "linear"
+
+
+def test_a_value_just_over_its_bound_does_not_print_as_the_bound():
+    errors = {"rt": {"mape_pct": 5.033, "excess_error_pct": math.nan, "excess_pairs": 0},
+              "nrt": {"mape_pct": 9.2, "excess_error_pct": 20.01, "excess_pairs": 3}}
+    goals = validation.goal_marks(errors)
+    assert validation._cell(errors, goals, "rt", "mape_pct") == "5.03 % **missed**"
+    assert validation._cell(errors, goals, "nrt", "mape_pct") == "9.2 % met"
+    assert validation._cell(errors, goals, "nrt", "excess_error_pct") == \
+        "20.01 % (n=3) **missed**"

@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# make validate: the sim-vs-hw validation suite (scenarios/validation/, held out from the
+# calibration). Runs every scenario with --backend hw and with --backend sim into
+# results/validation/{hw,sim}/<scenario>/, compares each pair (rosguard compare ->
+# results/validation/compare/<scenario>/), and writes results/validation/report.md,
+# report.json and validation_scatter.png/pdf (python3 -m analysis validate).
+#
+# Usage: tools/validate.sh [ROSGUARD]      run the suite (default ROSGUARD: build/rosguard)
+#        tools/validate.sh --readme        regenerate README.md's validation block and
+#                                          docs/figures/validation_scatter.* from the last report
+# Environment (for one run; tests use them): ROSGUARD_VALIDATE_PLATFORM overrides the platform
+# below, ROSGUARD_VALIDATE_SUITE the scenario folder, ROSGUARD_VALIDATE_OUT the results folder.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# The platform both backends run: `host` (hw: this machine, probed at run time; sim: the
+# calibrated model that `rosguard calibrate --install` saved) once that exists, until then the
+# hand-tuned model of the development VM.
+PLATFORM=vm-2core
+platform=${ROSGUARD_VALIDATE_PLATFORM:-$PLATFORM}
+
+suite=${ROSGUARD_VALIDATE_SUITE:-scenarios/validation}
+out=${ROSGUARD_VALIDATE_OUT:-results/validation}
+py() { PYTHONPATH="$PWD" /usr/bin/python3 "$@"; }
+
+if [[ ${1:-} == --readme ]]; then
+  py -m analysis validate-table "$out/report.json" --readme README.md --figure-dir docs/figures
+  exit 0
+fi
+rosguard=${1:-build/rosguard}
+if [[ ! -x $rosguard ]]; then
+  echo "validate: $rosguard not found; build first (make build)" >&2
+  exit 1
+fi
+
+# The sim side of `platform: host` is the installed calibrated model; make one if missing.
+if [[ $platform == host ]]; then
+  model=${ROSGUARD_HOST_MODEL:-${XDG_DATA_HOME:-$HOME/.local/share}/rosguard/host/platform.json}
+  if [[ ! -f $model ]]; then
+    # (`rosguard calibrate --help` is no test: the top-level --help answers an unknown command.)
+    if ! "$rosguard" --help 2>/dev/null | grep -E '^ +calibrate +' >/dev/null; then
+      echo "validate: no host model at $model, and this rosguard has no 'calibrate' command" \
+           "to make one; build a rosguard with 'rosguard calibrate', or set PLATFORM in" \
+           "tools/validate.sh to a platform file (e.g. vm-2core)" >&2
+      exit 1
+    fi
+    echo "validate: no host model at $model: calibrating (rosguard calibrate --quick --install)"
+    "$rosguard" calibrate --quick --install
+  fi
+  echo "validate: platform host (sim model: $model)"
+else
+  echo "validate: platform $platform on both backends (set PLATFORM=host in" \
+       "tools/validate.sh to validate the calibrated host model)"
+fi
+
+shopt -s nullglob
+scenarios=("$suite"/*.json)
+((${#scenarios[@]})) || { echo "validate: no scenario in $suite" >&2; exit 1; }
+mkdir -p "$out"/{hw,sim,compare,logs,scenarios}
+start=$(date +%s)
+load_start=$(cut -d' ' -f1 /proc/loadavg)
+ok=() failed=()
+i=0
+for file in "${scenarios[@]}"; do
+  i=$((i + 1))
+  name=$(basename "$file" .json)
+  # The suite's files name the development VM; run a copy with the platform set here.
+  if [[ $(py -c 'import json,sys; print(json.load(open(sys.argv[1])).get("platform"))' "$file") \
+        != "$platform" ]]; then
+    py -c 'import json,sys; d=json.load(open(sys.argv[1])); d["platform"]=sys.argv[2]
+d.pop("$schema", None)
+open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' \
+      "$file" "$platform" "$out/scenarios/$name.json"
+    file=$out/scenarios/$name.json
+  fi
+  printf '[%d/%d] %-26s' "$i" "${#scenarios[@]}" "$name"
+  status=ok
+  for backend in hw sim; do
+    t0=$(date +%s%N)
+    log=$out/logs/$name-$backend.log
+    rc=0
+    "$rosguard" run "$file" --backend "$backend" --out "$out/$backend/$name" --overwrite \
+      > "$log" 2>&1 || rc=$?
+    if ((rc == 130 || rc == 143)); then
+      echo " $backend interrupted; stopping (the folders hold the complete rows)" >&2
+      exit "$rc"
+    fi
+    if ((rc != 0)); then
+      echo " $backend FAILED (exit $rc; see $log)"
+      tail -n 5 "$log" | sed 's/^/    /'
+      failed+=("$name=the $backend run failed; see $log")
+      status=failed
+      break
+    fi
+    tenths=$((($(date +%s%N) - t0) / 100000000))
+    printf ' %s %3d.%d s' "$backend" $((tenths / 10)) $((tenths % 10))
+  done
+  [[ $status == ok ]] || continue
+  if ! "$rosguard" compare "$out/hw/$name" "$out/sim/$name" --out "$out/compare/$name" \
+       > "$out/logs/$name-compare.log" 2>&1; then
+    echo " compare FAILED (see $out/logs/$name-compare.log)"
+    failed+=("$name=rosguard compare failed; see $out/logs/$name-compare.log")
+    continue
+  fi
+  ok+=("$name")
+  # compare's summary lines: "RT  pairs  MAPE ..."
+  awk '/^(RT|nRT) / { printf "  %s MAPE %s %%", $1, $3 }' "$out/logs/$name-compare.log"
+  echo
+done
+
+load_end=$(cut -d' ' -f1 /proc/loadavg)
+echo "validate: suite run in $(($(date +%s) - start)) s (load average $load_start at the" \
+     "start, $load_end at the end, on $(nproc) CPUs); writing the report"
+args=(-m analysis validate "$out/hw" "$out/sim" --out "$out"
+      --scenarios "$(IFS=,; echo "${ok[*]}")"
+      --note "1-min load average $load_start at the start, $load_end at the end ($(nproc) CPUs)")
+for f in "${failed[@]}"; do args+=(--failed "$f"); done
+py "${args[@]}"
+if ((${#failed[@]})); then
+  echo "validate: ${#failed[@]} scenario(s) failed: ${failed[*]%%=*}" >&2
+  exit 1
+fi
+echo "validate: README block: tools/validate.sh --readme (make validate-readme)"

@@ -1,5 +1,7 @@
 // Built-in kernels: bandwidth_read / bandwidth_write (IsolBench-like: sequential, one access per
-// 64-byte line over the working set) and proxies for the SD-VBS names (a line touch plus a
+// 64-byte line over the working set), latency (a pointer chase: one dependent load per line, in
+// the order of a random cyclic permutation, so neither the prefetcher nor memory-level
+// parallelism hides the load-to-use latency) and proxies for the SD-VBS names (a line touch plus a
 // calibrated amount of dependent ALU work per line, to reach a target bandwidth on this host).
 #include <sys/mman.h>
 
@@ -8,6 +10,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <random>
 
 #include "core/error.h"
 #include "hw/common/clock.h"
@@ -86,6 +89,44 @@ class BandwidthKernel : public BuiltinWorkload {
   volatile std::uint64_t sink_ = 0;
 };
 
+// Pointer chase: word 0 of each line holds the index of the next line (chase_cycle), so each load
+// depends on the previous one. One unit = one hop = one line loaded.
+class LatencyKernel : public BuiltinWorkload {
+ public:
+  LatencyKernel(std::size_t working_set_kb, std::uint64_t passes)
+      : buf_(working_set_kb * 1024), passes_(passes) {
+    const auto next = chase_cycle(buf_.lines(), buf_.lines());
+    std::uint64_t* p = buf_.data();
+    for (std::size_t i = 0; i < next.size(); ++i)
+      p[i * kWordsPerLine] = next[i];
+  }
+
+  std::string_view kernel() const override { return "latency"; }
+  std::uint64_t units_per_run() const override { return buf_.lines() * passes_; }
+
+  double run(const std::atomic<bool>& stop, WorkCounters& c) override {
+    const volatile std::uint64_t* p = buf_.data();
+    const std::uint64_t total = units_per_run();
+    std::uint64_t done = 0, at = at_;
+    while (done < total) {
+      const std::uint64_t n = std::min(kChunkLines, total - done);
+      for (std::uint64_t k = 0; k < n; ++k)
+        at = p[at * kWordsPerLine];
+      WorkCounters::add(c.lines_read, n);
+      WorkCounters::add(c.units_done, n);
+      done += n;
+      if (stop.load(std::memory_order_relaxed)) break;
+    }
+    at_ = at;  // the next run goes on along the cycle
+    return static_cast<double>(done) / static_cast<double>(total);
+  }
+
+ private:
+  Buffer buf_;
+  std::uint64_t passes_;
+  std::uint64_t at_ = 0;
+};
+
 // One proxy step: touch one line of the working set, then `alu` dependent ALU iterations.
 inline std::uint64_t alu_work(std::uint64_t x, std::uint32_t alu) {
   for (std::uint32_t k = 0; k < alu; ++k) {
@@ -140,6 +181,20 @@ class ProxyKernel : public BuiltinWorkload {
 
 }  // namespace
 
+std::vector<std::uint32_t> chase_cycle(std::size_t lines, std::uint64_t seed) {
+  if (lines > std::size_t{1} << 32) throw RunError("pointer chase over more than 2^32 lines");
+  std::vector<std::uint32_t> next(lines);
+  for (std::size_t i = 0; i < lines; ++i)
+    next[i] = static_cast<std::uint32_t>(i);
+  // Sattolo's algorithm: j < i (never j == i) makes i -> next[i] a single cycle through all lines.
+  std::mt19937_64 rng(seed);
+  for (std::size_t i = lines; i-- > 1;) {
+    const std::size_t j = std::uniform_int_distribution<std::size_t>(0, i - 1)(rng);
+    std::swap(next[i], next[j]);
+  }
+  return next;
+}
+
 ProxyCalibration calibrate_proxy(double target_mbps, std::uint32_t working_set_kb) {
   static std::mutex mu;
   static std::map<std::pair<double, std::uint32_t>, ProxyCalibration> cache;
@@ -189,6 +244,11 @@ std::unique_ptr<BuiltinWorkload> make_builtin_workload(const WorkloadInfo& info)
   const auto passes = hw.value("passes", std::uint64_t{1});
   if (kernel == "bandwidth_read" || kernel == "bandwidth_write")
     return std::make_unique<BandwidthKernel>(kernel == "bandwidth_write", ws, passes);
+  if (kernel == "latency") {
+    if (ws * 1024 < 2 * kLine)
+      throw InputError(info.origin, "/hw/working_set_kb", "the latency kernel needs two lines");
+    return std::make_unique<LatencyKernel>(ws, passes);
+  }
   if (kernel == "proxy") {
     if (!hw.contains("target_mbps"))
       throw InputError(info.origin, "/hw/target_mbps",

@@ -40,6 +40,10 @@ class BuiltinWorkload {
 // Throws InputError naming the workload when its "hw" part cannot be run.
 std::unique_ptr<BuiltinWorkload> make_builtin_workload(const WorkloadInfo& info);
 
+// The latency kernel's chase order: next[i] is the line visited after line i. A random cyclic
+// permutation (one cycle through all `lines`), the same for the same seed.
+std::vector<std::uint32_t> chase_cycle(std::size_t lines, std::uint64_t seed);
+
 // Proxy calibration on this host: ALU iterations per line so that the proxy reaches its target
 // bandwidth (instrumented metric) on an idle core. Cached per process.
 struct ProxyCalibration {

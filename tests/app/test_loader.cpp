@@ -416,14 +416,16 @@ TEST_CASE("loader: problems inside platform and workload files name that file", 
     const auto e = load_error(dir.write("s.json", scenario("", "\"wl/bad.json\"")));
     CHECK_THAT(e.file(), EndsWith("wl/bad.json"));
     CHECK(e.json_path() == "/hw/kernel");
-    CHECK(e.message() ==
-          R"(must be one of "bandwidth_read", "bandwidth_write", "proxy", not "stream")");
+    CHECK(
+        e.message() ==
+        R"(must be one of "bandwidth_read", "bandwidth_write", "latency", "proxy", not "stream")");
   }
 }
 
 // --- catalogue -----------------------------------------------------------------------------
 
-TEST_CASE("Loader::workloads() lists the seven workloads with their Table 1 figures", "[loader]") {
+TEST_CASE("Loader::workloads() lists the shipped workloads with their Table 1 figures",
+          "[loader]") {
   Loader loader = make_loader();
   const auto workloads = loader.workloads();
   std::vector<std::string> names;
@@ -432,12 +434,12 @@ TEST_CASE("Loader::workloads() lists the seven workloads with their Table 1 figu
     CHECK(fs::exists(w.file));
     CHECK_THAT(w.summary, !StartsWith("(invalid"));
   }
-  CHECK(names == std::vector<std::string>{"bandwidth_read", "bandwidth_write", "disparity", "mser",
-                                          "sift", "stitch", "tracking"});
+  CHECK(names == std::vector<std::string>{"bandwidth_read", "bandwidth_write", "disparity",
+                                          "latency", "mser", "sift", "stitch", "tracking"});
   // The figures as written in the files: no rounding to six significant digits.
   CHECK_THAT(workloads[0].summary, StartsWith("IsolBench; IPC 1.07, 26271.74 MB/s in isolation"));
   CHECK_THAT(workloads[1].summary, StartsWith("IsolBench; IPC 1.61, 25519.15 MB/s in isolation"));
-  CHECK_THAT(workloads[3].summary, StartsWith("SD-VBS; IPC 2.16, 3722.43 MB/s in isolation"));
+  CHECK_THAT(workloads[4].summary, StartsWith("SD-VBS; IPC 2.16, 3722.43 MB/s in isolation"));
 
   const auto platforms = loader.platforms();
   std::vector<std::string> platform_names;

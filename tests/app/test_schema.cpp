@@ -90,7 +90,7 @@ TEST_CASE("schema: enum errors list the allowed values", "[schema]") {
   CHECK(error_of(w, SchemaKind::Workload) ==
         std::pair<std::string, std::string>{
             "/hw/kernel",
-            R"(must be one of "bandwidth_read", "bandwidth_write", "proxy", not "stream")"});
+            R"(must be one of "bandwidth_read", "bandwidth_write", "latency", "proxy", not "stream")"});
   json doc = scenario();
   doc["regulation"] = {{"policy", 3}};
   CHECK(error_of(doc).second ==

@@ -1,0 +1,706 @@
+// The calibration microbenchmark suite (hw/calibration/suite.h).
+#include "hw/calibration/suite.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <span>
+#include <tuple>
+
+#include "core/error.h"
+#include "engine/controller_driver.h"
+#include "hw/common/clock.h"
+#include "hw/common/sys.h"
+#include "hw/executor/executor.h"
+#include "hw/metric_plan.h"
+#include "hw/nodes/messages.h"
+#include "hw/pmc_source/pmc_source.h"
+#include "hw/topic/topic.h"
+#include "hw/workload/workload.h"
+#include "policy/policy.h"
+#include "regulator/regulator.h"
+#include "results/results.h"
+
+namespace rosguard::hw {
+namespace {
+
+using calibration::KernelRun;
+using calibration::Measurements;
+
+constexpr double kLineBytes = 64.0;
+const char* const kBwRead = "bandwidth_read";
+const char* const kBwWrite = "bandwidth_write";
+const char* const kLatency = "latency";
+// A window counts only if every kernel in it was on its core this much of the time; else it is
+// taken again, at most kAttempts times in all.
+constexpr double kMinOnCore = 0.95;
+constexpr int kAttempts = 3;
+constexpr double kReferenceMbps = 10000.0;  // the synthetic controller's (any value works)
+
+std::uint64_t lines_of(double kb) {
+  return static_cast<std::uint64_t>(kb * 1024.0 / kLineBytes);
+}
+
+std::string kb_text(double kb) {
+  return std::to_string(static_cast<long long>(kb)) + " KB";
+}
+
+// Notes for the manifest, each said once.
+class Notes {
+ public:
+  void add(const std::string& s) {
+    if (seen_.insert(s).second) list_.push_back(s);
+  }
+  void sched(const SchedOutcome& o) {
+    if (!o.fifo)
+      add("SCHED_FIFO refused (" + o.fifo_error +
+          "): suite threads run under SCHED_OTHER with nice values instead; timings include "
+          "more interference from other tasks");
+    if (!o.pinned) add("a suite thread could not be pinned (" + o.pin_error + "): " + o.detail);
+  }
+  std::vector<std::string> take() { return std::move(list_); }
+
+ private:
+  std::set<std::string> seen_;
+  std::vector<std::string> list_;
+};
+
+void rethrow_if_failed(const RtThread& t) {
+  if (auto e = t.error()) std::rethrow_exception(e);
+}
+
+// One built-in kernel over one working set, as the hw backend builds it (one pass per run).
+std::unique_ptr<BuiltinWorkload> make_kernel(const std::string& kernel, double kb) {
+  WorkloadInfo w;
+  w.name = kernel;
+  w.origin = "calibration suite";
+  w.doc = {{"hw",
+            {{"kernel", kernel}, {"working_set_kb", static_cast<std::size_t>(kb)}, {"passes", 1}}}};
+  return make_builtin_workload(w);
+}
+
+// A kernel that runs pass after pass on one core until stopped; the engine reads its progress.
+class Streamer {
+ public:
+  Streamer(BuiltinWorkload& work, double kb, int core, int priority, Notes& notes)
+      : work_(work), lines_(lines_of(kb)) {
+    thread_ = std::make_unique<RtThread>(
+        ThreadSpec{"cal-" + std::to_string(core), core, SchedClass::Fifo, priority}, [this] {
+          while (!stop_.load(std::memory_order_relaxed))
+            work_.run(stop_, counters_);
+        });
+    notes.sched(thread_->outcome());
+  }
+  ~Streamer() {
+    stop_.store(true, std::memory_order_relaxed);
+    if (thread_) thread_->join();
+  }
+  Streamer(const Streamer&) = delete;
+  Streamer& operator=(const Streamer&) = delete;
+
+  void stop() {
+    stop_.store(true, std::memory_order_relaxed);
+    if (thread_) {
+      thread_->join();
+      rethrow_if_failed(*thread_);
+      thread_.reset();
+    }
+  }
+  std::uint64_t units() const { return counters_.units_done.load(std::memory_order_relaxed); }
+  bool warm() const { return units() >= lines_; }  // one pass: its working set is in place
+  pid_t tid() const { return thread_->tid(); }
+  // CPU time the thread has run (ns), or -1 when the kernel will not say.
+  TimeNs cpu_ns() const {
+    // The per-thread CPU clock of thread `tid`, built as glibc's pthread_getcpuclockid does
+    // (CPUCLOCK_SCHED | CPUCLOCK_PERTHREAD_MASK).
+    const auto id = static_cast<clockid_t>((~static_cast<unsigned>(thread_->tid()) << 3) | 6u);
+    timespec ts{};
+    if (::clock_gettime(id, &ts) != 0) return -1;
+    return static_cast<TimeNs>(ts.tv_sec) * kNsPerS + ts.tv_nsec;
+  }
+  const WorkCounters& counters() const { return counters_; }
+
+ private:
+  BuiltinWorkload& work_;
+  std::uint64_t lines_;
+  WorkCounters counters_;
+  std::atomic<bool> stop_{false};
+  std::unique_ptr<RtThread> thread_;
+};
+
+struct Corunner {
+  std::string kernel;
+  double kb = 0.0;
+  auto key() const { return std::tie(kernel, kb); }
+  bool operator<(const Corunner& o) const { return key() < o.key(); }
+};
+
+// A measured kernel with n co-runners of one kind on cores[1..n].
+struct Config {
+  std::string kernel;
+  double kb = 0.0;
+  int n = 0;
+  auto key() const { return std::tie(kernel, kb, n); }
+  bool operator<(const Config& o) const { return key() < o.key(); }
+};
+
+double cv_of(const std::vector<double>& v) {
+  if (v.size() < 2) return 0.0;
+  double mean = 0.0;
+  for (double x : v)
+    mean += x;
+  mean /= static_cast<double>(v.size());
+  double ss = 0.0;
+  for (double x : v)
+    ss += (x - mean) * (x - mean);
+  return std::sqrt(ss / static_cast<double>(v.size() - 1)) / mean;
+}
+
+class Suite {
+ public:
+  Suite(const SuiteOptions& o, const SuiteShape& shape, std::vector<int> cores)
+      : opt_(o), shape_(shape), cores_(std::move(cores)) {}
+
+  SuiteResult run();
+
+ private:
+  bool stopping() const { return opt_.stop && opt_.stop->load(std::memory_order_relaxed); }
+  void step(const std::string& what) {
+    ++step_;
+    if (opt_.progress) opt_.progress(step_, steps_, what);
+  }
+  BuiltinWorkload& measured_kernel(const std::string& kernel, double kb);
+  void measure_block(const std::vector<Config>& configs, const Corunner* co,
+                     const std::string& label);
+  std::optional<double> window(BuiltinWorkload& w, double kb,
+                               const std::vector<std::unique_ptr<BuiltinWorkload>>& co_work,
+                               double co_kb, int n);
+  void record(const Config& c, const Corunner* co, const std::vector<double>& ns);
+  void measure_costs();
+  void paced(const std::function<void(int)>& sample, int count);
+
+  const SuiteOptions& opt_;
+  const SuiteShape& shape_;
+  std::vector<int> cores_;
+  Notes notes_;
+  Measurements m_;
+  int step_ = 0, steps_ = 0;
+  int retaken_ = 0, dropped_ = 0;  // windows where a kernel was off its core
+  std::map<std::pair<std::string, double>, std::unique_ptr<BuiltinWorkload>> measured_;
+};
+
+BuiltinWorkload& Suite::measured_kernel(const std::string& kernel, double kb) {
+  auto& w = measured_[{kernel, kb}];
+  if (!w) w = make_kernel(kernel, kb);
+  return *w;
+}
+
+// One timed window: the measured kernel and n co-runners stream, then the measured kernel's
+// progress over window_ms gives ns per line. Empty when it made no progress (starved).
+std::optional<double> Suite::window(BuiltinWorkload& w, double kb,
+                                    const std::vector<std::unique_ptr<BuiltinWorkload>>& co_work,
+                                    double co_kb, int n) {
+  std::vector<std::unique_ptr<Streamer>> all;  // [0]: the measured kernel
+  all.push_back(std::make_unique<Streamer>(w, kb, cores_[0], prio::kRt, notes_));
+  for (int i = 0; i < n; ++i)
+    all.push_back(std::make_unique<Streamer>(*co_work[static_cast<std::size_t>(i)], co_kb,
+                                             cores_[static_cast<std::size_t>(i) + 1], prio::kNct,
+                                             notes_));
+  // Streaming: every kernel has done a pass (its working set is in place) or warmup_ms passed
+  // (a pass over a DRAM working set can take longer; nothing more to warm there).
+  const TimeNs warm_by = now_ns() + static_cast<TimeNs>(shape_.warmup_ms * 1e6);
+  const auto all_warm = [&] {
+    return std::all_of(all.begin(), all.end(), [](const auto& s) { return s->warm(); });
+  };
+  while (!all_warm() && now_ns() < warm_by)
+    sleep_until(now_ns() + 200 * kNsPerUs);
+  std::vector<TimeNs> cpu0;
+  for (const auto& s : all)
+    cpu0.push_back(s->cpu_ns());
+  const TimeNs t0 = now_ns();
+  const std::uint64_t u0 = all[0]->units();
+  sleep_until(t0 + static_cast<TimeNs>(shape_.window_ms * 1e6));
+  const std::uint64_t u1 = all[0]->units();
+  const TimeNs t1 = now_ns();
+  // How much of the window each kernel was on its core: SCHED_FIFO threads still lose the CPU to
+  // RT throttling (sched_rt_runtime_us) and to higher priorities; under SCHED_OTHER to anything.
+  double ran = 1.0;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const TimeNs cpu1 = all[i]->cpu_ns();
+    if (cpu0[i] >= 0 && cpu1 >= 0)
+      ran = std::min(ran, static_cast<double>(cpu1 - cpu0[i]) / static_cast<double>(t1 - t0));
+  }
+  for (auto& s : all)
+    s->stop();
+  if (u1 <= u0 || ran < kMinOnCore) return std::nullopt;
+  return static_cast<double>(t1 - t0) / static_cast<double>(u1 - u0);
+}
+
+void Suite::record(const Config& c, const Corunner* co, const std::vector<double>& ns) {
+  if (ns.empty()) return;
+  KernelRun r;
+  r.kernel = c.kernel;
+  r.working_set_kb = c.kb;
+  for (int i = 0; i < c.n; ++i)
+    r.corunners.push_back({co->kernel, co->kb});
+  r.ns_per_line = median(ns);
+  r.cv = cv_of(ns);
+  r.samples = static_cast<int>(ns.size());
+  m_.runs.push_back(std::move(r));
+}
+
+// Repetition r of every configuration before repetition r + 1 of any (drift hits all alike).
+// The co-runners' buffers (one per co-runner core) live for the block.
+void Suite::measure_block(const std::vector<Config>& configs, const Corunner* co,
+                          const std::string& label) {
+  int max_n = 0;
+  for (const auto& c : configs)
+    max_n = std::max(max_n, c.n);
+  std::vector<std::unique_ptr<BuiltinWorkload>> co_work;
+  for (int i = 0; i < max_n; ++i)
+    co_work.push_back(make_kernel(co->kernel, co->kb));
+  std::vector<std::vector<double>> ns(configs.size());
+  for (int rep = 0; rep < shape_.repetitions && !stopping(); ++rep)
+    for (std::size_t i = 0; i < configs.size() && !stopping(); ++i) {
+      const auto& c = configs[i];
+      step(label + ": " + c.kernel + " " + kb_text(c.kb) +
+           (c.n ? " with " + std::to_string(c.n) + "x " + co->kernel + " " + kb_text(co->kb) : "") +
+           " (" + std::to_string(rep + 1) + "/" + std::to_string(shape_.repetitions) + ")");
+      for (int attempt = 0; attempt < kAttempts && !stopping(); ++attempt) {
+        if (auto v =
+                window(measured_kernel(c.kernel, c.kb), c.kb, co_work, co ? co->kb : 0.0, c.n)) {
+          ns[i].push_back(*v);
+          break;
+        }
+        ++(attempt + 1 < kAttempts ? retaken_ : dropped_);
+      }
+    }
+  for (std::size_t i = 0; i < configs.size(); ++i)
+    record(configs[i], co, ns[i]);
+}
+
+// Runs sample(i) for i < count on the calling thread, one every cost_spacing_us (absolute
+// schedule), until done or stopped.
+void Suite::paced(const std::function<void(int)>& sample, int count) {
+  const auto spacing = static_cast<TimeNs>(shape_.cost_spacing_us * 1e3);
+  TimeNs next = now_ns() + spacing;
+  for (int i = 0; i < count && !stopping(); ++i) {
+    sleep_until(next);
+    sample(i);
+    next = std::max(next + spacing, now_ns() + spacing / 4);
+  }
+}
+
+// Middleware / OS costs, each on the hw backend's own pieces, with a bandwidth_read NCT streaming
+// on the nRT core (cores[0]) as in a run; the far end (controller) on cores[1].
+void Suite::measure_costs() {
+  const int nrt_core = cores_[0];
+  const int far_core = cores_.size() > 1 ? cores_[1] : cores_[0];
+  if (cores_.size() < 2)
+    notes_.add(
+        "one core only: message_latency, external_read and controller_callback are "
+        "measured with both ends on the same core");
+  const int n = shape_.cost_samples;
+  auto& costs = m_.costs_us;
+
+  PmcSourceRegistry sources;
+  register_builtin(sources);
+  // What the hw backend would pick for a scenario of built-in workloads with the default metric
+  // (pmc_source auto). reference_mbps: the controller_callback budget below.
+  Scenario s;
+  s.file = "calibration suite";
+  s.regulation.reference_mbps = kReferenceMbps;
+  const MetricPlan plan = plan_metric(s, sources);
+  notes_.add("pmc source for pmc_callback / external_read: " + plan.source + " (" + plan.why + ")");
+  const auto source = sources.find(plan.source)->make();
+
+  auto nct_work = make_kernel(kBwRead, shape_.workload_kb);
+  Streamer nct(*nct_work, shape_.workload_kb, nrt_core, prio::kNct, notes_);
+  PmcTarget target;
+  target.kind = PmcTarget::Kind::Thread;
+  target.pid = nct.tid();
+  target.work = &nct.counters();
+  auto group = source->open(plan.group_events, target);
+  const std::size_t group_size = plan.group_events.size();
+
+  const auto run_on = [&](int core, int priority, const std::string& name,
+                          std::function<void()> body) {
+    RtThread t(ThreadSpec{name, core, SchedClass::Fifo, priority}, std::move(body));
+    notes_.sched(t.outcome());
+    t.join();
+    rethrow_if_failed(t);
+  };
+
+  // pmc_callback (the group read into a sample), publish (on the samples topic, subscriber
+  // asleep on another core) and message_latency (publish -> the subscriber awake).
+  if (!stopping()) {
+    step("costs: pmc_callback, publish, message_latency");
+    Topic<SampleMsg> topic;
+    Waker sub_waker;
+    const std::size_t pub = topic.add_publisher();
+    const std::size_t sub = topic.subscribe(sub_waker);
+    std::vector<double> cb, publish, latency;
+    cb.reserve(static_cast<std::size_t>(n));
+    publish.reserve(static_cast<std::size_t>(n));
+    latency.reserve(static_cast<std::size_t>(n));
+    std::atomic<bool> done{false};
+    RtThread subscriber(ThreadSpec{"cal-sub", far_core, SchedClass::Fifo, prio::kController}, [&] {
+      while (!done.load(std::memory_order_acquire)) {
+        const auto e = sub_waker.epoch();
+        SampleMsg m;
+        bool got = false;
+        while (topic.take(sub, m)) {
+          latency.push_back(ns_to_us(now_ns() - m.t_published));
+          got = true;
+        }
+        if (!got) sub_waker.wait(e, -1);
+      }
+    });
+    notes_.sched(subscriber.outcome());
+    run_on(nrt_core, prio::kPmc, "cal-pmc", [&] {
+      paced(
+          [&](int) {
+            SampleMsg msg;
+            msg.count = static_cast<std::uint8_t>(plan.metric_events);
+            const TimeNs t0 = now_ns();
+            group->read(std::span(msg.counters.data(), group_size));
+            const TimeNs t1 = now_ns();
+            msg.t_published = t1;
+            topic.publish(pub, msg);
+            const TimeNs t2 = now_ns();
+            cb.push_back(ns_to_us(t1 - t0));
+            publish.push_back(ns_to_us(t2 - t1));
+          },
+          n);
+    });
+    done.store(true, std::memory_order_release);
+    sub_waker.notify();
+    subscriber.join();
+    rethrow_if_failed(subscriber);
+    costs["pmc_callback"] = std::move(cb);
+    costs["publish"] = std::move(publish);
+    costs["message_latency"] = std::move(latency);
+  }
+
+  // throttle_activation: a command on the control topic wakes CFB, which wakes the waiting THR
+  // (the zero-time timer) on the same core, where the NCT streams; from CFB taking the command to
+  // THR entered (CFB > THR > NCT, as in an nRT node).
+  if (!stopping()) {
+    step("costs: throttle_activation");
+    Topic<ControlMsg> control;
+    Waker cfb_waker, thr_waker;
+    const std::size_t pub = control.add_publisher();
+    const std::size_t sub = control.subscribe(cfb_waker);
+    std::atomic<bool> done{false}, throttled{false};
+    std::atomic<TimeNs> t_taken{0};
+    std::vector<double> act;
+    act.reserve(static_cast<std::size_t>(n));
+    RtThread thr(ThreadSpec{"cal-thr", nrt_core, SchedClass::Fifo, prio::kThr}, [&] {
+      while (!done.load(std::memory_order_acquire)) {
+        const auto e = thr_waker.epoch();
+        if (throttled.exchange(false, std::memory_order_acq_rel))
+          act.push_back(ns_to_us(now_ns() - t_taken.load(std::memory_order_acquire)));
+        else
+          thr_waker.wait(e, -1);
+      }
+    });
+    notes_.sched(thr.outcome());
+    RtThread cfb(ThreadSpec{"cal-cfb", nrt_core, SchedClass::Fifo, prio::kCfb}, [&] {
+      while (!done.load(std::memory_order_acquire)) {
+        const auto e = cfb_waker.epoch();
+        ControlMsg m;
+        bool got = false;
+        while (control.take(sub, m)) {
+          got = true;
+          // A command while THR has not entered yet for the previous one: that activation is
+          // still running (and will be recorded with its full delay), so this one is not timed.
+          if (throttled.load(std::memory_order_acquire)) continue;
+          t_taken.store(now_ns(), std::memory_order_release);
+          throttled.store(true, std::memory_order_release);
+          thr_waker.notify();
+        }
+        if (!got) cfb_waker.wait(e, -1);
+      }
+    });
+    notes_.sched(cfb.outcome());
+    run_on(far_core, prio::kController, "cal-ctl", [&] {
+      paced(
+          [&](int) {
+            ControlMsg m;
+            m.command = Command::Thr;
+            m.t_cause = now_ns();
+            control.publish(pub, m);
+          },
+          n);
+    });
+    sleep_until(now_ns() + 10 * kNsPerMs);  // the last activation
+    done.store(true, std::memory_order_release);
+    cfb_waker.notify();
+    thr_waker.notify();
+    cfb.join();
+    thr.join();
+    rethrow_if_failed(cfb);
+    rethrow_if_failed(thr);
+    costs["throttle_activation"] = std::move(act);
+  }
+
+  // external_read: the controller's core reads the NCT's counters.
+  if (!stopping()) {
+    step("costs: external_read");
+    std::vector<double> reads;
+    reads.reserve(static_cast<std::size_t>(n));
+    std::array<CounterValue, kMaxGroupEvents> v{};
+    run_on(far_core, prio::kController, "cal-ext", [&] {
+      paced(
+          [&](int) {
+            const TimeNs t0 = now_ns();
+            group->read(std::span(v.data(), group_size));
+            reads.push_back(ns_to_us(now_ns() - t0));
+          },
+          n);
+    });
+    costs["external_read"] = std::move(reads);
+  }
+
+  // controller_callback: one input to the controller engine (a sample, a due wake-up, an RT
+  // signal) and publishing the commands it produces. Synthetic counters, 1 ms apart, that use
+  // the budget of a 5 ms interval window in about 2.5 samples, so THR / REPLENISH commands flow.
+  if (!stopping()) {
+    step("costs: controller_callback");
+    PolicyRegistry policies;
+    register_builtin(policies);
+    PolicyParams params;
+    params.threshold_pct = 20.0;
+    params.reference_mbps = kReferenceMbps;
+    params.regulation_period_ns = 5 * kNsPerMs;
+    RegulatorConfig rc;
+    rc.rt_count = 1;
+    rc.account_of_entity = {0};
+    rc.metric = plan.spec;
+    const double budget = params.threshold_pct / 100.0 * params.reference_mbps * kBytesPerMb *
+                          (static_cast<double>(params.regulation_period_ns) / 1e9);
+    double weights = 0.0;
+    for (const auto& e : rc.metric.events)
+      weights += e.weight;
+    const auto per_sample = static_cast<std::uint64_t>(
+        budget / 2.5 / (weights * static_cast<double>(rc.metric.line_bytes)));
+
+    struct Meter : EntityMeter {
+      double bytes = 0.0;
+      EntityReading read(std::size_t, TimeNs) override { return {bytes, 0.0, 0.0}; }
+    } meter;
+    ControllerDriverConfig dc;
+    dc.sampling = Sampling::Self;
+    dc.sampling_period_ns = kNsPerMs;
+    ControllerDriver driver(dc, std::make_unique<Regulator>(rc, policies.make("interval", params)),
+                            &meter);
+    Topic<ControlMsg> control;
+    Waker nrt_waker;  // nobody sleeps on it: the controller drains the ring itself
+    const std::size_t pub = control.add_publisher();
+    const std::size_t sub = control.subscribe(nrt_waker);
+    std::vector<double> cb;
+    cb.reserve(static_cast<std::size_t>(n));
+    std::vector<CounterValue> counters(rc.metric.events.size());
+    DriverOutput out;
+    TimeNs t = kNsPerS;  // the engine's time: synthetic, so the regulation logic is the same
+                         // on every host
+    run_on(far_core, prio::kController, "cal-ctl", [&] {
+      const auto send = [&] {
+        for (const auto& c : out.commands) {
+          ControlMsg m;
+          m.command = c.command;
+          m.t_cause = c.cause;
+          control.publish(pub, m);
+        }
+      };
+      const auto drain = [&] {
+        ControlMsg m;
+        while (control.take(sub, m)) {
+        }
+        out.clear();
+      };
+      driver.rt_signal(t, 0, true, out);
+      drain();
+      paced(
+          [&](int i) {
+            t += kNsPerMs;
+            for (auto& c : counters) {
+              c.value += per_sample;
+              c.time_enabled_ns += kNsPerMs;
+              c.time_running_ns += kNsPerMs;
+            }
+            meter.bytes += static_cast<double>(per_sample) * kLineBytes;
+            const TimeNs t0 = now_ns();
+            if (i % 200 == 199) {  // an activation edge now and then
+              driver.rt_signal(t, 0, false, out);
+              driver.rt_signal(t, 0, true, out);
+            } else if (auto due = driver.next_wakeup(); due && *due <= t) {
+              driver.wake(t, out);
+            } else {
+              driver.sample(t, 0, counters, t, out);
+            }
+            send();
+            cb.push_back(ns_to_us(now_ns() - t0));
+            drain();
+          },
+          n);
+    });
+    costs["controller_callback"] = std::move(cb);
+  }
+  nct.stop();
+}
+
+SuiteResult Suite::run() {
+  const auto t_start = std::chrono::steady_clock::now();
+  m_.host = opt_.host;
+  if (m_.host.date.empty()) {
+    const std::time_t now = std::time(nullptr);
+    std::tm tm{};
+    ::gmtime_r(&now, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    m_.host.date = buf;
+  }
+  // The engine thread sleeps while kernels stream; above them, so it ends each window on time.
+  ScopedSched engine(ThreadSpec{"", -1, SchedClass::Fifo, prio::kEngine});
+  notes_.sched(engine.outcome());
+
+  // Isolation: every kernel over every working set (the curve's and the matrix's included: their
+  // zero-co-runner points).
+  std::set<double> iso(shape_.isolation_kb.begin(), shape_.isolation_kb.end());
+  iso.insert({shape_.in_l3_kb, shape_.dram_kb, shape_.workload_kb});
+  std::vector<Config> isolation;
+  for (const char* k : {kBwRead, kBwWrite, kLatency})
+    for (double kb : iso)
+      isolation.push_back({k, kb, 0});
+
+  // Co-run blocks, one per co-runner kind: the bandwidth-latency curve (1..N-1 co-runners) and
+  // the pair matrix (one co-runner).
+  const int max_n = static_cast<int>(cores_.size()) - 1;
+  std::set<int> counts;
+  for (int nco = 1; nco <= max_n; ++nco)
+    if (shape_.corunner_counts.empty() ||
+        std::find(shape_.corunner_counts.begin(), shape_.corunner_counts.end(), nco) !=
+            shape_.corunner_counts.end())
+      counts.insert(nco);
+  std::map<Corunner, std::set<Config>> blocks;
+  for (const char* ck : {kBwRead, kBwWrite})
+    for (double ckb : {shape_.dram_kb, shape_.workload_kb}) {
+      auto& b = blocks[{ck, ckb}];
+      for (int nco : counts)
+        for (const char* k : {kLatency, kBwRead, kBwWrite})
+          for (double kb : {shape_.in_l3_kb, shape_.dram_kb})
+            b.insert({k, kb, nco});
+      if (max_n >= 1)
+        for (const char* k : {kBwRead, kBwWrite})
+          for (double kb : {shape_.workload_kb, shape_.dram_kb})
+            b.insert({k, kb, 1});
+    }
+  if (max_n < 1) notes_.add("one core only: no co-run measurements (bandwidth-latency, matrix)");
+
+  steps_ = static_cast<int>(isolation.size()) * shape_.repetitions + 4;
+  for (const auto& [co, configs] : blocks)
+    steps_ += static_cast<int>(configs.size()) * shape_.repetitions;
+
+  measure_block(isolation, nullptr, "isolation");
+  for (const auto& [co, configs] : blocks) {
+    if (stopping()) break;
+    if (configs.empty()) continue;
+    measure_block(std::vector<Config>(configs.begin(), configs.end()), &co, "co-run");
+  }
+  measured_.clear();  // the buffers, before the costs' own
+  if (!stopping()) measure_costs();
+  if (retaken_ + dropped_ > 0)
+    notes_.add(std::to_string(retaken_ + dropped_) +
+               " timed windows had a kernel off its core for more than " +
+               std::to_string(static_cast<int>(std::lround((1.0 - kMinOnCore) * 100))) +
+               " % of the window (RT throttling, other tasks): " + std::to_string(retaken_) +
+               " taken again, " + std::to_string(dropped_) + " dropped after " +
+               std::to_string(kAttempts) + " attempts");
+
+  SuiteResult r;
+  r.stopped = stopping();
+  m_.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  r.measurements = std::move(m_);
+  r.notes = notes_.take();
+  return r;
+}
+
+double available_bytes() {
+  const long pages = ::sysconf(_SC_AVPHYS_PAGES);
+  const long page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
+}
+
+}  // namespace
+
+SuiteShape shape_for(const calibration::HostFacts& host, bool quick, int cores) {
+  SuiteShape s;
+  const double l2 = host.l2_kb > 0.0 ? host.l2_kb : 256.0;
+  const double l3 = host.l3_kb_per_cluster > 0.0 ? host.l3_kb_per_cluster : 8192.0;
+  double dram = std::clamp(4.0 * l3, 16384.0, 262144.0);
+  // The measuring core holds every kernel's isolation buffers (about 6x the DRAM set in all);
+  // each co-runner core one DRAM set. Keep that within a quarter of the available memory.
+  const double avail_kb = available_bytes() / 1024.0;
+  while (avail_kb > 0.0 && (6.0 + cores) * dram > avail_kb / 4.0 && dram > 2.0 * l3)
+    dram /= 2.0;
+  s.dram_kb = std::round(dram);
+  s.in_l3_kb = std::clamp(std::max(4.0 * l2, 2048.0), 16.0, std::max(16.0, l3 / 2.0));
+  s.workload_kb = 2048.0;
+  if (quick) {
+    s.isolation_kb = {std::max(16.0, l2 / 2.0)};
+    for (int n = 1; n < cores - 1; n *= 2)
+      s.corunner_counts.push_back(n);
+    if (cores > 1) s.corunner_counts.push_back(cores - 1);
+    s.repetitions = 7;
+    s.window_ms = 20.0;
+    s.warmup_ms = 20.0;
+    s.cost_samples = 1000;
+  } else {
+    for (double kb = 16.0; kb < s.dram_kb; kb *= 2.0)
+      s.isolation_kb.push_back(kb);
+    s.repetitions = 9;
+    s.window_ms = 30.0;
+    s.warmup_ms = 30.0;
+    s.cost_samples = 3000;
+  }
+  return s;
+}
+
+SuiteResult run_suite(const SuiteOptions& options) {
+  std::vector<int> cores = options.cores;
+  if (cores.empty()) {
+    const auto usable = usable_cpus();
+    const auto n = static_cast<std::size_t>(std::max(1, options.host.cores_per_cluster));
+    cores.assign(usable.begin(), usable.begin() + static_cast<long>(std::min(n, usable.size())));
+  }
+  if (cores.empty()) throw RunError("calibration suite: no usable CPU");
+  const SuiteShape shape =
+      options.shape ? *options.shape
+                    : shape_for(options.host, options.quick, static_cast<int>(cores.size()));
+  Suite suite(options, shape, cores);
+  SuiteResult r = suite.run();
+  std::string used = "cores: measured on CPU " + std::to_string(cores[0]);
+  if (cores.size() > 1) {
+    used += ", co-runners and far ends on CPU";
+    for (std::size_t i = 1; i < cores.size(); ++i)
+      used += (i > 1 ? "," : " ") + std::to_string(cores[i]);
+  }
+  const std::vector<std::string> head = {
+      used, "working sets: DRAM " + kb_text(shape.dram_kb) + ", in-L3 " + kb_text(shape.in_l3_kb) +
+                ", workloads " + kb_text(shape.workload_kb) + "; " +
+                std::to_string(shape.repetitions) + " windows of " +
+                std::to_string(static_cast<int>(shape.window_ms)) + " ms per measurement"};
+  r.notes.insert(r.notes.begin(), head.begin(), head.end());
+  return r;
+}
+
+}  // namespace rosguard::hw

@@ -45,7 +45,8 @@ def load(folder: Path) -> tuple[dict, dict | None]:
 def predictions(doc: dict) -> dict[int, float]:
     """Fitted ns per line by index into measurements.runs (empty without a fit)."""
     fit = doc.get("fit") or {}
-    return {int(r["run"]): float(r["predicted"]) for r in fit.get("residuals", [])}
+    return {int(r["index"]): float(r["predicted_ns"]) for r in fit.get("runs", [])
+            if r.get("used")}
 
 
 def corunner_label(run: dict) -> str:

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -40,31 +41,39 @@ calibration::Measurements read_measurements(const std::string& file) {
   return calibration::measurements_from_json(doc, file);
 }
 
-calibration::Measurements measure(const CalibrateOptions& opt) {
+// Runs the suite on this host; `notes` gets its fallbacks and decisions.
+calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::string>& notes) {
 #if ROSGUARD_WITH_HW
   const hw::HostProbe probe = hw::probe_host();
-  hw::calibration::SuiteOptions suite;
+  hw::SuiteOptions suite;
   suite.host = hw::host_facts(probe);
   suite.quick = opt.quick;
-  suite.stop = [] { return stop_signal() != 0; };
-  if (!opt.quiet)
-    suite.progress = [](int step, int steps, const std::string& what) {
-      std::cerr << "[" << step << "/" << steps << "] " << what << "\n";
-    };
+  std::atomic<bool> stop{false};
+  suite.stop = &stop;
+  // The suite calls progress between its timed windows, from this thread: the place to see a
+  // SIGINT / SIGTERM that the handler recorded.
+  suite.progress = [&](int step, int steps, const std::string& what) {
+    if (stop_signal()) stop = true;
+    if (!opt.quiet) std::cerr << "[" << step << "/" << steps << "] " << what << "\n";
+  };
   std::cerr << "calibrate: measuring " << suite.host.hostname << " (" << suite.host.cpus
             << " CPUs, " << (opt.quick ? "quick" : "full") << " suite)\n";
-  return hw::calibration::run_suite(suite);
+  hw::SuiteResult result = hw::run_suite(suite);
+  notes = std::move(result.notes);
+  return std::move(result.measurements);
 #else
   (void)opt;
+  (void)notes;
   throw InputError("", "",
                    "this rosguard was built without the hw backend: it cannot measure the host "
                    "(use --from CALIBRATION.json to refit earlier measurements)");
 #endif
 }
 
-json calibration_document(const calibration::Measurements& m, const std::string& status) {
+json calibration_document(const calibration::Measurements& m,
+                          const std::vector<std::string>& notes, const std::string& status) {
   return json{{"rosguard", kVersion}, {"revision", kGitRevision}, {"status", status},
-              {"measurements", m}};
+              {"suite_notes", notes},    {"measurements", m}};
 }
 
 std::string fmt(double v, int prec = 3) {
@@ -90,19 +99,21 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
                                  ec.message() + ")");
 
   StopSignalGuard signals;
-  const calibration::Measurements m = opt.from.empty() ? measure(opt) : read_measurements(opt.from);
+  std::vector<std::string> notes;
+  const calibration::Measurements m =
+      opt.from.empty() ? measure(opt, notes) : read_measurements(opt.from);
   if (const int sig = stop_signal()) {
     std::cerr << "calibrate: interrupted; nothing written\n";
     return 128 + sig;
   }
   const fs::path cal_file = dir / "calibration.json";
-  write_file_atomic(cal_file, calibration_document(m, "measured").dump(2) + "\n");
+  write_file_atomic(cal_file, calibration_document(m, notes, "measured").dump(2) + "\n");
 
-  sim::calibration::FitReport report;
+  calibration::FitReport report;
   try {
-    report = sim::calibration::fit_platform(m);
+    report = calibration::fit(m);
   } catch (const RunError& e) {
-    json doc = calibration_document(m, "fit refused");
+    json doc = calibration_document(m, notes, "fit refused");
     doc["error"] = e.what();
     write_file_atomic(cal_file, doc.dump(2) + "\n");
     throw RunError(std::string(e.what()) + " (the measurements are kept in " +
@@ -110,22 +121,26 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   }
 
   // The platform must be one the loader accepts and the sim can run.
-  json platform = sim::calibration::fitted_platform(m, report, "host");
+  json platform = calibration::fitted_platform(m, report, "host");
   const fs::path platform_file = dir / "platform.json";
   SchemaSet(loader.home().schemas()).validate(platform, SchemaKind::Platform,
                                               platform_file.string());
-  json doc = calibration_document(m, "fitted");
-  doc["fit"] = sim::calibration::to_json(report);
+  json doc = calibration_document(m, notes, "fitted");
+  doc["fit"] = calibration::to_json(report);
   write_file_atomic(platform_file, platform.dump(2) + "\n");
   write_file_atomic(cal_file, doc.dump(2) + "\n");
 
-  std::cout << "fit converged: " << report.iterations << " iterations, RMS residual "
-            << fmt(100.0 * report.rms_residual) << " % over " << report.residuals.size()
-            << " measurements\n";
+  std::size_t used = 0;
+  for (const auto& r : report.runs)
+    used += r.used ? 1 : 0;
+  std::cout << "fit converged (" << report.lm_status_text << ") in " << report.iterations
+            << " iterations: RMS residual " << fmt(100.0 * (std::exp(report.rms_residual) - 1.0))
+            << " % over " << used << " of " << report.runs.size() << " measurements\n";
   for (const auto& p : report.parameters)
-    std::cout << "  " << p.name << " = " << fmt(p.value, 4) << " " << p.unit
-              << (p.fitted ? " +- " + fmt(p.stderr_value, 2) : std::string(" (") + p.how + ")")
-              << "\n";
+    std::cout << "  " << p.name << " = " << fmt(p.value, 4)
+              << (p.fitted ? " +- " + fmt(p.std_error, 2) : " (" + p.how + ")") << "\n";
+  for (const auto& note : report.notes)
+    std::cout << "  note: " << note << "\n";
 
   const int plot = run_analysis(loader.home(), {"calibration", dir.string()});
   if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";

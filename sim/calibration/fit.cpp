@@ -119,8 +119,17 @@ struct Slot {
   std::string how;
 };
 
-// The residuals log(predicted / measured) of the used runs as a function of the log parameters,
-// for Eigen's LM (minpack interface: operator() and df()).
+// A run's weight in the fit: kCvFloor / max(cv, kCvFloor). Runs whose repetitions scatter
+// (another tenant's traffic, a cache shared with the host) count less, in proportion to their
+// coefficient of variation; below the floor (the repeatability of a 20 ms window here, about
+// 2 %) every run counts the same.
+constexpr double kCvFloor = 0.02;
+double weight_of(const KernelRun& run) {
+  return kCvFloor / std::max(std::isfinite(run.cv) ? run.cv : 1.0, kCvFloor);
+}
+
+// The weighted residuals weight * log(predicted / measured) of the used runs as a function of the
+// log parameters, for Eigen's LM (minpack interface: operator() and df()).
 struct Residuals {
   using Scalar = double;
   enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
@@ -153,7 +162,8 @@ struct Residuals {
       const double pred = predict_ns_per_line(p, *(*runs)[i]);
       // A non-finite prediction (a parameter far out of range) counts as a large miss.
       f[static_cast<Eigen::Index>(i)] =
-          std::isfinite(pred) && pred > 0 ? std::log(pred / (*runs)[i]->ns_per_line) : 10.0;
+          weight_of(*(*runs)[i]) *
+          (std::isfinite(pred) && pred > 0 ? std::log(pred / (*runs)[i]->ns_per_line) : 10.0);
     }
     return 0;
   }
@@ -281,7 +291,9 @@ CostFit fit_cost(std::vector<double> samples) {
   return c;
 }
 
-FitReport fit(const Measurements& m, const FitOptions& opt) {
+namespace {
+
+FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   const HostFacts& host = m.host;
   if (host.freq_mhz <= 0 || host.l2_kb <= 0 || host.l3_kb_per_cluster <= host.l2_kb)
     throw RunError(
@@ -518,7 +530,10 @@ FitReport fit(const Measurements& m, const FitOptions& opt) {
   Eigen::MatrixXd jac(mres, n);
   fn.df(x, jac);
   const double ssr = f.squaredNorm();
-  rep.rms_residual = std::sqrt(ssr / static_cast<double>(mres));
+  double sum_w2 = 0.0;
+  for (const KernelRun* r : used)
+    sum_w2 += weight_of(*r) * weight_of(*r);
+  rep.rms_residual = std::sqrt(ssr / sum_w2);  // weighted RMS of the log ratios
   const double s2 = ssr / static_cast<double>(mres - n);
 
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeThinV);
@@ -552,10 +567,12 @@ FitReport fit(const Measurements& m, const FitOptions& opt) {
     // Numerically full rank, statistically not identified: the data leave the parameter free
     // over more than a factor exp(max_log_std_error) (e.g. a queue driven towards 0).
     if (!(se_log <= opt.max_log_std_error))
-      throw RunError("calibration: the data cannot identify " + s.name + " (fitted " +
-                     fmt("%.4g", value) + ", standard error of its logarithm " +
-                     fmt("%.3g", se_log) + " above " + fmt("%.3g", opt.max_log_std_error) +
-                     "); measure what identifies it (" + s.how + ") or fix it" + status_msg);
+      throw UnidentifiedParameter(
+          "calibration: the data cannot identify " + s.name + " (fitted " + fmt("%.4g", value) +
+              ", standard error of its logarithm " + fmt("%.3g", se_log) + " above " +
+              fmt("%.3g", opt.max_log_std_error) + "); measure what identifies it (" + s.how +
+              ") or fix it" + status_msg,
+          s.name, value, se_log);
     rep.parameters.push_back({s.name, value, value * se_log, true, s.how});
     if (se_log > 0.3)
       rep.notes.push_back(s.name + " is poorly determined (relative standard error " +
@@ -578,13 +595,46 @@ FitReport fit(const Measurements& m, const FitOptions& opt) {
       rep.notes.push_back("run " + std::to_string(fr.index) + " (" + fr.label + ") " + fr.note);
       continue;
     }
-    fr.residual = f[static_cast<Eigen::Index>(k++)];
+    fr.residual = f[static_cast<Eigen::Index>(k)] / weight_of(*used[k]);
+    ++k;
     fr.predicted_ns = fr.measured_ns * std::exp(fr.residual);
   }
 
   for (const auto& [name, samples] : m.costs_us)
     if (!samples.empty()) rep.costs[name] = fit_cost(samples);
   return rep;
+}
+
+}  // namespace
+
+FitReport fit(const Measurements& m, const FitOptions& options) {
+  FitOptions opt = options;
+  std::map<std::string, std::string> held;  // parameter -> why
+  for (;;) {
+    try {
+      FitReport rep = fit_once(m, opt);
+      for (auto& p : rep.parameters)
+        if (const auto it = held.find(p.name); it != held.end()) p.how = it->second;
+      for (auto& note : rep.notes)
+        for (const auto& [name, why] : held)
+          if (note.rfind(name + " fixed by the caller", 0) == 0) note = name + ": " + why;
+      return rep;
+    } catch (const UnidentifiedParameter& e) {
+      const std::string& name = e.parameter();
+      const bool bandwidth = name.size() > 15 && name.ends_with(".bandwidth_mbps");
+      if (!opt.hold_unidentified_bandwidths || !bandwidth || held.count(name) ||
+          options.fixed.count(name) || !std::isfinite(e.log_std_error()))
+        throw;
+      const double bound = e.value() * std::exp(-e.log_std_error());
+      opt.fixed[name] = bound;
+      held[name] = "not identified (the co-runs show too little contention to fit it to: it " +
+                   std::string("fitted ") + fmt("%.4g", e.value()) +
+                   " with a standard error of its logarithm of " +
+                   fmt("%.3g", e.log_std_error()) + "): held at " + fmt("%.4g", bound) +
+                   ", the lower end of its one-standard-error interval, the most contention "
+                   "the measurements allow";
+    }
+  }
 }
 
 json fitted_platform(const Measurements& m, const FitReport& rep, std::string name) {

@@ -202,20 +202,65 @@ TEST_CASE(
 TEST_CASE("every shipped scenario is valid for the sim backend, and the examples run",
           "[sim][cli][scenarios]") {
   int checked = 0;
+  // "platform": "host" scenarios run here on sim, with the VM's model as the installed one.
+  ::setenv("ROSGUARD_HOST_MODEL",
+           (test::source_dir() / "scenarios/platforms/vm-2core.json").c_str(), 1);
   for (const auto& e : fs::recursive_directory_iterator(test::source_dir() / "scenarios")) {
     const auto rel = fs::relative(e.path(), test::source_dir()).string();
     if (e.path().extension() != ".json" || rel.find("/schema/") != std::string::npos ||
         rel.find("/platforms/") != std::string::npos ||
         rel.find("/workloads/") != std::string::npos)
       continue;
-    const auto r = test::run_cli({"check", rel});
+    const bool host =
+        nlohmann::json::parse(test::read_text(e.path())).value("platform", "") == "host";
+    std::vector<std::string> on_sim;
+    if (host) on_sim = {"--backend", "sim"};
+    auto check = std::vector<std::string>{"check", rel};
+    check.insert(check.end(), on_sim.begin(), on_sim.end());
+    const auto r = test::run_cli(check);
     INFO(rel << ": " << r.output);
     CHECK(r.code == 0);
     ++checked;
     if (rel.find("/examples/") != std::string::npos) {
       test::TempDir dir;
-      CHECK(test::run_cli({"run", rel, "--out", (dir.path() / "o").string(), "--quiet"}).code == 0);
+      auto run =
+          std::vector<std::string>{"run", rel, "--out", (dir.path() / "o").string(), "--quiet"};
+      run.insert(run.end(), on_sim.begin(), on_sim.end());
+      CHECK(test::run_cli(run).code == 0);
     }
   }
   CHECK(checked >= 12);
+}
+
+TEST_CASE("platform host on sim: the installed model from ROSGUARD_HOST_MODEL, or exit 2 without",
+          "[sim][cli][host]") {
+  test::TempDir dir;
+  const std::string scenario = "scenarios/examples/host.json";
+  ::setenv("ROSGUARD_HOST_MODEL", (dir.path() / "missing.json").c_str(), 1);
+  const auto missing = test::run_cli({"check", scenario, "--backend", "sim"});
+  INFO(missing.output);
+  CHECK(missing.code == 2);
+  CHECK(missing.output.find("/platform") != std::string::npos);
+  CHECK(missing.output.find("no calibrated model of this host: run `rosguard calibrate "
+                            "--install` (or use --backend hw)") != std::string::npos);
+  CHECK(!fs::exists(dir.path() / "o"));
+
+  const fs::path model = dir.path() / "model.json";
+  fs::copy_file(test::source_dir() / "scenarios/platforms/vm-2core.json", model);
+  ::setenv("ROSGUARD_HOST_MODEL", model.c_str(), 1);
+  const auto run = test::run_cli(
+      {"run", scenario, "--backend", "sim", "--out", (dir.path() / "o").string(), "--quiet"});
+  INFO(run.output);
+  REQUIRE(run.code == 0);
+  const auto manifest = nlohmann::json::parse(test::read_text(dir.path() / "o/manifest.json"));
+  CHECK(manifest.at("backend") == "sim");
+  CHECK(manifest.at("host_platform").at("sim").at("model") == model.string());
+  CHECK(manifest.at("platform").at("doc").at("name") == "vm-2core");
+  CHECK(test::read_csv(dir.path() / "o/points.csv").size() == 2);
+
+  // An installed model that is not a valid platform is the model file's error.
+  { std::ofstream(model) << R"({"name": "host"})"; }
+  const auto invalid = test::run_cli({"check", scenario, "--backend", "sim"});
+  CHECK(invalid.code == 2);
+  CHECK(invalid.output.find("model.json") != std::string::npos);
 }

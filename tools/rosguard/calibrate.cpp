@@ -41,10 +41,14 @@ calibration::Measurements read_measurements(const std::string& file) {
   return calibration::measurements_from_json(doc, file);
 }
 
-// Runs the suite on this host; `notes` gets its fallbacks and decisions.
-calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::string>& notes) {
+// Runs the suite on this host; `notes` gets its fallbacks and decisions, `probe` the host as
+// probed.
+calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::string>& notes,
+                                  json& probe_record) {
 #if ROSGUARD_WITH_HW
-  const hw::HostProbe probe = hw::probe_host();
+  // The reference bandwidth is not needed: the suite measures bandwidth_read itself.
+  const hw::HostProbe probe = hw::probe_host({.measure_reference = false});
+  probe_record = hw::to_json(probe);
   hw::SuiteOptions suite;
   suite.host = hw::host_facts(probe);
   suite.quick = opt.quick;
@@ -64,6 +68,7 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
 #else
   (void)opt;
   (void)notes;
+  (void)probe_record;
   throw InputError("", "",
                    "this rosguard was built without the hw backend: it cannot measure the host "
                    "(use --from CALIBRATION.json to refit earlier measurements)");
@@ -71,9 +76,10 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
 }
 
 json calibration_document(const calibration::Measurements& m,
-                          const std::vector<std::string>& notes, const std::string& status) {
-  return json{{"rosguard", kVersion}, {"revision", kGitRevision}, {"status", status},
-              {"suite_notes", notes},    {"measurements", m}};
+                          const std::vector<std::string>& notes, const json& probe,
+                          const std::string& status) {
+  return json{{"rosguard", kVersion},   {"revision", kGitRevision}, {"status", status},
+              {"host_probe", probe},    {"suite_notes", notes},     {"measurements", m}};
 }
 
 std::string fmt(double v, int prec = 3) {
@@ -100,20 +106,23 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
 
   StopSignalGuard signals;
   std::vector<std::string> notes;
+  json probe = nullptr;  // null: refitted from a file, nothing probed
   const calibration::Measurements m =
-      opt.from.empty() ? measure(opt, notes) : read_measurements(opt.from);
+      opt.from.empty() ? measure(opt, notes, probe) : read_measurements(opt.from);
   if (const int sig = stop_signal()) {
     std::cerr << "calibrate: interrupted; nothing written\n";
     return 128 + sig;
   }
   const fs::path cal_file = dir / "calibration.json";
-  write_file_atomic(cal_file, calibration_document(m, notes, "measured").dump(2) + "\n");
+  write_file_atomic(cal_file, calibration_document(m, notes, probe, "measured").dump(2) + "\n");
 
   calibration::FitReport report;
   try {
-    report = calibration::fit(m);
+    calibration::FitOptions fit_options;
+    fit_options.hold_unidentified_bandwidths = !opt.strict;
+    report = calibration::fit(m, fit_options);
   } catch (const RunError& e) {
-    json doc = calibration_document(m, notes, "fit refused");
+    json doc = calibration_document(m, notes, probe, "fit refused");
     doc["error"] = e.what();
     write_file_atomic(cal_file, doc.dump(2) + "\n");
     throw RunError(std::string(e.what()) + " (the measurements are kept in " +
@@ -125,7 +134,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   const fs::path platform_file = dir / "platform.json";
   SchemaSet(loader.home().schemas()).validate(platform, SchemaKind::Platform,
                                               platform_file.string());
-  json doc = calibration_document(m, notes, "fitted");
+  json doc = calibration_document(m, notes, probe, "fitted");
   doc["fit"] = calibration::to_json(report);
   write_file_atomic(platform_file, platform.dump(2) + "\n");
   write_file_atomic(cal_file, doc.dump(2) + "\n");

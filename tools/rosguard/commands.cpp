@@ -48,6 +48,10 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
   }
   for (const auto& w : s.warnings)
     std::cerr << "warning: " << w << "\n";
+  // "platform": "host" on hw: what the probe could not find or use.
+  if (s.host_platform.contains("hw"))
+    for (const auto& note : s.host_platform["hw"]["probe"]["notes"])
+      std::cerr << "note: host: " << note.get<std::string>() << "\n";
 
   std::string sweep;
   for (const auto& key : s.sweep_keys)
@@ -111,6 +115,18 @@ int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
     std::cout << "platforms (" << loader.home().platforms().string() << "):\n";
     for (const auto& e : loader.platforms())
       print(e.name, e.summary);
+    std::string model;
+    try {
+      const fs::path path = host_model_path();
+      std::error_code ec;
+      model = path.string() + (fs::exists(path, ec) ? "" : ", not installed");
+    } catch (const RunError& e) {
+      model = e.what();
+    }
+    print(kHostPlatform,
+          "(reserved) this machine: on hw probed when a scenario loads (rosguard platform "
+          "probe shows it); on sim the installed calibrated model (" +
+              model + ")");
   } else if (what == "policies") {
     std::cout << "policies:\n";
     for (const auto& p : policies.all())

@@ -369,8 +369,44 @@ fs::path Loader::find_named(const std::string& ref, const fs::path& dir, const f
                        "; or give a path to a " + what + " JSON file)");
 }
 
+PlatformInfo Loader::host_platform(const std::string& backend, const std::string& file,
+                                   const std::string& pointer) {
+  if (auto it = host_cache_.find(backend); it != host_cache_.end()) {
+    host_used_[backend] = host_records_.at(backend);
+    return it->second;
+  }
+  HostPlatform host;
+  if (backend == "hw") {
+#ifdef ROSGUARD_WITH_HW
+    host = probed_host_platform(schemas_);
+#else
+    throw InputError(file, pointer,
+                     "platform \"host\" on the hw backend needs a rosguard built with it "
+                     "(ROSGUARD_WITH_HW=ON); this one is not, so only --backend sim with an "
+                     "installed host model can use \"host\"");
+#endif
+  } else {
+    auto installed = installed_host_model(schemas_);
+    if (!installed)
+      throw InputError(file, pointer,
+                       "no calibrated model of this host: run `rosguard calibrate --install` (or "
+                       "use --backend hw); looked for " +
+                           host_model_path().string() +
+                           " ($ROSGUARD_HOST_MODEL, else $XDG_DATA_HOME or "
+                           "~/.local/share/rosguard/host/platform.json)");
+    host = std::move(*installed);
+  }
+  PlatformInfo info = build_platform(host.doc, host.origin);
+  host_cache_[backend] = info;
+  host_records_[backend] = host.record;
+  host_used_[backend] = host.record;
+  return info;
+}
+
 PlatformInfo Loader::resolve_platform(const json& ref, const fs::path& base,
-                                      const std::string& file, const std::string& pointer) {
+                                      const std::string& file, const std::string& pointer,
+                                      const std::string& backend) {
+  if (ref.get<std::string>() == kHostPlatform) return host_platform(backend, file, pointer);
   const fs::path path =
       find_named(ref.get<std::string>(), home_.platforms(), base, file, pointer, "platform");
   const std::string key = fs::weakly_canonical(path).string();
@@ -414,7 +450,8 @@ Scenario Loader::build_point(json document, const std::string& file) {
   if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
     throw InputError(file, err->first, err->second);
   ResolvedRefs refs;
-  refs.platform = resolve_platform(document["platform"], base, file, "/platform");
+  refs.platform = resolve_platform(document["platform"], base, file, "/platform",
+                                   document["backend"].get<std::string>());
   const auto& nodes = document["nodes"];
   for (std::size_t i = 0; i < nodes["rt"].size(); ++i)
     refs.rt_workloads.push_back(resolve_workload(nodes["rt"][i]["workload"], base, file,
@@ -459,6 +496,11 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
                             PointSelection selection) {
   LoadedScenario out;
   out.file = file;
+  host_used_ = json();
+  // The installed model is re-read by every load (cheap; it may have been reinstalled); the
+  // probe of the host is kept for the Loader's life (one run).
+  host_cache_.erase("sim");
+  host_records_.erase("sim");
   const std::string text = read_text_file(file, file);
   out.given = parse_json_text(text, file);
   schemas_.validate(out.given, SchemaKind::Scenario, file);
@@ -497,6 +539,7 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
       out.sweep_paths.push_back(path);
   for (auto& w : controller_sharing_warnings(out.points))
     out.warnings.push_back(std::move(w));
+  out.host_platform = host_used_;
   return out;
 }
 

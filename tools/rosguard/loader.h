@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "host_model.h"
 #include "scenario/scenario.h"
 #include "scenario/sweep.h"
 #include "schema.h"
@@ -53,6 +54,9 @@ struct LoadedScenario {
   std::vector<std::string> sweep_paths;  // every swept path, in key order
   std::vector<LoadedPoint> points;       // in order; with PointSelection::Sample maybe a subset
   std::vector<std::string> warnings;     // e.g. the controller shares a core with a node
+  // For the manifest, when a point uses "platform": "host": per backend ("hw", "sim"), how the
+  // host platform was made (the probe, the installed model's file). Null otherwise.
+  nlohmann::json host_platform;
 };
 
 // A catalogue entry for `rosguard list`.
@@ -83,7 +87,11 @@ class Loader {
   InputError attribute_to_sweep(const InputError& e, const SweepPoint& p, const LoadedScenario& out,
                                 const std::map<std::string, std::string>& sweep_pointers);
   PlatformInfo resolve_platform(const nlohmann::json& ref, const std::filesystem::path& base,
-                                const std::string& file, const std::string& pointer);
+                                const std::string& file, const std::string& pointer,
+                                const std::string& backend);
+  // "platform": "host" on `backend`: probed (hw, once per Loader) or the installed model (sim).
+  PlatformInfo host_platform(const std::string& backend, const std::string& file,
+                             const std::string& pointer);
   WorkloadInfo resolve_workload(const nlohmann::json& ref, const std::filesystem::path& base,
                                 const std::string& file, const std::string& pointer);
   std::filesystem::path find_named(const std::string& ref, const std::filesystem::path& dir,
@@ -94,6 +102,9 @@ class Loader {
   SchemaSet schemas_;
   std::map<std::string, PlatformInfo> platform_cache_;
   std::map<std::string, WorkloadInfo> workload_cache_;
+  std::map<std::string, PlatformInfo> host_cache_;      // by backend
+  std::map<std::string, nlohmann::json> host_records_;  // by backend
+  nlohmann::json host_used_;                            // this load's records (manifest)
 };
 
 // Bounds on what a scenario, platform or workload file may be: past them an input could exhaust

@@ -12,6 +12,7 @@
 #include "calibrate.h"
 #include "commands.h"
 #include "core/error.h"
+#include "host_model.h"
 #include "loader.h"
 #include "runner.h"
 #include "version.h"
@@ -150,10 +151,28 @@ int main(int argc, char** argv) {
                         "Refit the measurements of an earlier calibration.json (measures nothing)")
       ->check(CLI::ExistingFile);
   calibrate->add_flag("--quiet", cal.quiet, "No progress");
+  calibrate->add_flag("--strict", cal.strict,
+                      "Refuse the fit when the co-runs leave a memory bandwidth unidentified "
+                      "(default: hold it at the most contention the data allow, with a note)");
   calibrate->footer(
       "Runs built-in kernels alone and against co-runners on this host's cores (hw backend), "
       "times the middleware and OS costs, fits the memory model and the cost distributions by "
       "non-linear least squares (Eigen), and refuses a fit that does not converge.");
+
+  std::string probe_out;
+  auto* platform = app.add_subcommand("platform", "Describe this machine as a platform.");
+  platform->require_subcommand(1);
+  auto* probe = platform->add_subcommand(
+      "probe",
+      "Probe this machine (usable CPUs, clusters sharing a last-level cache, caches, frequency, "
+      "the PMU events that open, SCHED_FIFO) and print it as a platform JSON: what \"platform\": "
+      "\"host\" uses on the hw backend.");
+  probe->add_option("--out", probe_out, "Write the platform JSON to this file (atomically)");
+  probe->footer(
+      "Reference, memory model and costs come from the installed host model (rosguard calibrate "
+      "--install) when there is one; otherwise the reference bandwidth is measured now "
+      "(bandwidth_read, under a second) and there is no memory model, so the sim backend "
+      "cannot run the result. Notes on what is missing or not usable go to stderr.");
 
   try {
     app.parse(argc, argv);
@@ -177,6 +196,7 @@ int main(int argc, char** argv) {
           check_points);
     if (*calibrate) return calibrate_host(cal, loader);
     if (*list) return list_catalogue(loader, policies, backends, list_what);
+    if (*probe) return platform_probe_command(SchemaSet(loader.home().schemas()), probe_out);
     if (*plot) {
       std::vector<std::string> args = {"plot", plot_dir};
       if (!plot_out.empty()) args.insert(args.end(), {"--out", plot_out});

@@ -72,6 +72,8 @@ json describe_run(const LoadedScenario& loaded, const std::string& backend,
   m["scenario"]["points"] = describe_points(loaded);
   m["workloads"] = describe_workloads(loaded);
   m["platform"] = describe_platform(loaded);
+  // "platform": "host": the probe and where the model came from, per backend.
+  if (!loaded.host_platform.is_null()) m["host_platform"] = loaded.host_platform;
   m["backend"] = backend;
   m["seed"] = first.seed;
   m["repetitions"] = first.repetitions;

@@ -1,0 +1,130 @@
+#include "host_model.h"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+
+#include "core/error.h"
+#include "files.h"
+#include "loader.h"
+
+#ifdef ROSGUARD_WITH_HW
+#include "hw/host_probe.h"
+#endif
+
+namespace rosguard {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+std::string env(const char* name) {
+  const char* v = std::getenv(name);
+  return v ? v : "";
+}
+
+}  // namespace
+
+fs::path host_model_path() {
+  if (const auto explicit_path = env("ROSGUARD_HOST_MODEL"); !explicit_path.empty())
+    return explicit_path;
+  fs::path data = env("XDG_DATA_HOME");
+  if (data.empty() || data.is_relative()) {  // the XDG spec ignores a relative XDG_DATA_HOME
+    const auto home = env("HOME");
+    if (home.empty())
+      throw RunError(
+          "cannot locate the host model: HOME is not set (set ROSGUARD_HOST_MODEL to its file)");
+    data = fs::path(home) / ".local" / "share";
+  }
+  return data / "rosguard" / "host" / "platform.json";
+}
+
+std::optional<HostPlatform> installed_host_model(const SchemaSet& schemas) {
+  const fs::path path = host_model_path();
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return std::nullopt;
+  const std::string shown = display_path(path);
+  json doc = read_json_file(path, shown);
+  schemas.validate(doc, SchemaKind::Platform, shown);
+  schemas.apply_defaults(doc, SchemaKind::Platform);
+  return HostPlatform{doc, shown,
+                      json{{"backend", "sim"},
+                           {"model", path.string()},
+                           {"how",
+                            "the installed calibrated model of this host "
+                            "(rosguard calibrate --install; ROSGUARD_HOST_MODEL overrides "
+                            "where it is looked for)"}}};
+}
+
+HostPlatform probed_host_platform(const SchemaSet& schemas) {
+#ifdef ROSGUARD_WITH_HW
+  const auto installed = installed_host_model(schemas);
+  const hw::HostProbe probe = hw::probe_host({.measure_reference = !installed});
+  std::optional<hw::InstalledModel> model;
+  if (installed) model = hw::InstalledModel{installed->doc, installed->origin};
+  json doc = hw::host_platform_document(probe, model);
+  const std::string shown = "host platform probed on " + probe.hostname;
+  // The probe builds the document; a schema failure here is rosguard's bug, not the user's.
+  if (auto err = schemas.first_error(doc, SchemaKind::Platform))
+    throw ContractError("the probed host platform does not validate at " + err->first + ": " +
+                        err->second);
+  schemas.apply_defaults(doc, SchemaKind::Platform);
+  json record{{"backend", "hw"},
+              {"how", installed ? "probed at load time; reference, memory and costs from the "
+                                  "installed model"
+                                : "probed at load time; reference bandwidth measured by the "
+                                  "probe (no installed model)"},
+              {"probe", hw::to_json(probe)}};
+  if (installed) record["model"] = installed->record.at("model");
+  return {doc, shown + " at " + probe.date, record};
+#else
+  (void)schemas;
+  throw RunError(
+      "this rosguard is built without the hw backend (ROSGUARD_WITH_HW=OFF): it cannot probe the "
+      "host");
+#endif
+}
+
+int platform_probe_command(const SchemaSet& schemas, const std::string& out) {
+  if (!out.empty()) {
+    // Refuse a bad destination before spending the probe's time.
+    const fs::path dest(out);
+    const fs::path dir = dest.parent_path().empty() ? fs::path(".") : dest.parent_path();
+    std::error_code ec;
+    if (fs::is_directory(dest, ec))
+      throw InputError(out, "", "--out names a folder; give the path of the JSON file to write");
+    if (!fs::is_directory(dir, ec))
+      throw InputError(out, "",
+                       "cannot write here: the folder " + dir.string() + " does not exist");
+    if (::access(dir.c_str(), W_OK) != 0)
+      throw InputError(out, "",
+                       "cannot write here: the folder " + dir.string() + " is not writable (" +
+                           std::strerror(errno) + ")");
+  }
+  const HostPlatform host = probed_host_platform(schemas);
+  for (const auto& note : host.record.at("probe").at("notes"))
+    std::cerr << "note: " << note.get<std::string>() << "\n";
+  // Its own output must be a valid platform file: checked again as a file would be read.
+  // The platform files' key order (nlohmann::json sorts keys).
+  nlohmann::ordered_json ordered;
+  for (const char* key :
+       {"name", "description", "cpu", "caches", "pmu", "reference", "memory", "costs"})
+    if (host.doc.contains(key)) ordered[key] = host.doc.at(key);
+  for (const auto& [key, value] : host.doc.items())
+    if (!ordered.contains(key)) ordered[key] = value;
+  const std::string text = ordered.dump(2) + "\n";
+  schemas.validate(parse_json_text(text, "platform probe output"), SchemaKind::Platform,
+                   "platform probe output");
+  if (out.empty()) {
+    std::cout << text;
+  } else {
+    write_file_atomic(out, text);
+    std::cerr << "wrote " << out << "\n";
+  }
+  return 0;
+}
+
+}  // namespace rosguard

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <numeric>
 #include <set>
 #include <unsupported/Eigen/NonLinearOptimization>
@@ -534,6 +535,8 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   for (const KernelRun* r : used)
     sum_w2 += weight_of(*r) * weight_of(*r);
   rep.rms_residual = std::sqrt(ssr / sum_w2);  // weighted RMS of the log ratios
+  rep.objective = ssr;
+  rep.dof = static_cast<int>(mres - n);
   const double s2 = ssr / static_cast<double>(mres - n);
 
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeThinV);
@@ -605,6 +608,42 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   return rep;
 }
 
+// The objective of the fit with `name` held at `value` (the rest refitted); infinity when that
+// fit is refused.
+double objective_with(const Measurements& m, FitOptions opt, const std::string& name,
+                      double value) {
+  opt.fixed[name] = value;
+  try {
+    return fit_once(m, opt).objective;
+  } catch (const RunError&) {
+    return std::numeric_limits<double>::infinity();
+  }
+}
+
+// The smallest value of `name` (the others refitted) whose objective exceeds the best one's by
+// at most the residual variance (a profile-likelihood one-standard-error bound), searched on the
+// log scale below `best` (the unconstrained fit's value).
+double profile_lower_bound(const Measurements& m, const FitOptions& opt, const std::string& name,
+                           double best) {
+  FitOptions held = opt;
+  held.fixed[name] = best;
+  const FitReport at_best = fit_once(m, held);
+  const double target =
+      at_best.objective + at_best.objective / std::max(1, at_best.dof);  // + s^2
+  double hi = std::log(best), lo = hi;
+  // Step down by factors of e until the objective passes the target (or 40 e-folds).
+  for (int i = 0; i < 40; ++i) {
+    lo -= 1.0;
+    if (objective_with(m, opt, name, std::exp(lo)) > target) break;
+    hi = lo;
+  }
+  for (int i = 0; i < 12; ++i) {  // bisection to ~1e-3 of an e-fold
+    const double mid = 0.5 * (lo + hi);
+    (objective_with(m, opt, name, std::exp(mid)) > target ? lo : hi) = mid;
+  }
+  return std::exp(hi);
+}
+
 }  // namespace
 
 FitReport fit(const Measurements& m, const FitOptions& options) {
@@ -621,18 +660,18 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
       return rep;
     } catch (const UnidentifiedParameter& e) {
       const std::string& name = e.parameter();
-      const bool bandwidth = name.size() > 15 && name.ends_with(".bandwidth_mbps");
+      const bool bandwidth = name.ends_with(".bandwidth_mbps");
       if (!opt.hold_unidentified_bandwidths || !bandwidth || held.count(name) ||
           options.fixed.count(name) || !std::isfinite(e.log_std_error()))
         throw;
-      const double bound = e.value() * std::exp(-e.log_std_error());
+      const double bound = profile_lower_bound(m, opt, name, e.value());
       opt.fixed[name] = bound;
-      held[name] = "not identified (the co-runs show too little contention to fit it to: it " +
-                   std::string("fitted ") + fmt("%.4g", e.value()) +
-                   " with a standard error of its logarithm of " +
+      held[name] = "not identified (the co-runs show too little contention to fit it to: its "
+                   "best fit is " +
+                   fmt("%.4g", e.value()) + " with a standard error of its logarithm of " +
                    fmt("%.3g", e.log_std_error()) + "): held at " + fmt("%.4g", bound) +
-                   ", the lower end of its one-standard-error interval, the most contention "
-                   "the measurements allow";
+                   ", the lower end of its one-standard-error profile interval, the most "
+                   "contention the measurements allow";
     }
   }
 }

@@ -53,9 +53,10 @@ struct FitOptions {
   // identify. Reported as fixed.
   std::map<std::string, double> fixed;
   // A bandwidth (l3 / dram .bandwidth_mbps) the data leave free — the co-runs show too little
-  // contention to fit it to — is held at the lower end of its one-standard-error interval (the
-  // most contention the measurements allow) and the rest refitted, with a note, instead of
-  // refusing the fit. `rosguard calibrate` sets it (--strict clears it).
+  // contention to fit it to — is held at the lower end of its one-standard-error profile
+  // interval (the smallest bandwidth, the others refitted, whose objective exceeds the best by
+  // at most the residual variance: the most contention the measurements allow), with a note,
+  // instead of refusing the fit. `rosguard calibrate` sets it (--strict clears it).
   bool hold_unidentified_bandwidths = false;
 };
 
@@ -112,6 +113,8 @@ struct FitReport {
   double rms_residual = 0.0;             // over the used runs, log units, weighted (weight_of)
   int lm_status = 0;                     // Eigen's LevenbergMarquardtSpace::Status
   std::string lm_status_text;
+  double objective = 0.0;  // the weighted sum of squared residuals at the solution
+  int dof = 0;             // used runs minus fitted parameters
   int evaluations = 0;
   int iterations = 0;
   bool converged = false;

@@ -8,12 +8,14 @@
 #include <ctime>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include "calibration/measurements.h"
 #include "commands.h"
 #include "core/error.h"
 #include "files.h"
 #include "host_model.h"
+#include "progress.h"
 #include "schema.h"
 #include "stop_signal.h"
 #include "version.h"
@@ -31,6 +33,12 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+
+std::string fmt(double v, int prec = 3) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", prec, v);
+  return buf;
+}
 
 // The measurements of an earlier calibration: a calibration.json (its "measurements") or a
 // bare measurements document.
@@ -56,13 +64,25 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
   suite.stop = &stop;
   // The suite calls progress between its timed windows, from this thread: the place to see a
   // SIGINT / SIGTERM that the handler recorded.
+  // On a terminal one line rewritten in place; otherwise (a pipe, a log) a line every 5 s.
+  std::optional<Progress> bar;
+  const bool tty = ::isatty(STDERR_FILENO) != 0;
+  double printed = -1e9;
   suite.progress = [&](int step, int steps, const std::string& what) {
     if (stop_signal()) stop = true;
-    if (!opt.quiet) std::cerr << "[" << step << "/" << steps << "] " << what << "\n";
+    if (opt.quiet) return;
+    if (!bar) bar.emplace(static_cast<std::size_t>(steps), tty);
+    bar->update(static_cast<std::size_t>(step), what);
+    if (!tty && (bar->seconds() - printed >= 5.0 || step == steps)) {
+      printed = bar->seconds();
+      std::cerr << "calibrate: [" << step << "/" << steps << "] " << fmt(printed, 3) << " s  "
+                << what << "\n";
+    }
   };
   std::cerr << "calibrate: measuring " << suite.host.hostname << " (" << suite.host.cpus
             << " CPUs, " << (opt.quick ? "quick" : "full") << " suite)\n";
   hw::SuiteResult result = hw::run_suite(suite);
+  if (bar) bar->finish();
   notes = std::move(result.notes);
   return std::move(result.measurements);
 #else
@@ -82,11 +102,6 @@ json calibration_document(const calibration::Measurements& m,
               {"host_probe", probe},    {"suite_notes", notes},     {"measurements", m}};
 }
 
-std::string fmt(double v, int prec = 3) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", prec, v);
-  return buf;
-}
 
 }  // namespace
 

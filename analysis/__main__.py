@@ -1,6 +1,7 @@
-"""Command line: ``python3 -m analysis plot|compare|validate|validate-table ...``.
+"""Command line: ``python3 -m analysis plot|compare|calibration|validate|validate-table ...``.
 
-``rosguard plot|compare`` run the first two; ``tools/validate.sh`` (``make validate``) the others.
+``rosguard plot|compare`` run the first two, ``rosguard calibrate`` the third;
+``tools/validate.sh`` (``make validate``) the others.
 
 Exit codes: 0 success, 2 invalid input (usage, a folder that is not a results folder, two
 folders without a common point), 1 runtime failure (e.g. an output folder that cannot be
@@ -71,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python3 -m analysis", description=DESCRIPTION, epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command", metavar="{plot,compare,validate,validate-table}")
+    sub = parser.add_subparsers(dest="command", metavar="{plot,compare,calibration,validate,validate-table}")
 
     plot = sub.add_parser("plot", help="draw every figure a results folder supports",
                           description=PLOT_HELP)
@@ -87,6 +88,12 @@ def build_parser() -> argparse.ArgumentParser:
                          help="results folder compared with it (e.g. simulated)")
     compare.add_argument("--out", metavar="DIR",
                          help="where the comparison goes (default: RESULTS_B/compare)")
+    calibration = sub.add_parser(
+        "calibration", help="draw a calibration's measured vs fitted figures",
+        description="Figures of a `rosguard calibrate` folder (calibration.json, platform.json):"
+                    " isolation curves, co-run slowdowns and cost distributions, measured vs"
+                    " fitted, into DIR/figures.")
+    calibration.add_argument("folder", metavar="DIR", help="output folder of rosguard calibrate")
 
     validate = sub.add_parser("validate", help="sim-vs-hw validation report of a suite",
                               description=VALIDATE_HELP)
@@ -126,6 +133,9 @@ def main(argv=None) -> int:
         if args.command == "plot":
             from analysis import plot
             return plot.run(args.results, args.out)
+        if args.command == "calibration":
+            from analysis import calibration
+            return calibration.run(args.folder)
         if args.command == "compare":
             from analysis import compare
             return compare.run(args.results_a, args.results_b, args.out)

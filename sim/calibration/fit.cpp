@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <numeric>
 #include <set>
 #include <unsupported/Eigen/NonLinearOptimization>
@@ -119,8 +120,17 @@ struct Slot {
   std::string how;
 };
 
-// The residuals log(predicted / measured) of the used runs as a function of the log parameters,
-// for Eigen's LM (minpack interface: operator() and df()).
+// A run's weight in the fit: kCvFloor / max(cv, kCvFloor). Runs whose repetitions scatter
+// (another tenant's traffic, a cache shared with the host) count less, in proportion to their
+// coefficient of variation; below the floor (the repeatability of a 20 ms window here, about
+// 2 %) every run counts the same.
+constexpr double kCvFloor = 0.02;
+double weight_of(const KernelRun& run) {
+  return kCvFloor / std::max(std::isfinite(run.cv) ? run.cv : 1.0, kCvFloor);
+}
+
+// The weighted residuals weight * log(predicted / measured) of the used runs as a function of the
+// log parameters, for Eigen's LM (minpack interface: operator() and df()).
 struct Residuals {
   using Scalar = double;
   enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
@@ -153,7 +163,8 @@ struct Residuals {
       const double pred = predict_ns_per_line(p, *(*runs)[i]);
       // A non-finite prediction (a parameter far out of range) counts as a large miss.
       f[static_cast<Eigen::Index>(i)] =
-          std::isfinite(pred) && pred > 0 ? std::log(pred / (*runs)[i]->ns_per_line) : 10.0;
+          weight_of(*(*runs)[i]) *
+          (std::isfinite(pred) && pred > 0 ? std::log(pred / (*runs)[i]->ns_per_line) : 10.0);
     }
     return 0;
   }
@@ -281,7 +292,9 @@ CostFit fit_cost(std::vector<double> samples) {
   return c;
 }
 
-FitReport fit(const Measurements& m, const FitOptions& opt) {
+namespace {
+
+FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   const HostFacts& host = m.host;
   if (host.freq_mhz <= 0 || host.l2_kb <= 0 || host.l3_kb_per_cluster <= host.l2_kb)
     throw RunError(
@@ -518,7 +531,12 @@ FitReport fit(const Measurements& m, const FitOptions& opt) {
   Eigen::MatrixXd jac(mres, n);
   fn.df(x, jac);
   const double ssr = f.squaredNorm();
-  rep.rms_residual = std::sqrt(ssr / static_cast<double>(mres));
+  double sum_w2 = 0.0;
+  for (const KernelRun* r : used)
+    sum_w2 += weight_of(*r) * weight_of(*r);
+  rep.rms_residual = std::sqrt(ssr / sum_w2);  // weighted RMS of the log ratios
+  rep.objective = ssr;
+  rep.dof = static_cast<int>(mres - n);
   const double s2 = ssr / static_cast<double>(mres - n);
 
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeThinV);
@@ -552,10 +570,12 @@ FitReport fit(const Measurements& m, const FitOptions& opt) {
     // Numerically full rank, statistically not identified: the data leave the parameter free
     // over more than a factor exp(max_log_std_error) (e.g. a queue driven towards 0).
     if (!(se_log <= opt.max_log_std_error))
-      throw RunError("calibration: the data cannot identify " + s.name + " (fitted " +
-                     fmt("%.4g", value) + ", standard error of its logarithm " +
-                     fmt("%.3g", se_log) + " above " + fmt("%.3g", opt.max_log_std_error) +
-                     "); measure what identifies it (" + s.how + ") or fix it" + status_msg);
+      throw UnidentifiedParameter(
+          "calibration: the data cannot identify " + s.name + " (fitted " + fmt("%.4g", value) +
+              ", standard error of its logarithm " + fmt("%.3g", se_log) + " above " +
+              fmt("%.3g", opt.max_log_std_error) + "); measure what identifies it (" + s.how +
+              ") or fix it" + status_msg,
+          s.name, value, se_log);
     rep.parameters.push_back({s.name, value, value * se_log, true, s.how});
     if (se_log > 0.3)
       rep.notes.push_back(s.name + " is poorly determined (relative standard error " +
@@ -578,13 +598,82 @@ FitReport fit(const Measurements& m, const FitOptions& opt) {
       rep.notes.push_back("run " + std::to_string(fr.index) + " (" + fr.label + ") " + fr.note);
       continue;
     }
-    fr.residual = f[static_cast<Eigen::Index>(k++)];
+    fr.residual = f[static_cast<Eigen::Index>(k)] / weight_of(*used[k]);
+    ++k;
     fr.predicted_ns = fr.measured_ns * std::exp(fr.residual);
   }
 
   for (const auto& [name, samples] : m.costs_us)
     if (!samples.empty()) rep.costs[name] = fit_cost(samples);
   return rep;
+}
+
+// The objective of the fit with `name` held at `value` (the rest refitted); infinity when that
+// fit is refused.
+double objective_with(const Measurements& m, FitOptions opt, const std::string& name,
+                      double value) {
+  opt.fixed[name] = value;
+  try {
+    return fit_once(m, opt).objective;
+  } catch (const RunError&) {
+    return std::numeric_limits<double>::infinity();
+  }
+}
+
+// The smallest value of `name` (the others refitted) whose objective exceeds the best one's by
+// at most the residual variance (a profile-likelihood one-standard-error bound), searched on the
+// log scale below `best` (the unconstrained fit's value).
+double profile_lower_bound(const Measurements& m, const FitOptions& opt, const std::string& name,
+                           double best) {
+  FitOptions held = opt;
+  held.fixed[name] = best;
+  const FitReport at_best = fit_once(m, held);
+  const double target =
+      at_best.objective + at_best.objective / std::max(1, at_best.dof);  // + s^2
+  double hi = std::log(best), lo = hi;
+  // Step down by factors of e until the objective passes the target (or 40 e-folds).
+  for (int i = 0; i < 40; ++i) {
+    lo -= 1.0;
+    if (objective_with(m, opt, name, std::exp(lo)) > target) break;
+    hi = lo;
+  }
+  for (int i = 0; i < 12; ++i) {  // bisection to ~1e-3 of an e-fold
+    const double mid = 0.5 * (lo + hi);
+    (objective_with(m, opt, name, std::exp(mid)) > target ? lo : hi) = mid;
+  }
+  return std::exp(hi);
+}
+
+}  // namespace
+
+FitReport fit(const Measurements& m, const FitOptions& options) {
+  FitOptions opt = options;
+  std::map<std::string, std::string> held;  // parameter -> why
+  for (;;) {
+    try {
+      FitReport rep = fit_once(m, opt);
+      for (auto& p : rep.parameters)
+        if (const auto it = held.find(p.name); it != held.end()) p.how = it->second;
+      for (auto& note : rep.notes)
+        for (const auto& [name, why] : held)
+          if (note.rfind(name + " fixed by the caller", 0) == 0) note = name + ": " + why;
+      return rep;
+    } catch (const UnidentifiedParameter& e) {
+      const std::string& name = e.parameter();
+      const bool bandwidth = name.ends_with(".bandwidth_mbps");
+      if (!opt.hold_unidentified_bandwidths || !bandwidth || held.count(name) ||
+          options.fixed.count(name) || !std::isfinite(e.log_std_error()))
+        throw;
+      const double bound = profile_lower_bound(m, opt, name, e.value());
+      opt.fixed[name] = bound;
+      held[name] = "not identified (the co-runs show too little contention to fit it to: its "
+                   "best fit is " +
+                   fmt("%.4g", e.value()) + " with a standard error of its logarithm of " +
+                   fmt("%.3g", e.log_std_error()) + "): held at " + fmt("%.4g", bound) +
+                   ", the lower end of its one-standard-error profile interval, the most "
+                   "contention the measurements allow";
+    }
+  }
 }
 
 json fitted_platform(const Measurements& m, const FitReport& rep, std::string name) {

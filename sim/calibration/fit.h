@@ -3,8 +3,9 @@
 // Called by the calibrate command with what the hw suite measured (model/calibration/
 // measurements.h). fit() chooses the model's free parameters from what the data can identify,
 // fits them by non-linear least squares (Eigen's Levenberg-Marquardt) on relative residuals
-// log(predicted / measured ns_per_line), and reports every parameter with its standard error and
-// every run with its residual. Predictions are exactly the sim's: the kernel's profile
+// log(predicted / measured ns_per_line), each weighted by the run's repeatability (0.02 / max(cv,
+// 0.02): a run whose repetitions scatter counts less), and reports every parameter with its
+// standard error and every run with its (unweighted) residual. Predictions are exactly the sim's: the kernel's profile
 // (sim/workload/profile.h: kernel_profile) on the memory model's steady state
 // (sim/platform/contention.h), the measured kernel on core 0 of cluster 0 and its co-runners on
 // the next cores of that cluster.
@@ -30,6 +31,8 @@
 
 #include <map>
 #include <nlohmann/json.hpp>
+
+#include "core/error.h"
 #include <string>
 #include <vector>
 
@@ -49,6 +52,32 @@ struct FitOptions {
   // ("l3.queue_ns", "kernels.bandwidth_read.mlp", ...): for what this host's data cannot
   // identify. Reported as fixed.
   std::map<std::string, double> fixed;
+  // A bandwidth (l3 / dram .bandwidth_mbps) the data leave free — the co-runs show too little
+  // contention to fit it to — is held at the lower end of its one-standard-error profile
+  // interval (the smallest bandwidth, the others refitted, whose objective exceeds the best by
+  // at most the residual variance: the most contention the measurements allow), with a note,
+  // instead of refusing the fit. `rosguard calibrate` sets it (--strict clears it).
+  bool hold_unidentified_bandwidths = false;
+};
+
+// fit() refuses: the data leave `parameter` free (the standard error of its logarithm,
+// `log_std_error`, exceeds FitOptions::max_log_std_error) at the fitted `value`.
+class UnidentifiedParameter : public RunError {
+ public:
+  UnidentifiedParameter(const std::string& message, std::string parameter, double value,
+                        double log_std_error)
+      : RunError(message),
+        parameter_(std::move(parameter)),
+        value_(value),
+        log_std_error_(log_std_error) {}
+  const std::string& parameter() const { return parameter_; }
+  double value() const { return value_; }
+  double log_std_error() const { return log_std_error_; }
+
+ private:
+  std::string parameter_;
+  double value_;
+  double log_std_error_;
 };
 
 struct FittedParameter {
@@ -81,9 +110,11 @@ struct FitReport {
   std::vector<FittedParameter> parameters;
   std::vector<FittedRun> runs;
   std::map<std::string, CostFit> costs;  // by cost name ("publish", ...): from costs_us
-  double rms_residual = 0.0;             // over the used runs, log units
+  double rms_residual = 0.0;             // over the used runs, log units, weighted (weight_of)
   int lm_status = 0;                     // Eigen's LevenbergMarquardtSpace::Status
   std::string lm_status_text;
+  double objective = 0.0;  // the weighted sum of squared residuals at the solution
+  int dof = 0;             // used runs minus fitted parameters
   int evaluations = 0;
   int iterations = 0;
   bool converged = false;

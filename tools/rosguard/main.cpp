@@ -9,6 +9,7 @@
 #include <tuple>
 #include <utility>
 
+#include "calibrate.h"
 #include "commands.h"
 #include "core/error.h"
 #include "host_model.h"
@@ -135,6 +136,29 @@ int main(int argc, char** argv) {
                    "workloads | platforms | policies | backends | pmc-sources (default: all)")
       ->check(CLI::IsMember({"workloads", "platforms", "policies", "backends", "pmc-sources"}));
 
+  CalibrateOptions cal;
+  auto* calibrate = app.add_subcommand(
+      "calibrate", "Measure this host and fit the sim platform model to it.");
+  calibrate->add_flag("--quick", cal.quick,
+                      "The short suite (a few working sets, fewer repetitions; minutes)");
+  calibrate->add_option("--out", cal.out,
+                        "Output folder: platform.json, calibration.json, figures/ "
+                        "(default: results/calibration)");
+  calibrate->add_flag("--install", cal.install,
+                      "Also save platform.json as this host's model, which \"platform\": "
+                      "\"host\" uses in sim");
+  calibrate->add_option("--from", cal.from,
+                        "Refit the measurements of an earlier calibration.json (measures nothing)")
+      ->check(CLI::ExistingFile);
+  calibrate->add_flag("--quiet", cal.quiet, "No progress");
+  calibrate->add_flag("--strict", cal.strict,
+                      "Refuse the fit when the co-runs leave a memory bandwidth unidentified "
+                      "(default: hold it at the most contention the data allow, with a note)");
+  calibrate->footer(
+      "Runs built-in kernels alone and against co-runners on this host's cores (hw backend), "
+      "times the middleware and OS costs, fits the memory model and the cost distributions by "
+      "non-linear least squares (Eigen), and refuses a fit that does not converge.");
+
   std::string probe_out;
   auto* platform = app.add_subcommand("platform", "Describe this machine as a platform.");
   platform->require_subcommand(1);
@@ -170,6 +194,7 @@ int main(int argc, char** argv) {
           loader, backends, check_file,
           check_backend.empty() ? std::nullopt : std::optional<std::string>(check_backend),
           check_points);
+    if (*calibrate) return calibrate_host(cal, loader);
     if (*list) return list_catalogue(loader, policies, backends, list_what);
     if (*probe) return platform_probe_command(SchemaSet(loader.home().schemas()), probe_out);
     if (*plot) {

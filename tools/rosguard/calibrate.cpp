@@ -1,0 +1,185 @@
+#include "calibrate.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+
+#include "calibration/measurements.h"
+#include "commands.h"
+#include "core/error.h"
+#include "files.h"
+#include "host_model.h"
+#include "progress.h"
+#include "schema.h"
+#include "stop_signal.h"
+#include "version.h"
+
+#if ROSGUARD_WITH_SIM
+#include "sim/calibration/fit.h"
+#endif
+#if ROSGUARD_WITH_HW
+#include "hw/calibration/suite.h"
+#include "hw/host_probe.h"
+#endif
+
+namespace rosguard {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string fmt(double v, int prec = 3) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", prec, v);
+  return buf;
+}
+
+// The measurements of an earlier calibration: a calibration.json (its "measurements") or a
+// bare measurements document.
+calibration::Measurements read_measurements(const std::string& file) {
+  const json doc = read_json_file(file, file);
+  if (doc.is_object() && doc.contains("measurements"))
+    return calibration::measurements_from_json(doc.at("measurements"), file, "/measurements");
+  return calibration::measurements_from_json(doc, file);
+}
+
+// Runs the suite on this host; `notes` gets its fallbacks and decisions, `probe` the host as
+// probed.
+calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::string>& notes,
+                                  json& probe_record) {
+#if ROSGUARD_WITH_HW
+  // The reference bandwidth is not needed: the suite measures bandwidth_read itself.
+  const hw::HostProbe probe = hw::probe_host({.measure_reference = false});
+  probe_record = hw::to_json(probe);
+  hw::SuiteOptions suite;
+  suite.host = hw::host_facts(probe);
+  suite.quick = opt.quick;
+  std::atomic<bool> stop{false};
+  suite.stop = &stop;
+  // The suite calls progress between its timed windows, from this thread: the place to see a
+  // SIGINT / SIGTERM that the handler recorded.
+  // On a terminal one line rewritten in place; otherwise (a pipe, a log) a line every 5 s.
+  std::optional<Progress> bar;
+  const bool tty = ::isatty(STDERR_FILENO) != 0;
+  double printed = -1e9;
+  suite.progress = [&](int step, int steps, const std::string& what) {
+    if (stop_signal()) stop = true;
+    if (opt.quiet) return;
+    if (!bar) bar.emplace(static_cast<std::size_t>(steps), tty);
+    bar->update(static_cast<std::size_t>(step), what);
+    if (!tty && (bar->seconds() - printed >= 5.0 || step == steps)) {
+      printed = bar->seconds();
+      std::cerr << "calibrate: [" << step << "/" << steps << "] " << fmt(printed, 3) << " s  "
+                << what << "\n";
+    }
+  };
+  std::cerr << "calibrate: measuring " << suite.host.hostname << " (" << suite.host.cpus
+            << " CPUs, " << (opt.quick ? "quick" : "full") << " suite)\n";
+  hw::SuiteResult result = hw::run_suite(suite);
+  if (bar) bar->finish();
+  notes = std::move(result.notes);
+  return std::move(result.measurements);
+#else
+  (void)opt;
+  (void)notes;
+  (void)probe_record;
+  throw InputError("", "",
+                   "this rosguard was built without the hw backend: it cannot measure the host "
+                   "(use --from CALIBRATION.json to refit earlier measurements)");
+#endif
+}
+
+json calibration_document(const calibration::Measurements& m,
+                          const std::vector<std::string>& notes, const json& probe,
+                          const std::string& status) {
+  return json{{"rosguard", kVersion},   {"revision", kGitRevision}, {"status", status},
+              {"host_probe", probe},    {"suite_notes", notes},     {"measurements", m}};
+}
+
+
+}  // namespace
+
+int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
+#if !ROSGUARD_WITH_SIM
+  (void)opt;
+  (void)loader;
+  throw InputError("", "",
+                   "this rosguard was built without the sim backend: there is no model to fit");
+#else
+  const fs::path dir = opt.out.empty() ? fs::path("results/calibration") : fs::path(opt.out);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw InputError("", "", "--out " + dir.string() + ": cannot create the folder (" +
+                                 ec.message() + ")");
+
+  StopSignalGuard signals;
+  std::vector<std::string> notes;
+  json probe = nullptr;  // null: refitted from a file, nothing probed
+  const calibration::Measurements m =
+      opt.from.empty() ? measure(opt, notes, probe) : read_measurements(opt.from);
+  if (const int sig = stop_signal()) {
+    std::cerr << "calibrate: interrupted; nothing written\n";
+    return 128 + sig;
+  }
+  const fs::path cal_file = dir / "calibration.json";
+  write_file_atomic(cal_file, calibration_document(m, notes, probe, "measured").dump(2) + "\n");
+
+  calibration::FitReport report;
+  try {
+    calibration::FitOptions fit_options;
+    fit_options.hold_unidentified_bandwidths = !opt.strict;
+    report = calibration::fit(m, fit_options);
+  } catch (const RunError& e) {
+    json doc = calibration_document(m, notes, probe, "fit refused");
+    doc["error"] = e.what();
+    write_file_atomic(cal_file, doc.dump(2) + "\n");
+    throw RunError(std::string(e.what()) + " (the measurements are kept in " +
+                   cal_file.string() + ")");
+  }
+
+  // The platform must be one the loader accepts and the sim can run.
+  json platform = calibration::fitted_platform(m, report, "host");
+  const fs::path platform_file = dir / "platform.json";
+  SchemaSet(loader.home().schemas()).validate(platform, SchemaKind::Platform,
+                                              platform_file.string());
+  json doc = calibration_document(m, notes, probe, "fitted");
+  doc["fit"] = calibration::to_json(report);
+  write_file_atomic(platform_file, platform.dump(2) + "\n");
+  write_file_atomic(cal_file, doc.dump(2) + "\n");
+
+  std::size_t used = 0;
+  for (const auto& r : report.runs)
+    used += r.used ? 1 : 0;
+  std::cout << "fit converged (" << report.lm_status_text << ") in " << report.iterations
+            << " iterations: RMS residual " << fmt(100.0 * (std::exp(report.rms_residual) - 1.0))
+            << " % over " << used << " of " << report.runs.size() << " measurements\n";
+  for (const auto& p : report.parameters)
+    std::cout << "  " << p.name << " = " << fmt(p.value, 4)
+              << (p.fitted ? " +- " + fmt(p.std_error, 2) : " (" + p.how + ")") << "\n";
+  for (const auto& note : report.notes)
+    std::cout << "  note: " << note << "\n";
+
+  const int plot = run_analysis(loader.home(), {"calibration", dir.string()});
+  if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";
+
+  std::cout << "wrote " << platform_file.string() << ", " << cal_file.string() << ", "
+            << (dir / "figures").string() << "/\n";
+  if (opt.install) {
+    const fs::path target = host_model_path();
+    fs::create_directories(target.parent_path(), ec);
+    write_file_atomic(target, platform.dump(2) + "\n");
+    std::cout << "installed as this host's model: " << target.string()
+              << " (\"platform\": \"host\" uses it in sim)\n";
+  }
+  return 0;
+#endif
+}
+
+}  // namespace rosguard

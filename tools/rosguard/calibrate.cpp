@@ -145,7 +145,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   }
 
   // The platform must be one the loader accepts and the sim can run.
-  json platform = calibration::fitted_platform(m, report, "host");
+  json platform = calibration::fitted_platform(m, report, opt.name);
   const fs::path platform_file = dir / "platform.json";
   SchemaSet(loader.home().schemas()).validate(platform, SchemaKind::Platform,
                                               platform_file.string());

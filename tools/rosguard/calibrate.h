@@ -16,6 +16,7 @@ struct CalibrateOptions {
   bool install = false;   // also save platform.json as this host's model
   std::string from;       // refit the measurements of an earlier calibration.json, measure nothing
   bool quiet = false;     // no progress
+  std::string name = "host";  // the fitted platform's name
   bool strict = false;    // refuse a fit that leaves a bandwidth unidentified (else: held)
 };
 

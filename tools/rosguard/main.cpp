@@ -150,6 +150,7 @@ int main(int argc, char** argv) {
   calibrate->add_option("--from", cal.from,
                         "Refit the measurements of an earlier calibration.json (measures nothing)")
       ->check(CLI::ExistingFile);
+  calibrate->add_option("--name", cal.name, "Name of the fitted platform (default: host)");
   calibrate->add_flag("--quiet", cal.quiet, "No progress");
   calibrate->add_flag("--strict", cal.strict,
                       "Refuse the fit when the co-runs leave a memory bandwidth unidentified "

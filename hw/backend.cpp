@@ -43,6 +43,9 @@ class HwBackend : public Backend {
 
   std::string_view name() const override { return "hw"; }
   bool process_per_task() const override { return false; }
+  int baseline_repetitions(const Scenario& s) const override {
+    return s.hw.baseline_repetitions;
+  }
 
   void validate(const Scenario& s) const override {
     const auto cpus = usable_cpus();
@@ -86,8 +89,9 @@ class HwBackend : public Backend {
     const MetricPlan plan = plan_metric(s, sources_);
     ctx.fact("pmc_source", plan.source);
     ctx.fact("isolation",
-             "each workload alone on its core, unregulated, repetitions times (median); the "
-             "scenario's other cores held by idle spinner threads meanwhile");
+             "each workload alone on its core, unregulated, measured hw.baseline_repetitions "
+             "times interleaved with the repetition rounds (median); the scenario's other cores "
+             "held by idle spinner threads meanwhile");
     const auto rt_before = realtime_tids();
     // The first second of busy work in a process runs slower on some hosts (frequency ramp-up,
     // host scheduling: bandwidth_read ran 14 % slower than later on the development VM), and
@@ -103,16 +107,10 @@ class HwBackend : public Backend {
                "one unmeasured second of the first isolation workload before any "
                "measurement");
     }
-    std::vector<double> times, mbps, ipcs;
-    for (int rep = 0; rep < s.repetitions; ++rep) {
-      if (ctx.stop_requested()) throw Interrupted();
-      const auto r = measure_alone(s, plan, sources_, w, core, ctx);
-      times.push_back(r.time_us);
-      mbps.push_back(r.mbps);
-      ipcs.push_back(r.ipc);
-    }
+    if (ctx.stop_requested()) throw Interrupted();
+    const IsolationResult r = measure_alone(s, plan, sources_, w, core, ctx);
     check_no_realtime_threads(rt_before);
-    return {median(times), median(ipcs), median(mbps)};
+    return r;
   }
 
   PointOutcome run_point(const Scenario& s, const Baselines& baselines, int, std::uint64_t,

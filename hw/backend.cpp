@@ -43,9 +43,7 @@ class HwBackend : public Backend {
 
   std::string_view name() const override { return "hw"; }
   bool process_per_task() const override { return false; }
-  int baseline_repetitions(const Scenario& s) const override {
-    return s.hw.baseline_repetitions;
-  }
+  int baseline_repetitions(const Scenario& s) const override { return s.hw.baseline_repetitions; }
 
   void validate(const Scenario& s) const override {
     const auto cpus = usable_cpus();

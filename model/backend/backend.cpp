@@ -78,7 +78,7 @@ std::string Baselines::key(const Scenario& s, const WorkloadInfo& workload, int 
 }
 
 const BaselineRuns& Baselines::runs(const Scenario& s, const WorkloadInfo& workload,
-                                     int core) const {
+                                    int core) const {
   const std::string k = key(s, workload, core);
   auto it = by_key_.find(k);
   if (it == by_key_.end() || it->second.runs.empty())

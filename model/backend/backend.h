@@ -69,8 +69,7 @@ class Baselines {
   // The median of a baseline's measurements. Throws RunError naming the missing key.
   IsolationResult at(const Scenario& scenario, const WorkloadInfo& workload, int core) const;
   // Every measurement of a baseline. Throws RunError naming the missing key.
-  const BaselineRuns& runs(const Scenario& scenario, const WorkloadInfo& workload,
-                           int core) const;
+  const BaselineRuns& runs(const Scenario& scenario, const WorkloadInfo& workload, int core) const;
   const std::map<std::string, BaselineRuns>& all() const { return by_key_; }
 
  private:
@@ -100,8 +99,8 @@ struct NrtOutcome {
 };
 
 // One observation for samples.csv. kind: activation_delay | pmc_callback | sampling_overhead |
-// pmc_read | rt_job (samples_rows() writes these from RtOutcome::response_us: `rt_job` for the first
-// RT node, `rt1_job`, ... for the others), or another name a backend documents.
+// pmc_read | rt_job (samples_rows() writes these from RtOutcome::response_us: `rt_job` for the
+// first RT node, `rt1_job`, ... for the others), or another name a backend documents.
 struct Observation {
   std::string kind;
   double value_us = 0.0;

@@ -135,15 +135,14 @@ const std::vector<std::string>& fixed_point_columns() {
 std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
                                        const std::vector<std::string>& sweep_paths) {
   std::vector<std::string> h = fixed_point_columns();
-  for (const char* c : {"platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps",
-                        "sampling_overhead_p50_us", "pmc_callback_max_us", "rt_isolation_n",
-                        "rt_isolation_cv", "nrt_isolation_n", "nrt_isolation_cv",
-                        "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses"})
+  for (const char* c :
+       {"platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps", "sampling_overhead_p50_us",
+        "pmc_callback_max_us", "rt_isolation_n", "rt_isolation_cv", "nrt_isolation_n",
+        "nrt_isolation_cv", "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses"})
     h.emplace_back(c);
   for (std::size_t i = 1; i < max_rt; ++i)
     for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "isolation_n",
-                          "isolation_cv", "response_p99_us", "response_max_us",
-                          "deadline_misses"})
+                          "isolation_cv", "response_p99_us", "response_max_us", "deadline_misses"})
       h.push_back("rt" + std::to_string(i) + "_" + c);
   for (std::size_t i = 1; i < max_nrt; ++i)
     for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "isolation_n",

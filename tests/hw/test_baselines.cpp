@@ -48,8 +48,7 @@ TEST_CASE("hw run with repetitions 3: 3 baselines each, their median and spread 
   const std::string scenario =
       std::string(ROSGUARD_TEST_SOURCE_DIR) + "/tests/hw/scenarios/baselines.json";
   const std::string command = std::string(ROSGUARD_BINARY) + " run " + scenario +
-                              " --backend hw --quiet --out " + out.string() + " 2> " +
-                              err.string();
+                              " --backend hw --quiet --out " + out.string() + " 2> " + err.string();
   const int status = std::system(command.c_str());
   INFO(slurp(err));
   REQUIRE(WIFEXITED(status));

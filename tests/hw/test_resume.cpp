@@ -95,8 +95,7 @@ TEST_CASE("SIGINT then --resume: every (point, rep) exactly once, manifest compl
   std::map<std::pair<std::string, std::string>, int> seen;
   const auto header = rosguard::csv_split(points[0]);
   const auto column = [&](const char* name) {
-    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) -
-                                    header.begin());
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
   };
   for (std::size_t i = 1; i < points.size(); ++i) {
     const auto cells = rosguard::csv_split(points[i]);

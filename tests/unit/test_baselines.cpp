@@ -49,7 +49,7 @@ TEST_CASE("a baseline's median and coefficient of variation", "[baselines]") {
   const BaselineRuns three = runs_of({110.0, 100.0, 90.0});
   CHECK(three.count() == 3);
   CHECK(three.median().time_us == 100.0);
-  CHECK(three.median().ipc == 3.0);  // field by field: ipc 2, 3, 4
+  CHECK(three.median().ipc == 3.0);       // field by field: ipc 2, 3, 4
   CHECK(three.time_cv() == Approx(0.1));  // sample std 10 / mean 100
 
   const BaselineRuns two = runs_of({100.0, 104.0});

@@ -20,8 +20,8 @@
 
 #include <cstddef>
 #include <filesystem>
-#include <map>
 #include <functional>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>

@@ -67,8 +67,8 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
 // the baseline and the co-runs alike and every round has a baseline measured before it.
 struct TaskPlan {
   std::vector<std::vector<Task>> phases;
-  std::size_t tasks = 0;    // in all phases
-  std::size_t skipped = 0;  // runs of this shard already in points.csv
+  std::size_t tasks = 0;       // in all phases
+  std::size_t skipped = 0;     // runs of this shard already in points.csv
   std::set<std::string> keys;  // baselines this shard's points use
 };
 

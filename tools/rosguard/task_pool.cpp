@@ -54,8 +54,8 @@ TaskResult from_json(const json& j) {
   const json& iso = j.at("iso");
   r.iso = {number_or_nan(iso.at(0)), number_or_nan(iso.at(1)), number_or_nan(iso.at(2))};
   for (const auto& n : j.at("rt"))
-    r.outcome.rt.push_back({n.at(0), number_or_nan(n.at(1)), n.at(2),
-                            n.at(3).get<std::vector<double>>(), n.at(4)});
+    r.outcome.rt.push_back(
+        {n.at(0), number_or_nan(n.at(1)), n.at(2), n.at(3).get<std::vector<double>>(), n.at(4)});
   for (const auto& n : j.at("nrt"))
     r.outcome.nrt.push_back({n.at(0), number_or_nan(n.at(1)), number_or_nan(n.at(2)), n.at(3),
                              number_or_nan(n.at(4)), number_or_nan(n.at(5))});

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <map>
 #include <optional>
@@ -234,7 +235,9 @@ std::optional<std::string> refresh_isolation_cells(const std::vector<std::string
   const auto refresh = [&](const std::string& prefix, bool first, const BaselineRuns& runs) {
     const std::string t = cell[prefix + "time_us"];
     std::map<std::string, std::string> fresh;
-    isolation_cells(fresh, prefix, first, runs, t.empty() ? kNaN : std::stod(t));
+    char* end = nullptr;
+    const double time = std::strtod(t.c_str(), &end);  // an empty or odd cell: not measured
+    isolation_cells(fresh, prefix, first, runs, !t.empty() && *end == '\0' ? time : kNaN);
     for (const auto& [column, value] : fresh)
       if (column != prefix + "slowdown" && cell.count(column) && cell[column] != value)
         changed = true;

@@ -181,7 +181,7 @@ class TaskRunner {
       ++finished_;
       const Task& t = tasks[id];
       const std::string label = t.kind == Task::Kind::Isolation
-                                    ? "isolation " + t.iso_key
+                                    ? "isolation " + t.iso_key + " #" + std::to_string(t.rep)
                                     : point_label(loaded_.points[t.point].sweep, t.rep);
       if (r.interrupted || (stop_signal() && !r.ok)) {
         interrupted_ = true;

@@ -4,9 +4,11 @@ Writes into the output folder (default ``DIR/figures``):
 
 * one PNG (150 dpi) and one PDF per figure the registry plans (``analysis.figures``);
 * ``summary.csv``: per point, its configuration and the mean / min / max / std over
-  repetitions of the slowdowns, times, bandwidth, throttling and per-point delay columns;
+  repetitions of the slowdowns, times, bandwidth, throttling, per-point delay columns, RT
+  response times (p99, max, deadline misses) and the isolation baselines' spread;
 * ``distributions.csv``: per sample kind, sampling mode and sampling period, the count,
-  min / median / max / mean of the samples (what the ▽ × △ figures show).
+  min / median / max / mean of the samples (what the ▽ × △ figures show; ``rt_job``: each
+  RT job's response time).
 
 Prints the files written with a one-line summary each, and a one-line reason per figure
 kind the data do not support.
@@ -29,8 +31,10 @@ SUMMARY_METRICS = (
     "rt_slowdown", "nrt_slowdown", "rt_time_us", "nrt_time_us", "nrt_bandwidth_mbps",
     "throttle_count", "throttled_us", "activation_delay_p50_us", "activation_delay_max_us",
     "pmc_callback_p50_us", "pmc_callback_max_us", "sampling_overhead_p50_us",
+    "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses", "rt_isolation_cv",
+    "nrt_isolation_cv",
 )
-SAMPLE_KINDS = ("activation_delay", "pmc_callback", "sampling_overhead")
+SAMPLE_KINDS = ("activation_delay", "pmc_callback", "sampling_overhead", "rt_job")
 STATS = ("mean", "min", "max", "std")
 
 

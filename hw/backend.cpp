@@ -43,6 +43,7 @@ class HwBackend : public Backend {
 
   std::string_view name() const override { return "hw"; }
   bool process_per_task() const override { return false; }
+  int baseline_repetitions(const Scenario& s) const override { return s.hw.baseline_repetitions; }
 
   void validate(const Scenario& s) const override {
     const auto cpus = usable_cpus();
@@ -86,39 +87,45 @@ class HwBackend : public Backend {
     const MetricPlan plan = plan_metric(s, sources_);
     ctx.fact("pmc_source", plan.source);
     ctx.fact("isolation",
-             "each workload alone on its core, unregulated, repetitions times (median); the "
-             "scenario's other cores held by idle spinner threads meanwhile");
+             "each workload alone on its core, unregulated, measured hw.baseline_repetitions "
+             "times interleaved with the repetition rounds (median); the scenario's other cores "
+             "held by idle spinner threads meanwhile");
     const auto rt_before = realtime_tids();
-    // The first second of busy work in a process runs slower on some hosts (frequency ramp-up,
-    // host scheduling: bandwidth_read ran 14 % slower than later on the development VM), and
-    // isolation runs come first: an unmeasured warm-up precedes the first of them.
-    if (!warmed_up_) {
-      const TimeNs until = now_ns() + kWarmUpNs;
-      do {
-        if (ctx.stop_requested()) throw Interrupted();
-        measure_alone(s, plan, sources_, w, core, ctx);
-      } while (now_ns() < until);
-      warmed_up_ = true;
-      ctx.fact("warm_up",
-               "one unmeasured second of the first isolation workload before any "
-               "measurement");
-    }
-    std::vector<double> times, mbps, ipcs;
-    for (int rep = 0; rep < s.repetitions; ++rep) {
+    try {
+      warm_up(s, plan, w, core, ctx);
       if (ctx.stop_requested()) throw Interrupted();
-      const auto r = measure_alone(s, plan, sources_, w, core, ctx);
-      times.push_back(r.time_us);
-      mbps.push_back(r.mbps);
-      ipcs.push_back(r.ipc);
+      const IsolationResult r = measure_alone(s, plan, sources_, w, core, ctx);
+      check_no_realtime_threads(rt_before);
+      return r;
+    } catch (const Interrupted&) {
+      // Baselines are measured between the points, so a stop often lands in one: say what was
+      // left behind as run_point does.
+      std::cerr << "hw: interrupted during an isolation run; every thread joined, "
+                << left_realtime(rt_before) << " thread(s) left under SCHED_FIFO\n";
+      throw;
     }
-    check_no_realtime_threads(rt_before);
-    return {median(times), median(ipcs), median(mbps)};
   }
 
   PointOutcome run_point(const Scenario& s, const Baselines& baselines, int, std::uint64_t,
                          RunContext& ctx) override;
 
  private:
+  // The first second of busy work in a process runs slower on some hosts (frequency ramp-up,
+  // host scheduling: bandwidth_read ran 14 % slower than later on the development VM), and
+  // isolation runs come first: an unmeasured warm-up precedes the first of them.
+  void warm_up(const Scenario& s, const MetricPlan& plan, const WorkloadInfo& w, int core,
+               RunContext& ctx) {
+    if (warmed_up_) return;
+    const TimeNs until = now_ns() + kWarmUpNs;
+    do {
+      if (ctx.stop_requested()) throw Interrupted();
+      measure_alone(s, plan, sources_, w, core, ctx);
+    } while (now_ns() < until);
+    warmed_up_ = true;
+    ctx.fact("warm_up",
+             "one unmeasured second of the first isolation workload before any measurement");
+  }
+
   static constexpr TimeNs kWarmUpNs = kNsPerS;
 
   const PolicyRegistry& policies_;

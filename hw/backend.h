@@ -1,12 +1,13 @@
 // The hw backend: real threads, real counters, real throttling, measured.
 //
 // Contract (model/backend/backend.h): validate() rejects what this host cannot run with an
-// InputError naming the file and JSON path; isolation() runs a workload alone on its core
-// (repetitions times, median); run_point() wires the controller, RT and nRT nodes of one point,
-// runs it and measures it. Calls come one at a time from the runner's main thread
-// (process_per_task() is false). On every exit path (success, exception, failed node,
-// stop_requested()) every nRT node is returned to nominal, every thread joined and every
-// external command killed before the call returns; an interrupted task throws Interrupted.
+// InputError naming the file and JSON path; isolation() runs a workload alone on its core once
+// (the runner asks for hw.baseline_repetitions measurements and uses their median); run_point()
+// wires the controller, RT and nRT nodes of one point, runs it and measures it. Calls come one at a
+// time from the runner's main thread (process_per_task() is false). On every exit path (success,
+// exception, failed node, stop_requested()) every nRT node is returned to nominal, every thread
+// joined and every external command killed before the call returns; an interrupted task throws
+// Interrupted.
 #pragma once
 
 #include <memory>

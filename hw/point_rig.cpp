@@ -245,10 +245,14 @@ void PointRig::check_errors() const {
 PointOutcome PointRig::outcome(RunContext& ctx) const {
   PointOutcome out;
   for (auto& x : rts_) {
-    std::vector<double> job_ns;
+    std::vector<double> job_ns, response_ns;
     for (double j : x->job_times_us())
       job_ns.push_back(j * 1e3);
-    out.rt.push_back(rt_outcome(x->spec().name, job_ns));
+    for (double r : x->response_times_us())
+      response_ns.push_back(r * 1e3);
+    std::optional<double> period_ns;
+    if (x->spec().period_us) period_ns = static_cast<double>(*x->spec().period_us * kNsPerUs);
+    out.rt.push_back(rt_outcome(x->spec().name, job_ns, response_ns, period_ns));
     emit_trace(ctx.trace(), x->trace(), "rt");
   }
   const ActivationTotals& totals = controller_->driver().totals();

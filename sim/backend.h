@@ -16,6 +16,8 @@ class SimBackend : public Backend {
   explicit SimBackend(const PolicyRegistry& policies) : policies_(policies) {}
   std::string_view name() const override { return "sim"; }
   bool process_per_task() const override { return true; }
+  // The model is deterministic: a second measurement would give the same figures.
+  int baseline_repetitions(const Scenario&) const override { return 1; }
   void validate(const Scenario& point) const override;
   IsolationResult isolation(const Scenario& scenario, const WorkloadInfo& workload, int core,
                             std::uint64_t seed, RunContext& ctx) override;

@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <map>
 #include <memory>
+#include <optional>
 #include <systemc>
 
 #include "core/error.h"
@@ -219,10 +220,14 @@ class Top : public sc_core::sc_module {
     SimReport rep;
     rep.end_ns = end_ns_;
     for (auto& r : rt_nodes_) {
-      std::vector<double> job_ns;
-      for (const auto& j : r->jobs())
+      std::vector<double> job_ns, response_ns;
+      for (const auto& j : r->jobs()) {
         job_ns.push_back(static_cast<double>(j.end - j.start));
-      rep.outcome.rt.push_back(rt_outcome(r->config().name, job_ns));
+        response_ns.push_back(static_cast<double>(j.end - j.release));
+      }
+      std::optional<double> period_ns;
+      if (r->config().period_ns) period_ns = static_cast<double>(*r->config().period_ns);
+      rep.outcome.rt.push_back(rt_outcome(r->config().name, job_ns, response_ns, period_ns));
       rep.rt_jobs.push_back(r->jobs());
     }
     for (std::size_t i = 0; i < nrt_.size(); ++i)

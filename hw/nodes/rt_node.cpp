@@ -28,6 +28,7 @@ RtRunner::RtRunner(const RtNodeSpec& spec, std::size_t index, SchedClass sched,
   stop_fd_ = Fd(::eventfd(0, EFD_CLOEXEC));
   if (!stop_fd_.valid()) throw RunError("eventfd: " + errno_text(errno));
   jobs_us_.reserve(static_cast<std::size_t>(spec_.iterations));
+  responses_us_.reserve(static_cast<std::size_t>(spec_.iterations));
 }
 
 RtRunner::~RtRunner() {
@@ -97,6 +98,8 @@ void RtRunner::main() {
     published_.fetch_add(1, std::memory_order_acq_rel);
     if (stop_.load(std::memory_order_acquire)) break;  // an aborted job is not a measurement
     jobs_us_.push_back(ns_to_us(t1 - t0));
+    // Without a period a job is released when it starts (right after the previous one).
+    responses_us_.push_back(ns_to_us(t1 - (spec_.period_us ? release : t0)));
     trace_.span(t0 - origin_, t1 - origin_, spec_.core, &track_, "job");
   }
 }

@@ -35,7 +35,9 @@ class RtRunner {
 
   const RtNodeSpec& spec() const { return spec_; }
   SchedOutcome outcome() const { return thread_ ? thread_->outcome() : SchedOutcome{}; }
+  // Finished jobs: start to finish, and release (its period's start) to finish.
   const std::vector<double>& job_times_us() const { return jobs_us_; }
+  const std::vector<double>& response_times_us() const { return responses_us_; }
   const TraceLog& trace() const { return trace_; }
 
  private:
@@ -56,7 +58,7 @@ class RtRunner {
   Fd stop_fd_;
   std::atomic<bool> go_{false}, stop_{false}, done_{false};
   std::atomic<int> published_{0};
-  std::vector<double> jobs_us_;
+  std::vector<double> jobs_us_, responses_us_;
   TraceLog trace_;
   std::unique_ptr<RtThread> thread_;
   bool shut_ = false;

@@ -1,28 +1,93 @@
 #include "backend/backend.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
+#include <vector>
 
 #include "core/error.h"
 #include "core/hash.h"
 
 namespace rosguard {
 
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double finite_median(std::vector<double> v) {
+  std::erase_if(v, [](double x) { return !std::isfinite(x); });
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+
+IsolationResult BaselineRuns::median() const {
+  std::vector<double> t, ipc, mbps;
+  for (const auto& [rep, r] : runs) {
+    t.push_back(r.time_us);
+    ipc.push_back(r.ipc);
+    mbps.push_back(r.mbps);
+  }
+  return {finite_median(t), finite_median(ipc), finite_median(mbps)};
+}
+
+double BaselineRuns::time_cv() const {
+  std::vector<double> t;
+  for (const auto& [rep, r] : runs)
+    if (std::isfinite(r.time_us)) t.push_back(r.time_us);
+  if (t.size() < 2) return kNaN;
+  double mean = 0.0;
+  for (double x : t)
+    mean += x;
+  mean /= static_cast<double>(t.size());
+  double ss = 0.0;
+  for (double x : t)
+    ss += (x - mean) * (x - mean);
+  return mean > 0.0 ? std::sqrt(ss / static_cast<double>(t.size() - 1)) / mean : kNaN;
+}
+
+std::string BaselineRuns::noise_warning(const std::string& key) const {
+  if (!too_noisy()) return "";
+  char cv[32];
+  std::snprintf(cv, sizeof cv, "%.1f", 100.0 * time_cv());
+  return "isolation baseline " + key + ": its time varies by " + cv +
+         " % (coefficient of variation over " + std::to_string(count()) +
+         " measurements, above 5 %); this host is too noisy for slowdown differences of that "
+         "order (quiet the machine, or raise hw.baseline_repetitions and repetitions)";
+}
+
+int baseline_round(int k, int repetitions, int measurements) {
+  return static_cast<int>(static_cast<long long>(k) * repetitions / measurements);
+}
+
 std::string Baselines::key(const Scenario& s, const WorkloadInfo& workload, int core) {
+  // How many times a baseline is measured does not change one measurement.
+  nlohmann::json hw = s.document.at("hw");
+  hw.erase("baseline_repetitions");
   const std::string context = s.backend + s.platform.doc.dump() + workload.doc.dump() +
-                              s.document.at("sim").dump() + s.document.at("hw").dump();
+                              s.document.at("sim").dump() + hw.dump();
   char buf[20];
   std::snprintf(buf, sizeof buf, "%08llx",
                 static_cast<unsigned long long>(fnv1a(context) & 0xffffffffULL));
   return workload.name + "/core" + std::to_string(core) + "/" + buf;
 }
 
-const IsolationResult& Baselines::at(const Scenario& s, const WorkloadInfo& workload,
-                                     int core) const {
+const BaselineRuns& Baselines::runs(const Scenario& s, const WorkloadInfo& workload,
+                                    int core) const {
   const std::string k = key(s, workload, core);
   auto it = by_key_.find(k);
-  if (it == by_key_.end()) throw RunError("no isolation baseline for " + k);
+  if (it == by_key_.end() || it->second.runs.empty())
+    throw RunError("no isolation baseline for " + k);
   return it->second;
+}
+
+IsolationResult Baselines::at(const Scenario& s, const WorkloadInfo& workload, int core) const {
+  return runs(s, workload, core).median();
 }
 
 std::uint64_t task_seed(std::uint64_t scenario_seed, std::string_view id, int rep) {

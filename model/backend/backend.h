@@ -1,7 +1,8 @@
 // The interface both backends implement, and what they return.
 //
-// Contract: the runner (tools/rosguard/runner.h) calls isolation() once per distinct
-// (workload, core) of a run, then run_point() for every point and repetition. A backend whose
+// Contract: the runner (tools/rosguard/runner.h) calls isolation() baseline_repetitions() times
+// per distinct (workload, core) of a run (each call one measurement), interleaved with
+// run_point() for every point and repetition (docs/design.md, section 5). A backend whose
 // process_per_task() is true gets each call in a fresh worker process (SystemC can elaborate
 // only once per process); otherwise calls come one at a time from the runner's main thread.
 // Times are microseconds as doubles; bandwidths are Eq. 1 MB/s.
@@ -29,25 +30,61 @@ struct IsolationResult {
   double mbps = 0.0;
 };
 
+// Every measurement of one isolation baseline, by measurement index (0, 1, ...), and what the
+// results use of them: the median, and the spread of the isolation time.
+struct BaselineRuns {
+  // A baseline whose isolation time varies more than this (coefficient of variation) is too
+  // noisy for the slowdowns measured against it: regulation effects of a few percent (the
+  // paper's differences between policies) would be lost in it.
+  static constexpr double kNoisyCv = 0.05;
+
+  std::map<int, IsolationResult> runs;
+
+  int count() const { return static_cast<int>(runs.size()); }
+  // Field by field median of the measurements (NaN fields ignored; NaN when none is finite).
+  IsolationResult median() const;
+  // Sample standard deviation / mean of the isolation times; NaN with fewer than two.
+  double time_cv() const;
+  bool too_noisy() const { return time_cv() > kNoisyCv; }
+  // What to tell the user about baseline `key` when it is too noisy; empty otherwise.
+  std::string noise_warning(const std::string& key) const;
+};
+
+// Before which repetition round (0 .. repetitions-1) of the points measurement k of a baseline
+// measured `measurements` times runs: floor(k x repetitions / measurements). With as many
+// measurements as repetitions, one before each round; with more, the extra ones go to the first
+// rounds; the first is always before round 0, and every measurement before the last round.
+int baseline_round(int k, int repetitions, int measurements);
+
 // Isolation results of a run, keyed by workload identity and core.
 class Baselines {
  public:
   // Identity of an isolation run: the workload, the core, and everything else that can change
-  // its result (platform, backend and backend settings).
+  // its result (platform, backend and backend settings; not how often it is measured).
   static std::string key(const Scenario& scenario, const WorkloadInfo& workload, int core);
-  void put(const std::string& key, IsolationResult result) { by_key_[key] = result; }
-  // Throws RunError naming the missing key.
-  const IsolationResult& at(const Scenario& scenario, const WorkloadInfo& workload, int core) const;
-  const std::map<std::string, IsolationResult>& all() const { return by_key_; }
+  // Records measurement `rep` of baseline `key` (replacing an earlier one of the same index).
+  void put(const std::string& key, IsolationResult result, int rep = 0) {
+    by_key_[key].runs[rep] = result;
+  }
+  // The median of a baseline's measurements. Throws RunError naming the missing key.
+  IsolationResult at(const Scenario& scenario, const WorkloadInfo& workload, int core) const;
+  // Every measurement of a baseline. Throws RunError naming the missing key.
+  const BaselineRuns& runs(const Scenario& scenario, const WorkloadInfo& workload, int core) const;
+  const std::map<std::string, BaselineRuns>& all() const { return by_key_; }
 
  private:
-  std::map<std::string, IsolationResult> by_key_;
+  std::map<std::string, BaselineRuns> by_key_;
 };
 
 struct RtOutcome {
   std::string name;
   double time_us = 0.0;  // mean job time (start to finish) over the node's iterations
   int jobs = 0;
+  // Each finished job's response time (release to finish; released at its period's start, or
+  // when the previous job finished when the node has no period), in job order.
+  std::vector<double> response_us;
+  // Jobs whose response time exceeded the period (the implicit deadline); -1 without a period.
+  int deadline_misses = -1;
 };
 
 struct NrtOutcome {
@@ -61,8 +98,9 @@ struct NrtOutcome {
   double runs = 0.0;  // runs completed in the window (fractional)
 };
 
-// One observation for samples.csv. kind: activation_delay | pmc_callback | sampling_overhead,
-// or another name a backend documents.
+// One observation for samples.csv. kind: activation_delay | pmc_callback | sampling_overhead |
+// pmc_read | rt_job (samples_rows() writes these from RtOutcome::response_us: `rt_job` for the
+// first RT node, `rt1_job`, ... for the others), or another name a backend documents.
 struct Observation {
   std::string kind;
   double value_us = 0.0;
@@ -95,10 +133,14 @@ class Backend {
   virtual ~Backend() = default;
   virtual std::string_view name() const = 0;
   virtual bool process_per_task() const = 0;
+  // How many times each distinct isolation baseline of `scenario` is measured: 1 for a
+  // deterministic backend (sim), several where the machine is noisy (hw).
+  virtual int baseline_repetitions(const Scenario& scenario) const = 0;
   // Called for every point before anything is written: throws InputError (file + JSON path)
   // for what this backend cannot run (e.g. a platform without a memory model).
   virtual void validate(const Scenario& point) const = 0;
-  // Throws InputError for a scenario this backend cannot run, RunError for failures.
+  // One measurement of a baseline (`seed` differs per measurement). Throws InputError for a
+  // scenario this backend cannot run, RunError for failures.
   virtual IsolationResult isolation(const Scenario& scenario, const WorkloadInfo& workload,
                                     int core, std::uint64_t seed, RunContext& ctx) = 0;
   virtual PointOutcome run_point(const Scenario& point, const Baselines& baselines, int rep,

@@ -10,7 +10,8 @@ double not_applicable() {
   return std::numeric_limits<double>::quiet_NaN();
 }
 
-RtOutcome rt_outcome(const std::string& name, std::span<const double> job_ns) {
+RtOutcome rt_outcome(const std::string& name, std::span<const double> job_ns,
+                     std::span<const double> response_ns, std::optional<double> period_ns) {
   RtOutcome o;
   o.name = name;
   double sum = 0.0;
@@ -18,6 +19,11 @@ RtOutcome rt_outcome(const std::string& name, std::span<const double> job_ns) {
     sum += j;
   o.jobs = static_cast<int>(job_ns.size());
   o.time_us = o.jobs ? sum / o.jobs / 1e3 : not_applicable();
+  if (period_ns) o.deadline_misses = 0;
+  for (double r : response_ns) {
+    o.response_us.push_back(r / 1e3);
+    if (period_ns && r > *period_ns) ++o.deadline_misses;
+  }
   return o;
 }
 

@@ -19,8 +19,11 @@ namespace rosguard {
 // The value meaning "not applicable" in an outcome.
 double not_applicable();
 
-// An RT node's mean job time over its finished jobs (durations in ns).
-RtOutcome rt_outcome(const std::string& name, std::span<const double> job_ns);
+// An RT node's outcome from its finished jobs, in job order: durations (start to finish) and
+// response times (release to finish) in ns; `period_ns` when the node has a period (its implicit
+// deadline, against which misses are counted).
+RtOutcome rt_outcome(const std::string& name, std::span<const double> job_ns,
+                     std::span<const double> response_ns, std::optional<double> period_ns);
 
 // What the host measured of one nRT node besides the driver's bookkeeping.
 struct NrtMeasure {

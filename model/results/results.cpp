@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <map>
+#include <optional>
+#include <string>
 
 namespace rosguard {
 namespace {
@@ -36,6 +39,40 @@ std::string compact(double v) {
   return buf;
 }
 
+// The cells of node `prefix` ("rt_", "nrt1_", ...) that come from its isolation baseline, for a
+// co-run time `t`; `first`: the node whose ipc / mbps have fixed columns.
+void isolation_cells(std::map<std::string, std::string>& cell, const std::string& prefix,
+                     bool first, const BaselineRuns& runs, double t) {
+  const IsolationResult iso = runs.median();
+  cell[prefix + "isolation_us"] = us(iso.time_us);
+  cell[prefix + "slowdown"] = ratio(t / iso.time_us);
+  cell[prefix + "isolation_n"] = std::to_string(runs.count());
+  cell[prefix + "isolation_cv"] = ratio(runs.time_cv());
+  if (first) {
+    cell[prefix + "isolation_ipc"] = ratio(iso.ipc);
+    cell[prefix + "isolation_mbps"] = mbps(iso.mbps);
+  }
+}
+
+std::string prefix_of(const char* kind, std::size_t i) {
+  return i == 0 ? std::string(kind) + "_" : kind + std::to_string(i) + "_";
+}
+
+std::string rt_job_kind(std::size_t i) {
+  return i == 0 ? "rt_job" : "rt" + std::to_string(i) + "_job";
+}
+
+std::string join_cells(const std::vector<std::string>& header,
+                       const std::map<std::string, std::string>& cell) {
+  std::string line;
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    if (c) line += ',';
+    auto it = cell.find(header[c]);
+    if (it != cell.end()) line += csv_escape(it->second);
+  }
+  return line;
+}
+
 std::vector<double> values_of(const PointOutcome& o, const std::string& kind) {
   std::vector<double> v;
   for (const auto& s : o.samples)
@@ -54,6 +91,15 @@ double median(std::vector<double> v) {
 
 double maximum(const std::vector<double>& v) {
   return v.empty() ? kNaN : *std::max_element(v.begin(), v.end());
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  const double pos = q / 100.0 * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(pos);
+  const std::size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
 }
 
 const std::vector<std::string>& fixed_point_columns() {
@@ -90,15 +136,18 @@ const std::vector<std::string>& fixed_point_columns() {
 std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
                                        const std::vector<std::string>& sweep_paths) {
   std::vector<std::string> h = fixed_point_columns();
-  for (const char* c : {"platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps",
-                        "sampling_overhead_p50_us", "pmc_callback_max_us"})
+  for (const char* c :
+       {"platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps", "sampling_overhead_p50_us",
+        "pmc_callback_max_us", "rt_isolation_n", "rt_isolation_cv", "nrt_isolation_n",
+        "nrt_isolation_cv", "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses"})
     h.emplace_back(c);
   for (std::size_t i = 1; i < max_rt; ++i)
-    for (const char* c : {"workload", "time_us", "isolation_us", "slowdown"})
+    for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "isolation_n",
+                          "isolation_cv", "response_p99_us", "response_max_us", "deadline_misses"})
       h.push_back("rt" + std::to_string(i) + "_" + c);
   for (std::size_t i = 1; i < max_nrt; ++i)
-    for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "bandwidth_mbps",
-                          "throttle_count", "throttled_us"})
+    for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "isolation_n",
+                          "isolation_cv", "bandwidth_mbps", "throttle_count", "throttled_us"})
       h.push_back("nrt" + std::to_string(i) + "_" + c);
   for (const auto& p : sweep_paths)
     h.push_back("param:" + p);
@@ -123,41 +172,38 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
 
   const auto rt_cells = [&](const std::string& prefix, std::size_t i, bool first) {
     const RtNodeSpec& n = s.nodes.rt[i];
-    const IsolationResult& iso = b.at(s, n.workload, n.core);
-    const double t = i < o.rt.size() ? o.rt[i].time_us : kNaN;
+    const RtOutcome* out = i < o.rt.size() ? &o.rt[i] : nullptr;
+    const double t = out ? out->time_us : kNaN;
     cell[prefix + "workload"] = n.workload.name;
     cell[prefix + "time_us"] = us(t);
-    cell[prefix + "isolation_us"] = us(iso.time_us);
-    cell[prefix + "slowdown"] = ratio(t / iso.time_us);
-    if (first) {
-      cell["rt_isolation_ipc"] = ratio(iso.ipc);
-      cell["rt_isolation_mbps"] = mbps(iso.mbps);
-      cell["rt_jobs"] = i < o.rt.size() ? std::to_string(o.rt[i].jobs) : "";
+    isolation_cells(cell, prefix, first, b.runs(s, n.workload, n.core), t);
+    if (out) {
+      cell[prefix + "response_p99_us"] = us(percentile(out->response_us, 99.0));
+      cell[prefix + "response_max_us"] = us(maximum(out->response_us));
+      if (out->deadline_misses >= 0)
+        cell[prefix + "deadline_misses"] = std::to_string(out->deadline_misses);
     }
+    if (first) cell["rt_jobs"] = out ? std::to_string(out->jobs) : "";
   };
   const auto nrt_cells = [&](const std::string& prefix, std::size_t i, bool first) {
     const NrtNodeSpec& n = s.nodes.nrt[i];
-    const IsolationResult& iso = b.at(s, n.workload, n.core);
     const NrtOutcome* out = i < o.nrt.size() ? &o.nrt[i] : nullptr;
     const double t = out ? out->time_us : kNaN;
     cell[prefix + "workload"] = n.workload.name;
     cell[prefix + "time_us"] = us(t);
-    cell[prefix + "isolation_us"] = us(iso.time_us);
-    cell[prefix + "slowdown"] = ratio(t / iso.time_us);
+    isolation_cells(cell, prefix, first, b.runs(s, n.workload, n.core), t);
     cell[prefix + "bandwidth_mbps"] = out ? mbps(out->bandwidth_mbps) : "";
     cell[prefix + "throttle_count"] = out ? std::to_string(out->throttle_count) : "";
     cell[prefix + "throttled_us"] = out ? us(out->throttled_us) : "";
     if (first) {
-      cell["nrt_isolation_ipc"] = ratio(iso.ipc);
-      cell["nrt_isolation_mbps"] = mbps(iso.mbps);
       cell["nrt_mode"] = std::string(to_string(n.mode));
       cell["nrt_runs"] = out ? fixed(out->runs, 4) : "";
     }
   };
   for (std::size_t i = 0; i < s.nodes.rt.size(); ++i)
-    rt_cells(i == 0 ? "rt_" : "rt" + std::to_string(i) + "_", i, i == 0);
+    rt_cells(prefix_of("rt", i), i, i == 0);
   for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
-    nrt_cells(i == 0 ? "nrt_" : "nrt" + std::to_string(i) + "_", i, i == 0);
+    nrt_cells(prefix_of("nrt", i), i, i == 0);
   // The fixed name of the first nRT node's throttle columns has no "nrt_" prefix.
   if (!s.nodes.nrt.empty()) {
     cell["throttle_count"] = cell["nrt_throttle_count"];
@@ -174,13 +220,42 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
   for (const auto& p : point.params)
     cell["param:" + p.path] = p.value.is_string() ? p.value.get<std::string>() : p.value.dump();
 
-  std::string line;
-  for (std::size_t c = 0; c < header.size(); ++c) {
-    if (c) line += ',';
-    auto it = cell.find(header[c]);
-    if (it != cell.end()) line += csv_escape(it->second);
+  return join_cells(header, cell) + "\n";
+}
+
+std::optional<std::string> refresh_isolation_cells(const std::vector<std::string>& header,
+                                                   const std::string& line, const Scenario& s,
+                                                   const Baselines& b) {
+  const std::vector<std::string> cells = csv_split(line);
+  if (cells.size() != header.size()) return std::nullopt;
+  std::map<std::string, std::string> cell;
+  for (std::size_t c = 0; c < header.size(); ++c)
+    cell[header[c]] = cells[c];
+  bool changed = false;
+  const auto refresh = [&](const std::string& prefix, bool first, const BaselineRuns& runs) {
+    const std::string t = cell[prefix + "time_us"];
+    std::map<std::string, std::string> fresh;
+    char* end = nullptr;
+    const double time = std::strtod(t.c_str(), &end);  // an empty or odd cell: not measured
+    isolation_cells(fresh, prefix, first, runs, !t.empty() && *end == '\0' ? time : kNaN);
+    for (const auto& [column, value] : fresh)
+      if (column != prefix + "slowdown" && cell.count(column) && cell[column] != value)
+        changed = true;
+    for (const auto& [column, value] : fresh)
+      if (cell.count(column)) cell[column] = value;
+  };
+  for (std::size_t i = 0; i < s.nodes.rt.size(); ++i) {
+    const RtNodeSpec& n = s.nodes.rt[i];
+    if (!b.all().count(Baselines::key(s, n.workload, n.core))) return std::nullopt;
+    refresh(prefix_of("rt", i), i == 0, b.runs(s, n.workload, n.core));
   }
-  return line + "\n";
+  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i) {
+    const NrtNodeSpec& n = s.nodes.nrt[i];
+    if (!b.all().count(Baselines::key(s, n.workload, n.core))) return std::nullopt;
+    refresh(prefix_of("nrt", i), i == 0, b.runs(s, n.workload, n.core));
+  }
+  if (!changed) return std::nullopt;
+  return join_cells(header, cell);
 }
 
 std::string samples_rows(const std::string& point_id, int rep, const PointOutcome& o) {
@@ -188,6 +263,9 @@ std::string samples_rows(const std::string& point_id, int rep, const PointOutcom
   const std::string prefix = point_id + "," + std::to_string(rep) + ",";
   for (const auto& s : o.samples)
     out += prefix + csv_escape(s.kind) + "," + us(s.value_us) + "\n";
+  for (std::size_t i = 0; i < o.rt.size(); ++i)
+    for (double v : o.rt[i].response_us)
+      out += prefix + rt_job_kind(i) + "," + us(v) + "\n";
   return out;
 }
 

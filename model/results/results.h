@@ -5,6 +5,7 @@
 // are written with fixed decimals, so identical outcomes give byte-identical rows.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,14 +28,26 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
                        const Scenario& scenario, int rep, const PointOutcome& outcome,
                        const Baselines& baselines);
 
+// The row `line` of points.csv (for `header`, of a point of scenario `s`) with the cells that come
+// from the isolation baselines (isolation time, ipc, mbps, count, spread, slowdown) recomputed
+// from `baselines`; nullopt when they are unchanged (the row stays byte for byte) or when a
+// baseline is missing. A run writes a row with the baselines measured so far and refreshes it
+// once the rest are in (hw: the median of every measurement).
+std::optional<std::string> refresh_isolation_cells(const std::vector<std::string>& header,
+                                                   const std::string& line, const Scenario& s,
+                                                   const Baselines& baselines);
+
 inline constexpr const char* kSamplesHeader = "point,rep,kind,value_us";
 
-// The samples.csv lines of one point and repetition.
+// The samples.csv lines of one point and repetition: the outcome's samples, then each RT node's
+// response times (kind rt_job for the first RT node, rt1_job, ... for the others).
 std::string samples_rows(const std::string& point_id, int rep, const PointOutcome& outcome);
 
 // Median (mean of the two middle values for an even count) and maximum; NaN when empty.
 double median(std::vector<double> values);
 double maximum(const std::vector<double>& values);
+// Percentile q (0..100), linear between the closest ranks (numpy's default); NaN when empty.
+double percentile(std::vector<double> values, double q);
 
 // RFC 4180 quoting when needed.
 std::string csv_escape(const std::string& field);

@@ -232,12 +232,21 @@ RegulationSpec build_regulation(const nlohmann::json& reg, const PlatformInfo& p
   return r;
 }
 
-HwSettings build_hw_settings(const nlohmann::json& hw) {
+HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const std::string& file) {
   HwSettings out;
   out.pmc_source = parse_pmc_source(hw.at("pmc_source").get<std::string>());
   out.scheduler =
       hw.at("scheduler").get<std::string>() == "fifo" ? SchedulerKind::Fifo : SchedulerKind::Other;
   out.watchdog_ms = hw.at("watchdog_ms").get<std::int64_t>();
+  // Three measurements give a median that one outlier cannot move.
+  out.baseline_repetitions = std::max(repetitions, 3);
+  if (hw.contains("baseline_repetitions")) {
+    out.baseline_repetitions = hw.at("baseline_repetitions").get<int>();
+    if (out.baseline_repetitions < repetitions)
+      throw InputError(file, "/hw/baseline_repetitions",
+                       "must be at least repetitions (" + std::to_string(repetitions) +
+                           "): every repetition round needs a baseline measured before it");
+  }
   return out;
 }
 
@@ -262,7 +271,7 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
     check_policy_rules(s, p->traits);
 
   s.sim.quantum_us = doc.at("sim").at("quantum_us").get<double>();
-  s.hw = build_hw_settings(doc.at("hw"));
+  s.hw = build_hw_settings(doc.at("hw"), s.repetitions, file);
   return s;
 }
 

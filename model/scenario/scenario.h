@@ -87,6 +87,9 @@ struct HwSettings {
   PmcSourceKind pmc_source = PmcSourceKind::Auto;
   SchedulerKind scheduler = SchedulerKind::Fifo;
   std::int64_t watchdog_ms = 100;
+  // Measurements of each isolation baseline (hw.baseline_repetitions; absent: the larger of
+  // repetitions and 3).
+  int baseline_repetitions = 3;
 };
 
 struct Scenario {

@@ -31,6 +31,10 @@ void RtNodeModel::release(TimeNs now) {
 void RtNodeModel::begin_job(TimeNs now) {
   running_ = true;
   current_ = JobStats{};
+  // Job k > 0 of a periodic node is released at k x period (the release timer's times); it
+  // starts later when the previous job overran.
+  current_.release =
+      cfg_.period_ns && next_job_ > 0 ? static_cast<TimeNs>(next_job_) * *cfg_.period_ns : now;
   current_.start = now;
   start_pmu_ = core_.pmu();
   if (on_job_start_) on_job_start_(now);

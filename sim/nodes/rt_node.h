@@ -29,6 +29,7 @@ struct RtNodeConfig {
 
 // One job: its times and its core's PMU deltas (the isolation figures come from these).
 struct JobStats {
+  TimeNs release = 0;  // its period's start (no period: its start)
   TimeNs start = 0;
   TimeNs end = 0;
   double cycles = 0.0;

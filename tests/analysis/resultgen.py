@@ -20,6 +20,8 @@ import json
 import random
 from pathlib import Path
 
+import numpy as np
+
 # Written out here, not imported from analysis.results: the fixtures mirror docs/design.md, so a
 # drift of the reader's column list fails the tests instead of following it silently.
 FIXED_COLUMNS = [
@@ -31,7 +33,10 @@ FIXED_COLUMNS = [
     "nrt_isolation_ipc", "nrt_isolation_mbps",
 ]
 EXTRA_COLUMNS = ["platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps",
-                 "sampling_overhead_p50_us", "pmc_callback_max_us"]
+                 "sampling_overhead_p50_us", "pmc_callback_max_us", "rt_isolation_n",
+                 "rt_isolation_cv", "nrt_isolation_n", "nrt_isolation_cv",
+                 "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses"]
+RT_JOBS = 3
 REFERENCE_MBPS = 26271.74
 # workload: (isolation time us, IPC, bandwidth MB/s) -- Table 1 of the paper for IPC / MB/s.
 ISOLATION = {
@@ -237,6 +242,9 @@ def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: fl
     rt_iso = ISOLATION.get(s["rt_workload"])
     nrt_iso = ISOLATION.get(s["nrt_workload"])
     samples = _samples(s, rng)
+    if rt_iso and rt_sd is not None:  # each job's response time around the mean job time (no rng: other values stay)
+        samples["rt_job"] = [rt_sd * rt_iso[0] * (0.98 + 0.02 * j) for j in range(RT_JOBS)]
+    jobs = samples.get("rt_job", [])
     delays = samples.get("activation_delay", [])
     callbacks = samples.get("pmc_callback", [])
     throttles = 0 if nrt_sd is None else int(round((nrt_sd - 1.0) * 40))
@@ -262,10 +270,13 @@ def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: fl
         "nrt_isolation_ipc": _ratio(nrt_iso and nrt_iso[1]),
         "nrt_isolation_mbps": _us(nrt_iso and nrt_iso[2]),
         "platform": "orin-agx", "nrt_mode": "loop" if s["rt_workload"] else "once",
-        "rt_jobs": "1" if rt_iso else "", "nrt_runs": "" if nrt_sd is None else "1.5000",
+        "rt_jobs": str(RT_JOBS) if rt_iso else "", "nrt_runs": "" if nrt_sd is None else "1.5000",
         "reference_mbps": _us(REFERENCE_MBPS),
         "sampling_overhead_p50_us": _us(_median(samples.get("sampling_overhead", []))),
         "pmc_callback_max_us": _us(max(callbacks) if callbacks else None),
+        "rt_isolation_n": "1" if rt_iso else "", "nrt_isolation_n": "1" if nrt_iso else "",
+        "rt_response_p99_us": _us(float(np.percentile(jobs, 99)) if jobs else None),
+        "rt_response_max_us": _us(max(jobs) if jobs else None),
     }
     for key, value in s["params"].items():
         cells[f"param:{key}"] = _param(value)

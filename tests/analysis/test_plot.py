@@ -71,6 +71,20 @@ def test_plot_distributions_csv_pools_samples_per_sampling_mode_and_period(resul
     assert not [r for r in rows if r["kind"] == "queue_depth"]    # unknown kinds ignored
 
 
+def test_plot_tables_hold_rt_response_times_and_baseline_spread(results_dir, loaded, tmp_path):
+    plot.run(results_dir("threshold"), tmp_path, stream=io.StringIO())
+    results = loaded("threshold")
+    point = results.points[0]
+    jobs = results.samples_of(point.id, "rt_job")
+    assert jobs.size == point.reps * resultgen.RT_JOBS
+    rows = _read_csv(tmp_path / "distributions.csv")
+    assert [r for r in rows if r["kind"] == "rt_job"]
+    summary = next(r for r in _read_csv(tmp_path / "summary.csv") if r["point"] == point.id)
+    maxima = [r["rt_response_max_us"] for r in results.rows if r["point"] == point.id]
+    assert float(summary["rt_response_max_us_max"]) == pytest.approx(max(maxima), abs=1e-6)
+    assert "rt_isolation_cv_mean" in summary
+
+
 def test_plot_defaults_to_a_figures_folder_inside_the_results(results_dir, tmp_path):
     folder = shutil.copytree(results_dir("regulation"), tmp_path / "run")
     assert plot.run(folder, stream=io.StringIO()) == 0

@@ -121,7 +121,8 @@ resume_errors)
 import json, sys
 b = json.load(open(sys.argv[1]))
 for v in b.values():
-    v["ipc"] = json.loads(sys.argv[2])
+    for r in v["runs"]:
+        r["ipc"] = json.loads(sys.argv[2])
 json.dump(b, open(sys.argv[1], "w"))
 PY
   }
@@ -138,6 +139,58 @@ PY
   [[ $(rows "$out") -eq 24 ]] || fail "$(rows "$out") rows after resume"
   [[ $(status "$out") == complete ]] || fail "status after resume: $(status "$out")"
   grep -q '"ipc": null' "$out/baselines.json" || fail "null ipc not kept in baselines.json"
+  ;;
+baselines)
+  # hw: every baseline measured max(repetitions, 3) = 3 times, each measurement kept, the rows
+  # with their median and spread; a spread above 5 % warned about on stderr and in the manifest.
+  # A baselines.json of a rosguard before repeated baselines (one value per key) still resumes.
+  out="$tmp/b"
+  ROSGUARD_FAKE_ISO_SPREAD=0.1 "$bin" run $scenario --backend hw --out "$out" --quiet 2> "$tmp/err" ||
+    fail "noisy run: $(cat "$tmp/err")"
+  grep -q "warning: isolation baseline .* varies by 10.0 %" "$tmp/err" ||
+    fail "no noise warning on stderr: $(cat "$tmp/err")"
+  /usr/bin/python3 - "$out" <<'PY' || fail "noisy run: wrong baselines, rows or manifest"
+import csv, json, statistics, sys
+out = sys.argv[1]
+b = json.load(open(f"{out}/baselines.json"))
+m = json.load(open(f"{out}/manifest.json"))
+rows = list(csv.DictReader(open(f"{out}/points.csv")))
+for key, v in b.items():
+    times = [r["time_us"] for r in v["runs"]]
+    assert [r["rep"] for r in v["runs"]] == [0, 1, 2], v
+    assert v["time_us"] == statistics.median(times), v
+    assert abs(v["time_cv"] - statistics.stdev(times) / statistics.mean(times)) < 1e-9, v
+    assert m["baselines"][key]["measurements"] == 3
+    assert any(w.startswith(f"isolation baseline {key}:") for w in m["warnings"]), m["warnings"]
+for r in rows:
+    assert r["rt_isolation_n"] == "3" and r["nrt_isolation_n"] == "3", r
+    assert abs(float(r["rt_isolation_cv"]) - 0.1) < 1e-6, r
+    med = [v["time_us"] for k, v in b.items() if k.startswith("fake/core1/")][0]
+    assert abs(float(r["rt_isolation_us"]) - med) < 1e-3, r
+    assert abs(float(r["rt_slowdown"]) - float(r["rt_time_us"]) / med) < 1e-5, r
+PY
+  # The older format: one value per key; the resumed run measures the other two and refreshes.
+  out="$tmp/old"
+  ROSGUARD_FAKE_SLEEP_MS=100 "$bin" run $scenario --backend hw --out "$out" --quiet 2>/dev/null &
+  pid=$!
+  wait_rows "$out" 2
+  kill -INT $pid
+  wait $pid
+  /usr/bin/python3 - "$out/baselines.json" <<'PY'
+import json, sys
+b = json.load(open(sys.argv[1]))
+json.dump({k: {f: v["runs"][0][f] for f in ("time_us", "ipc", "mbps")} for k, v in b.items()},
+          open(sys.argv[1], "w"))
+PY
+  "$bin" run $scenario --backend hw --out "$out" --resume --quiet 2> "$tmp/err" ||
+    fail "resume from a single-value baselines.json: $(cat "$tmp/err")"
+  [[ $(rows "$out") -eq 24 ]] || fail "$(rows "$out") rows after resume"
+  /usr/bin/python3 - "$out" <<'PY' || fail "resumed old format: not 3 measurements everywhere"
+import csv, json, sys
+b = json.load(open(f"{sys.argv[1]}/baselines.json"))
+assert all(len(v["runs"]) == 3 for v in b.values()), b
+assert all(r["rt_isolation_n"] == "3" for r in csv.DictReader(open(f"{sys.argv[1]}/points.csv")))
+PY
   ;;
 failure)
   # A failing point: exit 1, status failed, the error in the manifest, complete rows kept.

@@ -1,12 +1,15 @@
 // Resume through the real binary: a hw run interrupted with SIGINT and continued with --resume
 // ends with every (point, rep) exactly once and the manifest complete. On a machine without a
 // hardware PMU the counter source has no IPC, so baselines.json holds "ipc": null, which the
-// resumed run must read back as "not measured".
+// resumed run must read back as "not measured". Each baseline is measured 6 times (as many as
+// the repetitions), interleaved with the rounds; the resumed run measures the ones the
+// interrupted one did not, and every row ends with the median of all 6.
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <filesystem>
@@ -90,9 +93,21 @@ TEST_CASE("SIGINT then --resume: every (point, rep) exactly once, manifest compl
   const auto points = lines_of(slurp(out / "points.csv"));
   REQUIRE(points.size() == expected_rows + 1);
   std::map<std::pair<std::string, std::string>, int> seen;
+  const auto header = rosguard::csv_split(points[0]);
+  const auto column = [&](const char* name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
   for (std::size_t i = 1; i < points.size(); ++i) {
     const auto cells = rosguard::csv_split(points[i]);
     ++seen[{cells.at(0), cells.at(1)}];
+    INFO(points[i]);
+    CHECK(cells.at(column("rt_isolation_n")) == "6");
+    CHECK(cells.at(column("nrt_isolation_n")) == "6");
+  }
+  const auto baselines_after = nlohmann::json::parse(slurp(out / "baselines.json"));
+  for (const auto& [key, entry] : baselines_after.items()) {
+    INFO(key);
+    CHECK(entry.at("runs").size() == 6);
   }
   CHECK(seen.size() == expected_rows);
   for (const auto& [key, count] : seen) {

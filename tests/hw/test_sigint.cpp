@@ -10,6 +10,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
 
@@ -41,12 +42,21 @@ TEST_CASE("SIGINT mid-run: exit 130, only complete rows, nothing left under SCHE
             out.c_str(), "--quiet", static_cast<char*>(nullptr));
     ::_exit(127);
   }
-  // Interrupt once a few rows are written (the run is then between or inside points).
+  // Interrupt once a few rows are written and the next round's baselines are saved (each of the
+  // 40 rounds measures both baselines once more, then runs the point): the run is then inside
+  // a point.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  const auto next_round_measured = [&] {
+    const auto b = nlohmann::json::parse(slurp(out / "baselines.json"), nullptr, false);
+    if (!b.is_object() || b.size() != 2) return false;
+    for (const auto& [key, entry] : b.items())
+      if (!entry.contains("runs") || entry["runs"].size() < 4) return false;
+    return true;
+  };
   std::size_t rows = 0;
   while (std::chrono::steady_clock::now() < deadline) {
     rows = lines_of(slurp(out / "points.csv")).size();
-    if (rows >= 4) break;  // header + 3 rows
+    if (rows >= 4 && next_round_measured()) break;  // header + 3 rows, 4 baselines each
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   REQUIRE(rows >= 4);

@@ -86,6 +86,39 @@ double number_or_nan(const json& value) {
   return value.is_null() ? std::numeric_limits<double>::quiet_NaN() : value.get<double>();
 }
 
+json baselines_to_json(const Baselines& baselines) {
+  json b = json::object();
+  for (const auto& [k, runs] : baselines.all()) {
+    const IsolationResult m = runs.median();
+    json each = json::array();
+    for (const auto& [rep, r] : runs.runs)  // NaN is written null
+      each.push_back({{"rep", rep}, {"time_us", r.time_us}, {"ipc", r.ipc}, {"mbps", r.mbps}});
+    b[k] = {{"time_us", m.time_us},
+            {"ipc", m.ipc},
+            {"mbps", m.mbps},
+            {"time_cv", runs.time_cv()},
+            {"runs", each}};
+  }
+  return b;
+}
+
+Baselines baselines_from_json(const json& doc) {
+  Baselines out;
+  const auto result = [](const json& v) {
+    return IsolationResult{number_or_nan(v.at("time_us")), number_or_nan(v.at("ipc")),
+                           number_or_nan(v.at("mbps"))};
+  };
+  for (const auto& [k, v] : doc.items()) {
+    if (!v.contains("runs")) {  // one measurement, as rosguard wrote before repeated baselines
+      out.put(k, result(v), 0);
+      continue;
+    }
+    for (const auto& r : v.at("runs"))
+      out.put(k, result(r), r.at("rep").get<int>());
+  }
+  return out;
+}
+
 ResultsStore::ResultsStore(fs::path dir, std::string header_line,
                            std::map<std::string, std::size_t> order, int repetitions)
     : dir_(std::move(dir)),
@@ -116,6 +149,20 @@ void ResultsStore::prepare(bool overwrite, bool joining, const std::string& scen
   }
 }
 
+Baselines ResultsStore::read_baselines() const {
+  std::error_code ec;
+  const fs::path path = dir_ / "baselines.json";
+  if (!fs::exists(path, ec)) return {};
+  const json b = json::parse(read_file(path), nullptr, false);
+  if (!b.is_object()) return {};
+  try {
+    return baselines_from_json(b);
+  } catch (const json::exception& e) {
+    throw RunError(path.string() + ": not the isolation results rosguard writes (" + e.what() +
+                   "); remove it to measure them again");
+  }
+}
+
 json ResultsStore::read_manifest() const {
   std::error_code ec;
   const fs::path path = dir_ / "manifest.json";
@@ -125,7 +172,7 @@ json ResultsStore::read_manifest() const {
 
 // Sorted rows, the first row of each run kept; samples of runs without a row dropped. The caller
 // holds the lock, so no writer is between its two appends.
-std::set<RunKey> ResultsStore::tidy_csv_files() const {
+std::set<RunKey> ResultsStore::tidy_csv_files(const RowRefresher& refresh) const {
   const CsvFile points = read_csv(points_path(), order_);
   if (!points.header.empty() && points.header != header_line_)
     throw InputError("", "",
@@ -133,9 +180,13 @@ std::set<RunKey> ResultsStore::tidy_csv_files() const {
                          " has other columns than this scenario produces; resume "
                          "only the same scenario, or choose another --out");
   std::set<RunKey> done;
+  const Baselines baselines = refresh ? read_baselines() : Baselines{};
   std::string text = header_line_ + "\n";
-  for (const auto& row : points.rows)
-    if (done.insert(row.key).second) text += row.line + "\n";
+  for (const auto& row : points.rows) {
+    if (!done.insert(row.key).second) continue;
+    const auto fresh = refresh ? refresh(row.key.first, row.line, baselines) : std::nullopt;
+    text += (fresh ? *fresh : row.line) + "\n";
+  }
   write_file_atomic(points_path(), text);
 
   text = std::string(kSamplesHeader) + "\n";
@@ -158,18 +209,7 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
                          "only the same scenario, or choose another --out");
   Opened opened;
   opened.done = tidy_csv_files();
-  const fs::path baselines = dir_ / "baselines.json";
-  if (fs::exists(baselines, ec)) {
-    const json b = json::parse(read_file(baselines), nullptr, false);
-    if (b.is_object()) try {
-        for (const auto& [k, v] : b.items())
-          opened.baselines.put(k, {number_or_nan(v.at("time_us")), number_or_nan(v.at("ipc")),
-                                   number_or_nan(v.at("mbps"))});
-      } catch (const json::exception& e) {
-        throw RunError(baselines.string() + ": not the isolation results rosguard writes (" +
-                       e.what() + "); remove it to measure them again");
-      }
-  }
+  opened.baselines = read_baselines();
   shard_ = shard;
   m.update(description);
   m["shard"] = shard;
@@ -194,13 +234,11 @@ void ResultsStore::append_run(const std::string& samples, const std::string& row
 
 void ResultsStore::save_baselines(const Baselines& baselines) const {
   FileLock lock(dir_ / ".lock");
-  std::error_code ec;
-  const fs::path path = dir_ / "baselines.json";
-  json b = fs::exists(path, ec) ? json::parse(read_file(path), nullptr, false) : json::object();
-  if (!b.is_object()) b = json::object();
-  for (const auto& [k, v] : baselines.all())
-    b[k] = {{"time_us", v.time_us}, {"ipc", v.ipc}, {"mbps", v.mbps}};  // NaN is written null
-  write_file_atomic(path, b.dump(2) + "\n");
+  Baselines merged = read_baselines();
+  for (const auto& [k, runs] : baselines.all())
+    for (const auto& [rep, r] : runs.runs)
+      if (!merged.all().count(k) || !merged.all().at(k).runs.count(rep)) merged.put(k, r, rep);
+  write_file_atomic(dir_ / "baselines.json", baselines_to_json(merged).dump(2) + "\n");
 }
 
 void ResultsStore::add_trace(const json& events) const {
@@ -208,10 +246,30 @@ void ResultsStore::add_trace(const json& events) const {
   write_trace(dir_ / "trace.json", events);
 }
 
-std::size_t ResultsStore::finish(const InvocationReport& report) {
+std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefresher& refresh) {
   FileLock lock(dir_ / ".lock");
-  const std::size_t rows = tidy_csv_files().size();
+  const std::size_t rows = tidy_csv_files(refresh).size();
   json m = read_manifest();
+  // Every baseline of the folder (all shards): its measurements, their median and spread, and a
+  // warning where the spread is too large for the slowdowns measured against it.
+  const Baselines baselines = read_baselines();
+  json warnings = json::array();  // the loader's; the baselines' own are recomputed below
+  if (m["warnings"].is_array())
+    for (const auto& w : m["warnings"])
+      if (!w.is_string() || w.get<std::string>().rfind("isolation baseline ", 0) != 0)
+        warnings.push_back(w);
+  m["warnings"] = warnings;
+  m["baselines"] = json::object();
+  for (const auto& [k, runs] : baselines.all()) {
+    json times = json::array();
+    for (const auto& [rep, r] : runs.runs)
+      times.push_back(r.time_us);
+    m["baselines"][k] = {{"measurements", runs.count()},
+                         {"time_us", runs.median().time_us},
+                         {"time_cv", runs.time_cv()},
+                         {"time_us_each", times}};
+    if (const std::string w = runs.noise_warning(k); !w.empty()) m["warnings"].push_back(w);
+  }
   if (!m["fallbacks"].is_array()) m["fallbacks"] = json::array();
   for (const auto& [what, detail] : report.fallbacks) {
     const json entry{{"what", what}, {"detail", detail}};

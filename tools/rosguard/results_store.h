@@ -12,12 +12,18 @@
 // Each writer sorts both files when it finishes, so the last one leaves points.csv byte-identical
 // to a single-process run, whatever the shards and their timing.
 // "Not measured" (NaN) is written as null in JSON and read back as NaN.
+// baselines.json holds every measurement of every isolation baseline:
+//   {KEY: {"time_us", "ipc", "mbps" (medians), "time_cv", "runs": [{"rep", "time_us", "ipc",
+//   "mbps"}, ...]}}; an entry without "runs" (rosguard before repeated baselines) reads back as
+// one measurement.
 #pragma once
 
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
@@ -29,6 +35,16 @@ namespace rosguard {
 
 // A JSON number, or NaN for null (a value that was not measured).
 double number_or_nan(const nlohmann::json& value);
+
+// baselines.json's document and back. from_json throws nlohmann::json::exception on a
+// document of another shape.
+nlohmann::json baselines_to_json(const Baselines& baselines);
+Baselines baselines_from_json(const nlohmann::json& doc);
+
+// A points.csv row (point id, line) with its baseline cells brought up to date from the
+// baselines of the whole folder; nullopt leaves it as it is (refresh_isolation_cells).
+using RowRefresher = std::function<std::optional<std::string>(
+    const std::string& point_id, const std::string& line, const Baselines& baselines)>;
 
 // What one invocation (one shard, or a whole run) did, for the manifest.
 struct InvocationReport {
@@ -69,19 +85,23 @@ class ResultsStore {
 
   // Appends one run's samples.csv lines and its points.csv row.
   void append_run(const std::string& samples, const std::string& row) const;
-  // Merges `baselines` into baselines.json.
+  // Merges `baselines` into baselines.json: measurements it does not hold yet are added, those
+  // it holds (another shard's of the same index) are kept.
   void save_baselines(const Baselines& baselines) const;
   // Adds trace events to trace.json.
   void add_trace(const nlohmann::json& events) const;
 
-  // Under the lock: sorts both CSV files and merges `report` into the manifest (this shard's
-  // entry, fallbacks, facts, counts, and the folder's status: complete once every run of the
-  // scenario has its row, else failed / interrupted / running when a shard says so, else
-  // partial). Returns the rows now in points.csv.
-  std::size_t finish(const InvocationReport& report);
+  // Under the lock: sorts both CSV files, refreshes every row's baseline cells from
+  // baselines.json (`refresh`, when given), and merges `report` into the manifest (this shard's
+  // entry, fallbacks, facts, counts, the baselines' measurements and spread with a warning for
+  // each too noisy one, and the folder's status: complete once every run of the scenario has
+  // its row, else failed / interrupted / running when a shard says so, else partial). Returns
+  // the rows now in points.csv.
+  std::size_t finish(const InvocationReport& report, const RowRefresher& refresh = {});
 
  private:
-  std::set<std::pair<std::string, int>> tidy_csv_files() const;
+  std::set<std::pair<std::string, int>> tidy_csv_files(const RowRefresher& refresh = {}) const;
+  Baselines read_baselines() const;
   nlohmann::json read_manifest() const;
 
   std::filesystem::path dir_;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "core/error.h"
@@ -58,39 +59,89 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
   return s;
 }
 
+// The tasks of this shard in phases that run one after another (the tasks of one phase run in
+// any order, --jobs at a time). A baseline measured once (sim: deterministic) comes before every
+// point. A baseline measured R_b times (hw) is interleaved with the repetitions R of the points:
+// measurement k runs just before repetition round baseline_round(k, R, R_b) (R_b >= R: one
+// before each round, the extra ones before the first rounds), so that the machine's drift hits
+// the baseline and the co-runs alike and every round has a baseline measured before it.
 struct TaskPlan {
-  std::vector<Task> isolation;  // baselines not measured yet, each once
-  std::vector<Task> points;     // points x repetitions of this shard without a row
-  std::size_t skipped = 0;      // runs of this shard already in points.csv
+  std::vector<std::vector<Task>> phases;
+  std::size_t tasks = 0;       // in all phases
+  std::size_t skipped = 0;     // runs of this shard already in points.csv
+  std::set<std::string> keys;  // baselines this shard's points use
 };
 
 TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
-                    const ResultsStore::Opened& opened) {
+                    const ResultsStore::Opened& opened, const Backend& backend) {
   TaskPlan plan;
-  std::set<std::string> iso_seen;
+  const int reps = loaded.points.front().scenario.repetitions;
+  std::vector<std::vector<Task>> iso_rounds(static_cast<std::size_t>(reps)),
+      point_rounds(static_cast<std::size_t>(reps));
+  struct Need {
+    std::size_t point = 0;
+    const WorkloadInfo* workload = nullptr;
+    int core = 0;
+    int measurements = 1;
+  };
+  std::map<std::string, Need> needs;  // by baseline key, in first-use order below
+  std::vector<std::string> key_order;
+  bool interleave = false;
   for (const auto& p : loaded.points) {
     if (p.sweep.index % static_cast<std::size_t>(opt.shard_count) !=
         static_cast<std::size_t>(opt.shard_index))
       continue;
-    bool any = false;
     for (int rep = 0; rep < p.scenario.repetitions; ++rep) {
       if (opened.done.count({p.sweep.id, rep})) {
         ++plan.skipped;
         continue;
       }
-      plan.points.push_back({Task::Kind::Point, p.sweep.index, rep, "", nullptr, 0});
-      any = true;
+      point_rounds[static_cast<std::size_t>(rep)].push_back(
+          {Task::Kind::Point, p.sweep.index, rep, "", nullptr, 0});
     }
-    if (!any) continue;
+    const int measurements = backend.baseline_repetitions(p.scenario);
+    interleave = interleave || measurements > 1;
     const auto need = [&](const WorkloadInfo& w, int core) {
       const std::string key = Baselines::key(p.scenario, w, core);
-      if (opened.baselines.all().count(key) || !iso_seen.insert(key).second) return;
-      plan.isolation.push_back({Task::Kind::Isolation, p.sweep.index, 0, key, &w, core});
+      auto [it, added] = needs.try_emplace(key, Need{p.sweep.index, &w, core, 1});
+      if (added) key_order.push_back(key);
+      it->second.measurements = std::max(it->second.measurements, measurements);
     };
     for (const auto& n : p.scenario.nodes.rt)
       need(n.workload, n.core);
     for (const auto& n : p.scenario.nodes.nrt)
       need(n.workload, n.core);
+  }
+  // Measurements a resumed folder (or another shard) already holds are not taken again.
+  for (const std::string& key : key_order) {
+    const Need& n = needs.at(key);
+    plan.keys.insert(key);
+    const auto held = opened.baselines.all().find(key);
+    for (int k = 0; k < n.measurements; ++k) {
+      if (held != opened.baselines.all().end() && held->second.runs.count(k)) continue;
+      const auto round = static_cast<std::size_t>(baseline_round(k, reps, n.measurements));
+      iso_rounds[round].push_back({Task::Kind::Isolation, n.point, k, key, n.workload, n.core});
+    }
+  }
+  const auto add = [&](std::vector<Task> phase) {
+    plan.tasks += phase.size();
+    if (!phase.empty()) plan.phases.push_back(std::move(phase));
+  };
+  if (!interleave) {  // every baseline first, then the points in sweep order
+    std::vector<Task> isolation, points;
+    for (auto& r : iso_rounds)
+      isolation.insert(isolation.end(), r.begin(), r.end());
+    for (auto& r : point_rounds)
+      points.insert(points.end(), r.begin(), r.end());
+    std::stable_sort(points.begin(), points.end(),
+                     [](const Task& a, const Task& b) { return a.point < b.point; });
+    add(std::move(isolation));
+    add(std::move(points));
+    return plan;
+  }
+  for (std::size_t r = 0; r < iso_rounds.size(); ++r) {
+    add(std::move(iso_rounds[r]));
+    add(std::move(point_rounds[r]));
   }
   return plan;
 }
@@ -130,7 +181,7 @@ class TaskRunner {
       ++finished_;
       const Task& t = tasks[id];
       const std::string label = t.kind == Task::Kind::Isolation
-                                    ? "isolation " + t.iso_key
+                                    ? "isolation " + t.iso_key + " #" + std::to_string(t.rep)
                                     : point_label(loaded_.points[t.point].sweep, t.rep);
       if (r.interrupted || (stop_signal() && !r.ok)) {
         interrupted_ = true;
@@ -171,23 +222,53 @@ class TaskRunner {
   std::size_t finished_ = 0;
 };
 
-// Isolation baselines first (saved for resumed runs and other shards), then the point tasks,
-// each run's samples and row appended as it finishes.
+// The phases in order; after each phase of baselines they are saved (for resumed runs and other
+// shards); each point run's samples and row are appended as it finishes, with the baselines
+// measured so far (the rows are refreshed with all of them when the run finishes).
 void run_tasks(const TaskPlan& plan, RunState& st, const ResultsStore& store, TaskRunner& runner,
                InvocationReport& report, json& trace_events) {
   const std::vector<std::string> header = header_of(*st.loaded);
-  runner.run(plan.isolation,
-             [&](const Task& t, const TaskResult& r) { st.baselines.put(t.iso_key, r.iso); });
-  if (!plan.isolation.empty()) store.save_baselines(st.baselines);
-  if (!runner.failure().empty() || stop_signal()) return;
-  runner.run(plan.points, [&](const Task& t, const TaskResult& r) {
-    const LoadedPoint& lp = st.loaded->points[t.point];
-    store.append_run(samples_rows(lp.sweep.id, t.rep, r.outcome),
-                     points_row(header, lp.sweep, lp.scenario, t.rep, r.outcome, st.baselines));
-    ++report.rows;
-    for (const auto& e : r.trace)
-      trace_events.push_back(e);
-  });
+  for (const auto& phase : plan.phases) {
+    bool measured = false;
+    runner.run(phase, [&](const Task& t, const TaskResult& r) {
+      if (t.kind == Task::Kind::Isolation) {
+        st.baselines.put(t.iso_key, r.iso, t.rep);
+        measured = true;
+        return;
+      }
+      const LoadedPoint& lp = st.loaded->points[t.point];
+      store.append_run(samples_rows(lp.sweep.id, t.rep, r.outcome),
+                       points_row(header, lp.sweep, lp.scenario, t.rep, r.outcome, st.baselines));
+      ++report.rows;
+      for (const auto& e : r.trace)
+        trace_events.push_back(e);
+    });
+    if (measured) store.save_baselines(st.baselines);
+    if (!runner.failure().empty() || stop_signal()) return;
+  }
+}
+
+// Tells the user, once per baseline of this shard, when its measurements spread too much.
+void warn_noisy_baselines(const TaskPlan& plan, const Baselines& baselines) {
+  for (const std::string& key : plan.keys) {
+    const auto it = baselines.all().find(key);
+    if (it == baselines.all().end()) continue;
+    if (const std::string w = it->second.noise_warning(key); !w.empty())
+      std::cerr << "warning: " << w << "\n";
+  }
+}
+
+// Brings a row's baseline cells up to date from the folder's baselines.
+RowRefresher row_refresher(const LoadedScenario& loaded) {
+  std::map<std::string, const LoadedPoint*> by_id;
+  for (const auto& p : loaded.points)
+    by_id.emplace(p.sweep.id, &p);
+  return [by_id, header = header_of(loaded)](const std::string& id, const std::string& line,
+                                             const Baselines& b) -> std::optional<std::string> {
+    const auto it = by_id.find(id);
+    if (it == by_id.end()) return std::nullopt;
+    return refresh_isolation_cells(header, line, it->second->scenario, b);
+  };
 }
 
 int report_to_user(const RunOptions& opt, const InvocationReport& report, const fs::path& out,
@@ -235,7 +316,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   // the bytes) and finish the manifest, also when something throws.
   InvocationReport report;
   try {
-    const TaskPlan plan = plan_tasks(loaded, opt, opened);
+    const TaskPlan plan = plan_tasks(loaded, opt, opened, *backend);
     report.skipped_on_resume = plan.skipped;
     if (plan.skipped > 0 && !opt.quiet)
       std::cerr << "resume: " << plan.skipped << " run(s) already in "
@@ -243,11 +324,12 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     RunState st{&loaded, backend.get(), opened.baselines, opt.trace};
     auto exec = make_executor(st, backend->process_per_task(), worker_count(opt, *backend));
     StopSignalGuard signals;
-    Progress progress(plan.isolation.size() + plan.points.size(), !opt.quiet);
+    Progress progress(plan.tasks, !opt.quiet);
     TaskRunner runner(loaded, *exec, progress, report, opened.fallbacks);
     json trace_events = json::array();
     run_tasks(plan, st, store, runner, report, trace_events);
     progress.finish();
+    warn_noisy_baselines(plan, st.baselines);
     if (opt.trace && !trace_events.empty()) store.add_trace(trace_events);
     report.error = runner.failure();
     report.status = !report.error.empty()  ? "failed"
@@ -258,12 +340,12 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     report.status = "failed";
     report.error = e.what();
     try {
-      store.finish(report);
+      store.finish(report, row_refresher(loaded));
     } catch (const std::exception&) {  // the first error is the one to report
     }
     throw;
   }
-  store.finish(report);
+  store.finish(report, row_refresher(loaded));
   return report_to_user(opt, report, store.dir(), loaded.points.size(), first.repetitions);
 }
 

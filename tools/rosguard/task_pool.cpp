@@ -32,7 +32,7 @@ json to_json(const TaskResult& r) {
   j["iso"] = {r.iso.time_us, r.iso.ipc, r.iso.mbps};
   json rt = json::array(), nrt = json::array(), samples = json::array();
   for (const auto& n : r.outcome.rt)
-    rt.push_back({n.name, n.time_us, n.jobs});
+    rt.push_back({n.name, n.time_us, n.jobs, n.response_us, n.deadline_misses});
   for (const auto& n : r.outcome.nrt)
     nrt.push_back({n.name, n.time_us, n.bandwidth_mbps, n.throttle_count, n.throttled_us, n.runs});
   for (const auto& s : r.outcome.samples)
@@ -54,7 +54,8 @@ TaskResult from_json(const json& j) {
   const json& iso = j.at("iso");
   r.iso = {number_or_nan(iso.at(0)), number_or_nan(iso.at(1)), number_or_nan(iso.at(2))};
   for (const auto& n : j.at("rt"))
-    r.outcome.rt.push_back({n.at(0), number_or_nan(n.at(1)), n.at(2)});
+    r.outcome.rt.push_back(
+        {n.at(0), number_or_nan(n.at(1)), n.at(2), n.at(3).get<std::vector<double>>(), n.at(4)});
   for (const auto& n : j.at("nrt"))
     r.outcome.nrt.push_back({n.at(0), number_or_nan(n.at(1)), number_or_nan(n.at(2)), n.at(3),
                              number_or_nan(n.at(4)), number_or_nan(n.at(5))});
@@ -251,7 +252,7 @@ TaskResult execute(const Task& task, const RunState& st) {
   try {
     if (task.kind == Task::Kind::Isolation) {
       r.iso = st.backend->isolation(lp.scenario, *task.workload, task.core,
-                                    task_seed(lp.scenario.seed, task.iso_key, 0), ctx);
+                                    task_seed(lp.scenario.seed, task.iso_key, task.rep), ctx);
     } else {
       r.outcome = st.backend->run_point(lp.scenario, st.baselines, task.rep,
                                         task_seed(lp.scenario.seed, lp.sweep.id, task.rep), ctx);

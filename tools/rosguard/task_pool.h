@@ -23,8 +23,8 @@ namespace rosguard {
 struct Task {
   enum class Kind { Isolation, Point } kind = Kind::Point;
   std::size_t point = 0;  // index into the loaded points (isolation: a point that uses it)
-  int rep = 0;
-  std::string iso_key;                     // isolation only: Baselines::key
+  int rep = 0;            // isolation: which measurement of the baseline
+  std::string iso_key;    // isolation only: Baselines::key
   const WorkloadInfo* workload = nullptr;  // isolation only
   int core = 0;                            // isolation only
 };

@@ -3,10 +3,13 @@
 // for byte, and the knobs below make tasks slow or failing on purpose.
 //   ROSGUARD_FAKE_SLEEP_MS   sleep this long in every task (kill / SIGINT tests)
 //   ROSGUARD_FAKE_FAIL_AT    threshold_pct at which run_point throws RunError
+//   ROSGUARD_FAKE_ISO_SPREAD a baseline's successive measurements scaled by 1 - s, 1, 1 + s, ...
+//                            (a noisy host, for the baseline spread and its warning)
 // Registered as "sim" (a worker process per task, like SystemC) and "hw" (in-process, polling
 // stop_requested() like the real hw backend).
 #include <chrono>
 #include <cstdlib>
+#include <map>
 #include <random>
 #include <thread>
 
@@ -22,12 +25,18 @@ class FakeBackend : public Backend {
       : name_(std::move(name)), per_process_(per_process) {}
   std::string_view name() const override { return name_; }
   bool process_per_task() const override { return per_process_; }
+  // As the real ones: the "sim" fake measures a baseline once, the "hw" fake repeatedly.
+  int baseline_repetitions(const Scenario& s) const override {
+    return per_process_ ? 1 : s.hw.baseline_repetitions;
+  }
   void validate(const Scenario&) const override {}
 
   IsolationResult isolation(const Scenario&, const WorkloadInfo& w, int core, std::uint64_t,
                             RunContext& ctx) override {
     nap(ctx);
-    const double base = 1000.0 + 100.0 * static_cast<double>(w.name.size()) + core;
+    double base = 1000.0 + 100.0 * static_cast<double>(w.name.size()) + core;
+    if (const char* spread = std::getenv("ROSGUARD_FAKE_ISO_SPREAD"))
+      base *= 1.0 + std::atof(spread) * static_cast<double>(iso_calls_[{w.name, core}]++ % 3 - 1);
     return {base, 1.5, 1000.0 * static_cast<double>(w.name.size())};
   }
 
@@ -41,9 +50,13 @@ class FakeBackend : public Backend {
     std::uniform_real_distribution<double> noise(0.0, 0.01);
     PointOutcome o;
     const double th = s.regulation.threshold_pct;
-    for (const auto& n : s.nodes.rt)
-      o.rt.push_back(
-          {n.name, b.at(s, n.workload, n.core).time_us * (1.0 + th / 200 + noise(rng)), 1});
+    for (const auto& n : s.nodes.rt) {
+      RtOutcome rt;
+      rt.name = n.name;
+      rt.time_us = b.at(s, n.workload, n.core).time_us * (1.0 + th / 200 + noise(rng));
+      rt.jobs = 1;
+      o.rt.push_back(rt);
+    }
     for (const auto& n : s.nodes.nrt)
       o.nrt.push_back({n.name, b.at(s, n.workload, n.core).time_us * (1.0 + 30.0 / th), th * 100.0,
                        static_cast<std::uint64_t>(100 / th), 10.0 * rep, 1.0});
@@ -73,6 +86,7 @@ class FakeBackend : public Backend {
 
   std::string name_;
   bool per_process_;
+  std::map<std::pair<std::string, int>, int> iso_calls_;  // per (workload, core)
 };
 
 }  // namespace

@@ -140,7 +140,7 @@ def draw_costs(doc: dict, platform: dict | None):
         v = np.asarray(values)
         ax.hist(v, bins=40, color=style.colour(0), alpha=0.8)
         ax.axvline(np.median(v), color="k", linewidth=1, label=f"measured p50 {np.median(v):.3g} µs")
-        dist = fitted.get(name)
+        dist = fitted.get(f"{name}_us")
         if dist:
             centre = dist.get("median_us", dist.get("mean_us", dist.get("value_us")))
             if centre is not None:

@@ -89,7 +89,7 @@ TEST_CASE("calibrate --install: the fitted platform becomes the host model sim u
   ::unsetenv("ROSGUARD_HOST_MODEL");
 }
 
-TEST_CASE("calibrate: bad measurements are exit 2 naming the file and path; --strict refuses "
+TEST_CASE("calibrate: bad measurements are exit 2 naming the file and path, and --strict refuses "
           "an unidentified bandwidth with exit 1 and keeps the measurements",
           "[sim][cli][calibrate]") {
   test::TempDir dir;

@@ -13,6 +13,7 @@
 #include <optional>
 #include <set>
 #include <span>
+#include <thread>
 #include <tuple>
 
 #include "core/error.h"
@@ -470,9 +471,10 @@ void Suite::measure_costs() {
     costs["external_read"] = std::move(reads);
   }
 
-  // controller_callback: one input to the controller engine (a sample, a due wake-up, an RT
-  // signal) and publishing the commands it produces. Synthetic counters, 1 ms apart, that use
-  // the budget of a 5 ms interval window in about 2.5 samples, so THR / REPLENISH commands flow.
+  // controller_callback: the controller's core time per input: woken by a sample, one input to
+  // the controller engine (a sample, a due wake-up, an RT signal), publishing the commands it
+  // produces, back to sleep. Synthetic counters, 1 ms apart in engine time, that use the budget
+  // of a 5 ms interval window in about 2.5 samples, so THR / REPLENISH commands flow.
   if (!stopping()) {
     step("costs: controller_callback");
     PolicyRegistry policies;
@@ -506,53 +508,131 @@ void Suite::measure_costs() {
     Waker nrt_waker;  // nobody sleeps on it: the controller drains the ring itself
     const std::size_t pub = control.add_publisher();
     const std::size_t sub = control.subscribe(nrt_waker);
-    std::vector<double> cb;
-    cb.reserve(static_cast<std::size_t>(n));
     std::vector<CounterValue> counters(rc.metric.events.size());
     DriverOutput out;
     TimeNs t = kNsPerS;  // the engine's time: synthetic, so the regulation logic is the same
                          // on every host
-    run_on(far_core, prio::kController, "cal-ctl", [&] {
-      const auto send = [&] {
-        for (const auto& c : out.commands) {
-          ControlMsg m;
-          m.command = c.command;
-          m.t_cause = c.cause;
-          control.publish(pub, m);
+
+    // The controller thread sleeps on the samples topic as on hw; each paced sample from the
+    // nRT core wakes it on its core, where a spinner (an RT job's priority, below the
+    // controller's) sees the whole cost as a gap in its own progress: switch in, the engine
+    // step, publishing the commands, switch out. That gap is what the sim charges per callback
+    // on the controller's core (it preempts whatever runs there).
+    Topic<SampleMsg> samples;
+    Waker ctl_waker;
+    const std::size_t sample_pub = samples.add_publisher();
+    const std::size_t sample_sub = samples.subscribe(ctl_waker);
+    std::vector<TimeNs> woke;  // the controller's wake-ups (monotonic ns)
+    woke.reserve(static_cast<std::size_t>(n));
+    struct Gap {
+      TimeNs start, end;
+    };
+    std::vector<Gap> gaps(static_cast<std::size_t>(n) * 8);
+    std::atomic<std::size_t> gap_count{0};
+    std::atomic<bool> done{false}, spinning{false};
+    constexpr TimeNs kGapNs = 300;  // the spinner's own loop takes ~20-40 ns
+    RtThread spinner(ThreadSpec{"cal-spin", far_core, SchedClass::Fifo, prio::kRt}, [&] {
+      TimeNs last = now_ns();
+      spinning.store(true, std::memory_order_release);
+      while (!done.load(std::memory_order_relaxed)) {
+        const TimeNs now = now_ns();
+        if (now - last > kGapNs) {
+          const std::size_t k = gap_count.load(std::memory_order_relaxed);
+          if (k < gaps.size()) {
+            gaps[k] = {last, now};
+            gap_count.store(k + 1, std::memory_order_release);
+          }
         }
-      };
-      const auto drain = [&] {
-        ControlMsg m;
-        while (control.take(sub, m)) {
-        }
-        out.clear();
-      };
-      driver.rt_signal(t, 0, true, out);
-      drain();
+        last = now;
+      }
+    });
+    notes_.sched(spinner.outcome());
+    while (!spinning.load(std::memory_order_acquire))
+      std::this_thread::yield();
+    RtThread controller(
+        ThreadSpec{"cal-ctl", far_core, SchedClass::Fifo, prio::kController}, [&] {
+          const auto send = [&] {
+            for (const auto& c : out.commands) {
+              ControlMsg m;
+              m.command = c.command;
+              m.t_cause = c.cause;
+              control.publish(pub, m);
+            }
+          };
+          const auto drain = [&] {
+            ControlMsg m;
+            while (control.take(sub, m)) {
+            }
+            out.clear();
+          };
+          driver.rt_signal(t, 0, true, out);
+          drain();
+          int i = 0;
+          while (!done.load(std::memory_order_acquire)) {
+            const auto e = ctl_waker.epoch();
+            SampleMsg msg;
+            bool got = false;
+            while (samples.take(sample_sub, msg)) {
+              if (!got) woke.push_back(now_ns());
+              got = true;
+              t += kNsPerMs;
+              for (auto& c : counters) {
+                c.value += per_sample;
+                c.time_enabled_ns += kNsPerMs;
+                c.time_running_ns += kNsPerMs;
+              }
+              meter.bytes += static_cast<double>(per_sample) * kLineBytes;
+              if (i++ % 200 == 199) {  // an activation edge now and then
+                driver.rt_signal(t, 0, false, out);
+                driver.rt_signal(t, 0, true, out);
+              } else if (auto due = driver.next_wakeup(); due && *due <= t) {
+                driver.wake(t, out);
+              } else {
+                driver.sample(t, 0, counters, t, out);
+              }
+              send();
+              drain();
+            }
+            if (!got) ctl_waker.wait(e, -1);
+          }
+        });
+    notes_.sched(controller.outcome());
+    run_on(nrt_core, prio::kPmc, "cal-feed", [&] {
       paced(
-          [&](int i) {
-            t += kNsPerMs;
-            for (auto& c : counters) {
-              c.value += per_sample;
-              c.time_enabled_ns += kNsPerMs;
-              c.time_running_ns += kNsPerMs;
-            }
-            meter.bytes += static_cast<double>(per_sample) * kLineBytes;
-            const TimeNs t0 = now_ns();
-            if (i % 200 == 199) {  // an activation edge now and then
-              driver.rt_signal(t, 0, false, out);
-              driver.rt_signal(t, 0, true, out);
-            } else if (auto due = driver.next_wakeup(); due && *due <= t) {
-              driver.wake(t, out);
-            } else {
-              driver.sample(t, 0, counters, t, out);
-            }
-            send();
-            cb.push_back(ns_to_us(now_ns() - t0));
-            drain();
+          [&](int) {
+            SampleMsg m;
+            m.t_published = now_ns();
+            samples.publish(sample_pub, m);
           },
           n);
     });
+    // Let the last callback finish before stopping both threads.
+    sleep_until(now_ns() + static_cast<TimeNs>(shape_.cost_spacing_us * 1e3));
+    done.store(true, std::memory_order_release);
+    ctl_waker.notify();
+    controller.join();
+    spinner.join();
+    rethrow_if_failed(controller);
+    rethrow_if_failed(spinner);
+
+    // Each wake-up's cost: the spinner's gap around it, when the gap began just before the
+    // wake-up (a gap that began long before is another preemption, e.g. RT throttling).
+    std::vector<double> cb;
+    cb.reserve(woke.size());
+    const std::size_t ng = gap_count.load(std::memory_order_acquire);
+    std::size_t g = 0, unmatched = 0;
+    for (const TimeNs w : woke) {
+      while (g < ng && gaps[g].end < w)
+        ++g;
+      if (g < ng && gaps[g].start <= w && w - gaps[g].start <= 20 * kNsPerUs)
+        cb.push_back(ns_to_us(gaps[g].end - gaps[g].start));
+      else
+        ++unmatched;
+    }
+    if (unmatched)
+      notes_.add("controller_callback: " + std::to_string(unmatched) + " of " +
+                 std::to_string(woke.size()) +
+                 " wake-ups not seen as a gap of the spinner on the controller's core (left out)");
     costs["controller_callback"] = std::move(cb);
   }
   nct.stop();

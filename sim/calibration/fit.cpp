@@ -545,11 +545,13 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   if (sv.size() > 0 && (sv[sv.size() - 1] <= kRankTol * sv[0])) {
     Eigen::Index worst = 0;
     svd.matrixV().col(sv.size() - 1).cwiseAbs().maxCoeff(&worst);
-    throw RunError("calibration: the data cannot identify " +
-                   slots[static_cast<std::size_t>(worst)].name +
-                   " (the Jacobian is rank-deficient: singular values " + fmt("%.3g", sv[0]) +
-                   " .. " + fmt("%.3g", sv[sv.size() - 1]) + "); measure what identifies it (" +
-                   slots[static_cast<std::size_t>(worst)].how + ") or fix it" + status_msg);
+    const Slot& s = slots[static_cast<std::size_t>(worst)];
+    throw UnidentifiedParameter(
+        "calibration: the data cannot identify " + s.name +
+            " (the Jacobian is rank-deficient: singular values " + fmt("%.3g", sv[0]) + " .. " +
+            fmt("%.3g", sv[sv.size() - 1]) + "); measure what identifies it (" + s.how +
+            ") or fix it" + status_msg,
+        s.name, std::exp(x[worst]), std::numeric_limits<double>::infinity());
   }
   // (J^T J)^-1 from the SVD: V diag(1/s^2) V^T.
   const Eigen::MatrixXd v = svd.matrixV();
@@ -649,6 +651,43 @@ double profile_lower_bound(const Measurements& m, const FitOptions& opt, const s
 FitReport fit(const Measurements& m, const FitOptions& options) {
   FitOptions opt = options;
   std::map<std::string, std::string> held;  // parameter -> why
+  // Holds the parameter `e` names (FitOptions::hold_unidentified) or rethrows it.
+  std::function<void(const UnidentifiedParameter&)> hold = [&](const UnidentifiedParameter& e) {
+    const std::string& name = e.parameter();
+    const bool bandwidth = name.ends_with(".bandwidth_mbps");
+    const bool exponent = name == "l3.capacity_exponent";
+    if (!opt.hold_unidentified || !(bandwidth || exponent) || held.count(name) ||
+        options.fixed.count(name))
+      throw e;
+    const std::string fitted_as =
+        fmt("%.4g", e.value()) + (std::isfinite(e.log_std_error())
+                                      ? " with a standard error of its logarithm of " +
+                                            fmt("%.3g", e.log_std_error())
+                                      : std::string(", where the fit does not depend on it"));
+    if (exponent) {
+      opt.fixed[name] = options.capacity_exponent;
+      held[name] = "not identified (its best fit is " + fitted_as + "): held at " +
+                   fmt("%g", options.capacity_exponent) +
+                   ", the value used when no run identifies it";
+      return;
+    }
+    double bound = 0.0;
+    for (;;) {
+      try {
+        bound = profile_lower_bound(m, opt, name, e.value());
+        break;
+      } catch (const UnidentifiedParameter& inner) {
+        if (inner.parameter() == name) throw;
+        hold(inner);  // another parameter the profile's fits leave free: hold it first
+      }
+    }
+    opt.fixed[name] = bound;
+    held[name] = "not identified (the co-runs show too little contention to fit it to: its "
+                 "best fit is " +
+                 fitted_as + "): held at " + fmt("%.4g", bound) +
+                 ", the lower end of its one-standard-error profile interval, the most "
+                 "contention the measurements allow";
+  };
   for (;;) {
     try {
       FitReport rep = fit_once(m, opt);
@@ -659,19 +698,7 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
           if (note.rfind(name + " fixed by the caller", 0) == 0) note = name + ": " + why;
       return rep;
     } catch (const UnidentifiedParameter& e) {
-      const std::string& name = e.parameter();
-      const bool bandwidth = name.ends_with(".bandwidth_mbps");
-      if (!opt.hold_unidentified_bandwidths || !bandwidth || held.count(name) ||
-          options.fixed.count(name) || !std::isfinite(e.log_std_error()))
-        throw;
-      const double bound = profile_lower_bound(m, opt, name, e.value());
-      opt.fixed[name] = bound;
-      held[name] = "not identified (the co-runs show too little contention to fit it to: its "
-                   "best fit is " +
-                   fmt("%.4g", e.value()) + " with a standard error of its logarithm of " +
-                   fmt("%.3g", e.log_std_error()) + "): held at " + fmt("%.4g", bound) +
-                   ", the lower end of its one-standard-error profile interval, the most "
-                   "contention the measurements allow";
+      hold(e);
     }
   }
 }

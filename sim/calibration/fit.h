@@ -56,8 +56,9 @@ struct FitOptions {
   // contention to fit it to — is held at the lower end of its one-standard-error profile
   // interval (the smallest bandwidth, the others refitted, whose objective exceeds the best by
   // at most the residual variance: the most contention the measurements allow), with a note,
-  // instead of refusing the fit. `rosguard calibrate` sets it (--strict clears it).
-  bool hold_unidentified_bandwidths = false;
+  // instead of refusing the fit; l3.capacity_exponent, left free, is held at
+  // `capacity_exponent`. `rosguard calibrate` sets it (--strict clears it).
+  bool hold_unidentified = false;
 };
 
 // fit() refuses: the data leave `parameter` free (the standard error of its logarithm,

@@ -134,7 +134,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   calibration::FitReport report;
   try {
     calibration::FitOptions fit_options;
-    fit_options.hold_unidentified_bandwidths = !opt.strict;
+    fit_options.hold_unidentified = !opt.strict;
     report = calibration::fit(m, fit_options);
   } catch (const RunError& e) {
     json doc = calibration_document(m, notes, probe, "fit refused");

@@ -80,7 +80,7 @@ class Top : public sc_core::sc_module {
                                                     cfg.platform.costs, cfg.seed, core(n.core),
                                                     bus_, *controller_, rt_, rec_));
       NrtNodeModel* node = nrt_.back().get();
-      controller_->add_entity({n.name,
+      controller_->add_entity({n.name, n.core,
                                [node](Command c, TimeNs cause) { node->on_command(c, cause); },
                                [node]() -> const Pmu& { return node->core().pmu(); }});
       nrt_.back()->on_done([this](TimeNs t) { nrt_done(t); });

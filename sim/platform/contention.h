@@ -70,6 +70,10 @@ class ContentionModel {
   // Rates of a core running `phase` with its L3 hit ratio scaled by `capacity_factor`.
   CoreRates rates(const Phase& phase, double l3_hit, int cluster, double capacity_factor,
                   const MemoryState& state) const;
+  // Instructions per ns of a core running `phase` of a workload (l3_hit, footprint_kb) on
+  // `cluster` with every other core idle: its progress in isolation.
+  double alone_inst_per_ns(const Phase& phase, double l3_hit, double footprint_kb,
+                           int cluster) const;
   // L3 shares: capacity factor of each demand (1 where the resident footprints fit).
   std::vector<double> capacity_factors(std::span<const CoreDemand> demands) const;
 

@@ -728,7 +728,9 @@ SuiteResult Suite::run() {
     }
   if (max_n < 1) notes_.add("one core only: no co-run measurements (bandwidth-latency, matrix)");
 
-  steps_ = static_cast<int>(isolation.size()) * shape_.repetitions + 4;
+  // + one step per cost block: pmc_callback/publish/message_latency, local_message_latency,
+  // throttle_activation, external_read, controller_callback.
+  steps_ = static_cast<int>(isolation.size()) * shape_.repetitions + 5;
   for (const auto& [co, configs] : blocks)
     steps_ += static_cast<int>(configs.size()) * shape_.repetitions;
 

@@ -265,7 +265,12 @@ PointOutcome PointRig::outcome(RunContext& ctx) const {
       if (n.once_done()) m.once_ns = n.once_time_us() * 1e3;
       m.runs = n.once_fraction();
     } else {
-      m.runs = totals.active[i].work;
+      // Work in runs, summed over the regulation windows. A built-in kernel does the same work
+      // per unit (lines), so its isolation time is proportional to the work: uniform progress
+      // gives exactly the isolation time of the units done. A command's progress cannot be
+      // seen: it counts the processes that exited in the windows (whole runs).
+      m.work_to = totals.active[i].work;
+      m.progress = IsolationProgress::uniform(1.0);
       m.window_ns = totals.active_ns;
     }
     m.traffic = {totals.active[i].bytes, 0.0, 0.0};  // cycles not counted: bytes / active time

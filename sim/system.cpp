@@ -13,6 +13,7 @@
 #include "nodes/controller.h"
 #include "nodes/nrt_node.h"
 #include "nodes/rt_node.h"
+#include "platform/contention.h"
 #include "platform/core.h"
 #include "platform/memory_system.h"
 
@@ -31,6 +32,28 @@ std::vector<PmuEvent> metric_events(const MetricSpec& m) {
     out.push_back(*ev);
   }
   return out;
+}
+
+// How one run of `profile` progresses in isolation on `cluster`: per segment (a phase of one
+// repetition), its instructions and the time it takes alone, from the memory model's rates.
+IsolationProgress isolation_progress(const WorkloadProfile& profile, const SimPlatform& platform,
+                                     int cluster) {
+  const ContentionModel model(platform);
+  std::vector<double> phase_ns_per_inst;
+  for (const Phase& ph : profile.phases)
+    phase_ns_per_inst.push_back(
+        1.0 / model.alone_inst_per_ns(ph, profile.l3_hit, profile.footprint_kb, cluster));
+  IsolationProgress p;
+  double work = 0.0, time = 0.0;
+  for (std::size_t s = 0; s < profile.segments(); ++s) {
+    const double n = profile.segment_instructions(s);
+    if (n <= 0.0) continue;
+    work += n;
+    time += n * phase_ns_per_inst[profile.phase_index(s)];
+    p.work.push_back(work);
+    p.time.push_back(time);
+  }
+  return p;
 }
 
 // The top of the model: every module of one run, and the end-of-run logic.
@@ -80,7 +103,7 @@ class Top : public sc_core::sc_module {
                                                     cfg.platform.costs, cfg.seed, core(n.core),
                                                     bus_, *controller_, rt_, rec_));
       NrtNodeModel* node = nrt_.back().get();
-      controller_->add_entity({n.name,
+      controller_->add_entity({n.name, n.core,
                                [node](Command c, TimeNs cause) { node->on_command(c, cause); },
                                [node]() -> const Pmu& { return node->core().pmu(); }});
       nrt_.back()->on_done([this](TimeNs t) { nrt_done(t); });
@@ -190,8 +213,9 @@ class Top : public sc_core::sc_module {
     rt_.stop();
   }
 
-  // What the sim measured of nRT node i: runs over the RT window (first RT job start -> last RT
-  // job end), traffic over the regulation-active time (the whole run when never active).
+  // What the sim measured of nRT node i: the instructions it retired over the RT window (first
+  // RT job start -> last RT job end), weighed by their isolation time (isolation_progress), and
+  // traffic over the regulation-active time (the whole run when never active).
   NrtMeasure measure(std::size_t i) {
     NrtNodeModel& n = *nrt_[i];
     NrtMeasure m;
@@ -203,7 +227,9 @@ class Top : public sc_core::sc_module {
       if (n.done()) m.once_ns = static_cast<double>(n.finished_at());
     } else {
       m.window_ns = rt_window_end_ - rt_window_start_;
-      m.runs = (retired_end_.at(i) - retired_start_.at(i)) / n.profile().instructions;
+      m.work_from = retired_start_.at(i);
+      m.work_to = retired_end_.at(i);
+      m.progress = isolation_progress(n.profile(), cfg_.platform, n.core().cluster());
     }
     if (controller_ && controller_->driver().totals().activations > 0) {
       m.traffic = controller_->driver().totals().active[i];

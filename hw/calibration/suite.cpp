@@ -391,6 +391,48 @@ void Suite::measure_costs() {
     costs["message_latency"] = std::move(latency);
   }
 
+  // local_message_latency: the same publish -> subscriber awake, with both on one core (the
+  // controller sharing the nRT core, as it must on 2 CPUs): the subscriber (the controller's
+  // priority) preempts the publisher (the PMC thread's) at once, no inter-processor wake-up.
+  if (!stopping()) {
+    step("costs: local_message_latency");
+    Topic<SampleMsg> topic;
+    Waker sub_waker;
+    const std::size_t pub = topic.add_publisher();
+    const std::size_t sub = topic.subscribe(sub_waker);
+    std::vector<double> latency;
+    latency.reserve(static_cast<std::size_t>(n));
+    std::atomic<bool> done{false};
+    RtThread subscriber(ThreadSpec{"cal-lsub", nrt_core, SchedClass::Fifo, prio::kController},
+                        [&] {
+                          while (!done.load(std::memory_order_acquire)) {
+                            const auto e = sub_waker.epoch();
+                            SampleMsg m;
+                            bool got = false;
+                            while (topic.take(sub, m)) {
+                              latency.push_back(ns_to_us(now_ns() - m.t_published));
+                              got = true;
+                            }
+                            if (!got) sub_waker.wait(e, -1);
+                          }
+                        });
+    notes_.sched(subscriber.outcome());
+    run_on(nrt_core, prio::kPmc, "cal-lpub", [&] {
+      paced(
+          [&](int) {
+            SampleMsg msg;
+            msg.t_published = now_ns();
+            topic.publish(pub, msg);
+          },
+          n);
+    });
+    done.store(true, std::memory_order_release);
+    sub_waker.notify();
+    subscriber.join();
+    rethrow_if_failed(subscriber);
+    costs["local_message_latency"] = std::move(latency);
+  }
+
   // throttle_activation: a command on the control topic wakes CFB, which wakes the waiting THR
   // (the zero-time timer) on the same core, where the NCT streams; from CFB taking the command to
   // THR entered (CFB > THR > NCT, as in an nRT node).

@@ -89,13 +89,15 @@ struct RtOutcome {
 
 struct NrtOutcome {
   std::string name;
-  // Time one run of the workload took: measured for `once`; for `loop`, the regulation window
-  // divided by the runs completed in it (fractions counted from retired work).
+  // Time one run of the workload took: measured for `once`; for `loop`, the window divided by
+  // the isolation runs the work done in it is worth (the isolation time of exactly that work
+  // over the isolation time of one run; model/engine/outcome.h), so that the slowdown compares
+  // the same work whatever the workload's phases.
   double time_us = 0.0;
   double bandwidth_mbps = 0.0;  // Eq. 1 while regulation was active (whole run when never active)
   std::uint64_t throttle_count = 0;
   double throttled_us = 0.0;
-  double runs = 0.0;  // runs completed in the window (fractional)
+  double runs = 0.0;  // work done in the window, in runs (fractional; once: the share done)
 };
 
 // One observation for samples.csv. kind: activation_delay | pmc_callback | sampling_overhead |

@@ -14,7 +14,7 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
       read_cost_(costs.external_read, stream_seed(seed, "controller/external_read")),
       bus_(bus),
       rec_(rec),
-      message_latency_(costs.message_latency),
+      costs_(costs),
       seed_(seed),
       done_timer_("done", rt, [this](TimeNs t) { stage_done(t); }),
       tick_timer_("tick", rt,
@@ -37,7 +37,8 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
 
 void Controller::add_entity(ControlledEntity entity) {
   links_.push_back(bus_.add_link());
-  latency_.emplace_back(message_latency_, stream_seed(seed_, "controller->" + entity.name));
+  latency_.emplace_back(costs_.message_latency_between(cfg_.core, entity.core),
+                        stream_seed(seed_, "controller->" + entity.name));
   entities_.push_back(std::move(entity));
 }
 

@@ -44,6 +44,7 @@ struct ControllerConfig {
 // arrives, with the measurement time of the sample that caused it or -1) and its core's PMU.
 struct ControlledEntity {
   std::string name;
+  int core = 0;  // where its node runs (the latency of the commands sent to it)
   std::function<void(Command, TimeNs cause)> deliver;
   std::function<const Pmu&()> pmu;  // brought up to the current time
 };
@@ -54,6 +55,7 @@ class Controller : public sc_core::sc_module, private EntityMeter {
              std::unique_ptr<Regulator> regulator, const CostParams& costs, std::uint64_t seed,
              MessageBus& bus, Runtime& rt, Recorder& rec);
 
+  int core() const { return cfg_.core; }
   // Wiring (elaboration): the regulated entities in entity order.
   void add_entity(ControlledEntity entity);
   // Wiring: the controller shares `core` with a node; its callbacks run there.
@@ -100,7 +102,7 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   std::vector<int> links_;
   std::vector<CostStream> latency_;
   std::function<void(TimeNs)> on_inactive_;
-  Distribution message_latency_;
+  CostParams costs_;
   std::uint64_t seed_;
 
   std::deque<Work> queue_;

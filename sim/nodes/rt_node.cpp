@@ -15,7 +15,9 @@ RtNodeModel::RtNodeModel(const sc_core::sc_module_name& name, RtNodeConfig confi
       controller_(controller),
       rt_(rt),
       rec_(rec),
-      latency_(costs.message_latency, stream_seed(seed, cfg_.name + "->controller")),
+      latency_(controller ? costs.message_latency_between(core.id(), controller->core())
+                          : costs.message_latency,
+               stream_seed(seed, cfg_.name + "->controller")),
       link_(bus.add_link()),
       run_(profile),
       release_timer_("release", rt, [this](TimeNs t) { release(t); }) {}

@@ -161,6 +161,19 @@ double ContentionModel::l3_traffic(std::span<const CoreDemand> demands,
   return bytes;
 }
 
+double ContentionModel::alone_inst_per_ns(const Phase& phase, double l3_hit, double footprint_kb,
+                                          int cluster) const {
+  CoreDemand d;
+  d.cluster = cluster;
+  d.phase = &phase;
+  d.l3_hit = l3_hit;
+  d.footprint_kb = footprint_kb;
+  d.resident = true;
+  d.resident_phase = &phase;
+  const MemoryState state = solve(std::span(&d, 1));
+  return rates(phase, l3_hit, cluster, state.capacity_factor.at(0), state).inst_per_ns;
+}
+
 MemoryState ContentionModel::solve(std::span<const CoreDemand> demands) const {
   const std::vector<double> capf = capacity_factors(demands);
   return solve(demands, capf);

@@ -71,11 +71,15 @@ class ContentionModel {
   // The unloaded state for `demands` cores (every capacity factor 1).
   MemoryState unloaded(std::size_t demands = 0) const;
   MemoryState solve(std::span<const CoreDemand> demands) const;
+  // The same with each demand's capacity factor given (residency.h: refill after throttling).
+  MemoryState solve(std::span<const CoreDemand> demands, std::span<const double> capf) const;
   // Rates of a core running `phase` with its L3 hit ratio scaled by `capacity_factor`.
   CoreRates rates(const Phase& phase, double l3_hit, int cluster, double capacity_factor,
                   const MemoryState& state) const;
-  // The same with each demand's capacity factor given (residency.h: refill after throttling).
-  MemoryState solve(std::span<const CoreDemand> demands, std::span<const double> capf) const;
+  // Instructions per ns of a core running `phase` of a workload (l3_hit, footprint_kb) on
+  // `cluster` with every other core idle: its progress in isolation.
+  double alone_inst_per_ns(const Phase& phase, double l3_hit, double footprint_kb,
+                           int cluster) const;
   // L3 shares in KB: the footprint where the resident footprints of a cluster fit, else the
   // water-filling share; 0 for a demand that is not resident.
   std::vector<double> shares(std::span<const CoreDemand> demands) const;

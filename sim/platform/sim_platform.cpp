@@ -134,6 +134,8 @@ SimPlatform parse_sim_platform(const PlatformInfo& p) {
   s.costs.pmc_callback = dist("pmc_callback_us");
   s.costs.publish = dist("publish_us");
   s.costs.message_latency = dist("message_latency_us");
+  if (costs.contains("local_message_latency_us"))
+    s.costs.local_message_latency = dist("local_message_latency_us");
   s.costs.controller_callback = dist("controller_callback_us");
   s.costs.throttle_activation = dist("throttle_activation_us");
   s.costs.external_read = dist("external_read_us");

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <map>
 #include <string>
 #include <vector>
@@ -63,7 +64,12 @@ struct KernelModel {
 struct CostParams {
   Distribution pmc_callback;
   Distribution publish;
-  Distribution message_latency;
+  Distribution message_latency;                       // between two cores
+  std::optional<Distribution> local_message_latency;  // within one core, when the platform says
+  // The latency of a message from a node on core `from` to one on core `to`.
+  const Distribution& message_latency_between(int from, int to) const {
+    return from == to && local_message_latency ? *local_message_latency : message_latency;
+  }
   Distribution controller_callback;
   Distribution throttle_activation;
   Distribution external_read;

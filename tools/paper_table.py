@@ -215,13 +215,17 @@ NOTES = {
     "5": "At 5 % the model's nRT node is throttled for less than half of the RT job at every "
          "sampling period (`throttled_us` in results/paper/exp5-sampling-period/points.csv), so "
          "the self-sampling overhead of its running time, which falls with looser sampling, still "
-         "shows: its slowdown drops by a little more than the check's 5 % allowance. Before the "
-         "nRT time compared the same work (docs/design.md section 6) the drop read 4.5 % (2.01 -> "
-         "1.92), just inside; the check itself is unchanged.",
-    "7": "The model has no mechanism that makes a finer external sampling period delay the RT "
-         "node: sampling every 500 us throttles the nRT node earlier, so the RT node is protected "
-         "at least as well (the paper relates its observation to an effect reported by Brilli et "
-         "al., not modelled here).",
+         "shows; and every throttle episode ends in a refill of the L3 lines the RT node evicted "
+         "meanwhile (sim/README.md, refill after throttling): 70 episodes at 250 us, 11 at 2 ms. "
+         "The drop was 4.5 % (2.01 -> 1.92) before the nRT time compared the same work "
+         "(docs/design.md section 6), 5.5 % (1.99 -> 1.88) with it, 14 % with refill (above); "
+         "the check itself is unchanged.",
+    "7": "Refill after throttling is modelled, but it does not make a finer external sampling "
+         "period delay the RT node: with a 5 ms regulation period the nRT node is throttled about "
+         "once per period at 500 us and at 1 ms alike (mser RT, bandwidth_read nRT, 20 %: 29 "
+         "throttles each), so it refills after about as many REPLENISHes; sampling every 500 us "
+         "throttles it earlier, so the RT node is protected at least as well (largest RT "
+         "difference 500 us - 1 ms with a bandwidth_read / _write nRT: +0.00003, mser RT at 30 %).",
 }
 
 

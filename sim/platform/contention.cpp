@@ -79,8 +79,8 @@ CoreRates ContentionModel::rates(const Phase& ph, double l3_hit, int cluster, do
   return r;
 }
 
-std::vector<double> ContentionModel::capacity_factors(std::span<const CoreDemand> demands) const {
-  std::vector<double> factor(demands.size(), 1.0);
+std::vector<double> ContentionModel::shares(std::span<const CoreDemand> demands) const {
+  std::vector<double> share(demands.size(), 0.0);
   for (int c = 0; c < p_.clusters; ++c) {
     std::vector<std::size_t> members;
     double footprint = 0.0;
@@ -89,7 +89,11 @@ std::vector<double> ContentionModel::capacity_factors(std::span<const CoreDemand
         members.push_back(i);
         footprint += demands[i].footprint_kb;
       }
-    if (footprint <= p_.l3.capacity_kb) continue;
+    if (footprint <= p_.l3.capacity_kb) {
+      for (std::size_t i : members)
+        share[i] = demands[i].footprint_kb;
+      continue;
+    }
     // Pressure: L3 lines inserted per ns at the unloaded latency (a resident core with no phase
     // known keeps a minimal pressure).
     std::vector<double> pressure(demands.size(), 0.0);
@@ -103,7 +107,6 @@ std::vector<double> ContentionModel::capacity_factors(std::span<const CoreDemand
       pressure[i] = std::max(pressure[i], 1e-9);
     }
     // Water-filling: shares in proportion to pressure, capped at the footprint.
-    std::vector<double> share(demands.size(), 0.0);
     std::vector<bool> capped(demands.size(), false);
     double left = p_.l3.capacity_kb;
     for (std::size_t round = 0; round < members.size(); ++round) {
@@ -126,10 +129,17 @@ std::vector<double> ContentionModel::capacity_factors(std::span<const CoreDemand
       for (std::size_t i : members)
         if (capped[i]) left -= share[i];
     }
-    for (std::size_t i : members)
+  }
+  return share;
+}
+
+std::vector<double> ContentionModel::capacity_factors(std::span<const CoreDemand> demands) const {
+  const std::vector<double> share = shares(demands);
+  std::vector<double> factor(demands.size(), 1.0);
+  for (std::size_t i = 0; i < demands.size(); ++i)
+    if (demands[i].resident && demands[i].footprint_kb > 0)
       factor[i] =
           std::pow(std::min(1.0, share[i] / demands[i].footprint_kb), p_.l3.capacity_exponent);
-  }
   return factor;
 }
 
@@ -165,8 +175,14 @@ double ContentionModel::alone_inst_per_ns(const Phase& phase, double l3_hit, dou
 }
 
 MemoryState ContentionModel::solve(std::span<const CoreDemand> demands) const {
+  const std::vector<double> capf = capacity_factors(demands);
+  return solve(demands, capf);
+}
+
+MemoryState ContentionModel::solve(std::span<const CoreDemand> demands,
+                                   std::span<const double> capf) const {
   MemoryState s = unloaded(demands.size());
-  s.capacity_factor = capacity_factors(demands);
+  s.capacity_factor.assign(capf.begin(), capf.end());
   std::vector<bool> busy(s.l3_ns.size(), false);
   for (const auto& d : demands)
     if (d.phase) busy[static_cast<std::size_t>(d.cluster)] = true;

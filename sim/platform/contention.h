@@ -14,6 +14,9 @@
 // latency), capped at its footprint, the rest going to the others (water-filling). A core holding
 // share S of its footprint F sees capacity_factor = min(1, S / F)^capacity_exponent. So a
 // streaming co-runner evicts a light one, while a light co-runner barely disturbs a stream.
+// These shares are the steady state; the simulator moves each core's residency towards its
+// share over time (residency.h: refill after throttling) and solves with the capacity factors
+// of the residencies (solve(demands, capf)).
 //
 // The latencies are the fixed point of "latency -> rates -> traffic -> utilisation -> latency"
 // (utilisation is monotone in it, so the root is unique): solved by nested bracketed root finding
@@ -37,7 +40,8 @@ struct CoreDemand {
   const Phase* phase = nullptr;  // the phase it is running; null: no traffic (idle, callback)
   double l3_hit = 1.0;
   double footprint_kb = 0.0;
-  bool resident = false;  // its working set occupies the L3 (running, or briefly preempted)
+  bool resident = false;  // it claims its L3 share (running, or briefly preempted); else its
+                          // lines (footprint_kb, when known) age out of the L3
   const Phase* resident_phase = nullptr;  // the phase it runs or will resume (its L3 pressure)
 };
 
@@ -67,6 +71,8 @@ class ContentionModel {
   // The unloaded state for `demands` cores (every capacity factor 1).
   MemoryState unloaded(std::size_t demands = 0) const;
   MemoryState solve(std::span<const CoreDemand> demands) const;
+  // The same with each demand's capacity factor given (residency.h: refill after throttling).
+  MemoryState solve(std::span<const CoreDemand> demands, std::span<const double> capf) const;
   // Rates of a core running `phase` with its L3 hit ratio scaled by `capacity_factor`.
   CoreRates rates(const Phase& phase, double l3_hit, int cluster, double capacity_factor,
                   const MemoryState& state) const;
@@ -74,7 +80,11 @@ class ContentionModel {
   // `cluster` with every other core idle: its progress in isolation.
   double alone_inst_per_ns(const Phase& phase, double l3_hit, double footprint_kb,
                            int cluster) const;
-  // L3 shares: capacity factor of each demand (1 where the resident footprints fit).
+  // L3 shares in KB: the footprint where the resident footprints of a cluster fit, else the
+  // water-filling share; 0 for a demand that is not resident.
+  std::vector<double> shares(std::span<const CoreDemand> demands) const;
+  // L3 shares as capacity factors: min(1, share / footprint)^capacity_exponent (1 where the
+  // resident footprints fit, and for demands that are not resident).
   std::vector<double> capacity_factors(std::span<const CoreDemand> demands) const;
 
   // latency(u) of the L3 or the DRAM; u is clamped below 1.

@@ -45,6 +45,10 @@ void Core::start_work(WorkloadRun* run, Done on_end) {
   sync(now);
   run_ = run;
   on_end_ = std::move(on_end);
+  if (run_) {
+    held_footprint_kb_ = run_->profile().footprint_kb;
+    held_l3_hit_ = run_->profile().l3_hit;
+  }
   dispatch(now);
 }
 
@@ -89,6 +93,9 @@ CoreDemand Core::demand() const {
     d.resident = !thr_;
     d.resident_phase = &run_->phase();
     if (running_ == Running::Work) d.phase = &run_->phase();
+  } else if (held_footprint_kb_ > 0.0) {  // idle or finished: its lines age out
+    d.footprint_kb = held_footprint_kb_;
+    d.l3_hit = held_l3_hit_;
   }
   return d;
 }

@@ -91,6 +91,10 @@ class Core : public sc_core::sc_module {
   std::uint64_t seq_ = 0;
   bool thr_ = false;
   WorkloadRun* run_ = nullptr;
+  // The footprint of the last workload run here: its lines stay in the L3 (not resident: aging
+  // out) while the core does something else.
+  double held_footprint_kb_ = 0.0;
+  double held_l3_hit_ = 1.0;
   Done on_end_;
 
   Running running_ = Running::Idle;

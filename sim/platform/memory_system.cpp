@@ -1,6 +1,7 @@
 #include "platform/memory_system.h"
 
 #include <bit>
+#include <cmath>
 
 #include "platform/core.h"
 
@@ -12,6 +13,7 @@ MemorySystem::MemorySystem(const sc_core::sc_module_name& name, const SimPlatfor
       model_(platform),
       quantum_ns_(std::max<TimeNs>(1, quantum_ns)),
       rt_(rt),
+      residency_(model_, platform),
       state_(model_.unloaded()) {
   SC_METHOD(resolve);
   sensitive << ev_;
@@ -24,11 +26,15 @@ std::size_t MemorySystem::attach(Core* core) {
 }
 
 void MemorySystem::mark_dirty() {
-  if (scheduled_) return;
-  scheduled_ = true;
   const TimeNs now = now_ns();
-  const TimeNs boundary = (now + quantum_ns_ - 1) / quantum_ns_ * quantum_ns_;
-  if (boundary == now)
+  schedule_at((now + quantum_ns_ - 1) / quantum_ns_ * quantum_ns_);
+}
+
+void MemorySystem::schedule_at(TimeNs boundary) {
+  if (scheduled_at_ >= 0 && scheduled_at_ <= boundary) return;
+  scheduled_at_ = boundary;  // an earlier notification overrides a pending later one
+  const TimeNs now = now_ns();
+  if (boundary <= now)
     ev_.notify(sc_core::SC_ZERO_TIME);
   else
     ev_.notify(to_sc(boundary - now));
@@ -36,7 +42,8 @@ void MemorySystem::mark_dirty() {
 
 void MemorySystem::resolve() {
   rt_.guarded([&] {
-    scheduled_ = false;
+    scheduled_at_ = -1;
+    const TimeNs now = now_ns();
     std::vector<CoreDemand>& demands = demands_;
     std::vector<std::uintptr_t>& key = key_;
     demands.clear();
@@ -51,14 +58,27 @@ void MemorySystem::resolve() {
       key.push_back(static_cast<std::uintptr_t>(std::bit_cast<std::uint64_t>(d.footprint_kb)));
       key.push_back(static_cast<std::uintptr_t>(std::bit_cast<std::uint64_t>(d.l3_hit)));
     }
+    // Residencies up to now; the capacity factors of the running cores are part of the key (the
+    // others' do not enter the solution).
+    residency_.advance(static_cast<double>(now), demands);
+    const std::vector<double>& capf = residency_.capacity_factors();
+    for (std::size_t i = 0; i < demands.size(); ++i)
+      key.push_back(demands[i].phase ? std::bit_cast<std::uint64_t>(capf[i]) : 0);
     auto it = memo_.find(key);
     if (it == memo_.end()) {
       ++solves_;
       if (memo_.size() > 4096) memo_.clear();
-      it = memo_.emplace(key, model_.solve(demands)).first;
+      it = memo_.emplace(key, model_.solve(demands, capf)).first;
     }
-    if (it->second == state_) return;
-    state_ = it->second;
+    MemoryState next = it->second;
+    next.capacity_factor = capf;
+    const double moves = residency_.set_rates(demands, next);
+    if (moves >= 0.0) {
+      const TimeNs at = now + std::max<TimeNs>(1, static_cast<TimeNs>(std::ceil(moves)));
+      schedule_at((at + quantum_ns_ - 1) / quantum_ns_ * quantum_ns_);
+    }
+    if (next == state_) return;
+    state_ = std::move(next);
     for (Core* c : cores_)
       c->memory_changed();
   });

@@ -10,6 +10,11 @@
 // (PMU reads, throttles, callbacks) keeps its exact time. Nothing is evaluated per cache line, and
 // nothing runs at boundaries where no demand changed.
 //
+// The capacity factors come from each core's residency in its L3 (residency.h): a core that
+// stops running loses its lines to its co-runners' insertions and refills them when it runs
+// again. While some residency moves, the memory system also re-solves when one crosses a level
+// of its capacity factor or reaches its target (at the quantum boundary after that time).
+//
 // Contract: created during elaboration; attach() every core before the simulation starts. Cores
 // call mark_dirty() when their demand changes; resolve() calls Core::memory_changed() on each.
 #pragma once
@@ -21,6 +26,7 @@
 
 #include "kernel/runtime.h"
 #include "platform/contention.h"
+#include "platform/residency.h"
 
 namespace rosguard::sim {
 
@@ -44,20 +50,23 @@ class MemorySystem : public sc_core::sc_module {
     return model_.rates(phase, l3_hit, cluster, capf, state_);
   }
   std::uint64_t solves() const { return solves_; }
+  const L3Residency& residency() const { return residency_; }
 
  private:
   void resolve();
+  void schedule_at(TimeNs boundary);
 
   ContentionModel model_;
   TimeNs quantum_ns_;
   Runtime& rt_;
   std::vector<Core*> cores_;
+  L3Residency residency_;
   MemoryState state_;
   std::map<std::vector<std::uintptr_t>, MemoryState> memo_;
   std::vector<CoreDemand> demands_;  // scratch of resolve()
   std::vector<std::uintptr_t> key_;  // scratch of resolve()
   sc_core::sc_event ev_;
-  bool scheduled_ = false;
+  TimeNs scheduled_at_ = -1;  // the pending re-solve (-1: none)
   std::uint64_t solves_ = 0;  // fixed points computed
 };
 

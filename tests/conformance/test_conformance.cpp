@@ -112,7 +112,7 @@ json run_sim(const Script& script) {
   std::vector<Pmu> pmus(script.entities);
   std::vector<std::vector<std::pair<Command, TimeNs>>> got(script.entities);
   for (std::size_t e = 0; e < script.entities; ++e)
-    ctl.add_entity({"nrt" + std::to_string(e), static_cast<int>(e) + 1,
+    ctl.add_entity({"nrt" + std::to_string(e), 0,  // as the hw shell's entity_cores below
                     [&got, e](Command c, TimeNs cause) { got[e].emplace_back(c, cause); },
                     [&pmus, &script, e]() -> const Pmu& {
                       pmus[e][PmuEvent::L2Refill] =

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "nodes/costs.h"
 #include "platform/contention.h"
+#include "platform/residency.h"
 #include "platform/sim_platform.h"
 #include "sim_test_util.h"
 #include "workload/profile.h"
@@ -112,6 +113,129 @@ TEST_CASE("memory model: the L3 is shared by pressure when the resident footprin
   // Another cluster does not count.
   const MemoryState apart = m.solve(std::vector<CoreDemand>{demand(br, 0), demand(br, 1)});
   CHECK(apart.capacity_factor[0] == 1.0);
+}
+
+namespace {
+
+// One residency step as the memory system takes it: residencies to `t`, solve with their
+// capacity factors, rates; returns the state.
+MemoryState step(L3Residency& res, const ContentionModel& m, double t,
+                 const std::vector<CoreDemand>& d) {
+  res.advance(t, d);
+  MemoryState st = m.solve(d, res.capacity_factors());
+  res.set_rates(d, st);
+  return st;
+}
+
+CoreDemand throttled(CoreDemand d) {
+  d.resident = false;
+  d.phase = nullptr;
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("L3 residency: a throttled core loses its lines at the rate its co-runner inserts",
+          "[sim][memory][residency]") {
+  const SimPlatform p = orin();
+  const ContentionModel m(p);
+  const WorkloadProfile mser = profile("mser");
+  const WorkloadProfile br = profile("bandwidth_read");
+  const double line_kb = p.line_bytes / 1024.0;
+  L3Residency res(m, p);
+  // Both run: warm at their water-filling shares (3.3 MB of footprints in a 2 MB L3).
+  const std::vector<CoreDemand> both = {demand(mser, 0), demand(br, 0)};
+  const MemoryState shared = step(res, m, 0.0, both);
+  const std::vector<double> share = m.shares(both);
+  CHECK(res.resident_kb(0) == share[0]);
+  CHECK(res.resident_kb(0) < mser.footprint_kb);
+  CHECK(shared.capacity_factor == m.capacity_factors(both));  // warm = the steady state
+  // mser throttled: its target is 0, the stream's the whole L3; the stream inserts a line per
+  // L3 miss, each evicting one of mser's.
+  const std::vector<CoreDemand> thr = {throttled(demand(mser, 0)), demand(br, 0)};
+  const MemoryState st = step(res, m, 1000.0, thr);
+  CHECK(res.target_kb(0) == 0.0);
+  const CoreRates stream = m.rates(br.phases[0], br.l3_hit, 0, res.capacity_factors()[1], st);
+  CHECK(stream.l3_refill_per_ns > 0.0);
+  CHECK(res.rate_kb_per_ns(0) == Approx(-line_kb * stream.l3_refill_per_ns));
+  const double before = res.resident_kb(0);
+  const double dt = 0.25 * before / -res.rate_kb_per_ns(0);  // a quarter of its lines
+  step(res, m, 1000.0 + dt, thr);
+  CHECK(res.resident_kb(0) == Approx(0.75 * before));
+  // The stream took the space: it refills at its own footprint misses.
+  CHECK(res.resident_kb(1) > share[1]);
+  // Long enough, and nothing of mser is left.
+  step(res, m, 1e9, thr);
+  CHECK(res.resident_kb(0) == 0.0);
+  CHECK(res.capacity_factors()[0] == 0.0);
+}
+
+TEST_CASE("L3 residency: alone, or beside an idle co-runner, a throttled core keeps its lines",
+          "[sim][memory][residency]") {
+  const SimPlatform p = orin();
+  const ContentionModel m(p);
+  const WorkloadProfile mser = profile("mser");
+  L3Residency res(m, p);
+  step(res, m, 0.0, {demand(mser, 0), throttled(demand(mser, 0))});
+  CHECK(res.resident_kb(0) == mser.footprint_kb);
+  const std::vector<CoreDemand> idle = {throttled(demand(mser, 0)), throttled(demand(mser, 0))};
+  step(res, m, 1000.0, idle);
+  CHECK(res.rate_kb_per_ns(0) == 0.0);
+  step(res, m, 1e9, idle);
+  CHECK(res.resident_kb(0) == mser.footprint_kb);
+  // A co-runner on another cluster inserts into its own L3.
+  const WorkloadProfile br = profile("bandwidth_read");
+  step(res, m, 2e9, {throttled(demand(mser, 0)), demand(br, 1)});
+  CHECK(res.rate_kb_per_ns(0) == 0.0);
+}
+
+TEST_CASE(
+    "L3 residency: after resuming a core refills at its own miss rate and its progress "
+    "recovers",
+    "[sim][memory][residency]") {
+  const SimPlatform p = orin();
+  const ContentionModel m(p);
+  const WorkloadProfile mser = profile("mser");
+  const WorkloadProfile br = profile("bandwidth_read");
+  const double line_kb = p.line_bytes / 1024.0;
+  L3Residency res(m, p);
+  const std::vector<CoreDemand> alone = {demand(mser, 0)};
+  const MemoryState warm_st = step(res, m, 0.0, alone);
+  const double warm = m.rates(mser.phases[0], mser.l3_hit, 0, 1.0, warm_st).inst_per_ns;
+  // Lose half of it to a stream on core 1 while throttled, then resume with the stream idle.
+  const std::vector<CoreDemand> thr = {throttled(demand(mser, 0)), demand(br, 0)};
+  step(res, m, 1.0, thr);
+  const double half = 0.5 * mser.footprint_kb / -res.rate_kb_per_ns(0);
+  const std::vector<CoreDemand> back = {demand(mser, 0), throttled(demand(br, 0))};
+  MemoryState st = step(res, m, 1.0 + half, back);
+  REQUIRE(res.resident_kb(0) == Approx(0.5 * mser.footprint_kb));
+  const double cf = res.capacity_factors()[0];
+  CHECK(cf == Approx(std::pow(0.5, p.l3.capacity_exponent)));
+  const CoreRates cold = m.rates(mser.phases[0], mser.l3_hit, 0, cf, st);
+  CHECK(cold.inst_per_ns < warm);
+  CHECK(cold.l3_refill_per_ns >
+        m.rates(mser.phases[0], mser.l3_hit, 0, 1.0, warm_st).l3_refill_per_ns);
+  // Refill: each miss to its footprint brings a line back.
+  CHECK(res.rate_kb_per_ns(0) == Approx(line_kb * mser.l3_hit * (1.0 - cf) * cold.refill_per_ns));
+  // Stepping level by level (as the memory system re-solves), it gets warm again, and its
+  // progress rate with it; the speed never falls on the way.
+  double t = 1.0 + half, speed = cold.inst_per_ns;
+  int steps = 0;
+  for (; steps < 10000 && res.resident_kb(0) < mser.footprint_kb; ++steps) {
+    const double next = res.set_rates(back, st);
+    REQUIRE(next >= 0.0);
+    t += std::max(next, 1.0);
+    st = step(res, m, t, back);
+    const double now =
+        m.rates(mser.phases[0], mser.l3_hit, 0, res.capacity_factors()[0], st).inst_per_ns;
+    CHECK(now >= speed);
+    speed = now;
+  }
+  CHECK(res.resident_kb(0) == mser.footprint_kb);
+  CHECK(speed == Approx(warm));
+  // One re-solve per capacity-factor level crossed, of mser (refilling) or of the idle stream
+  // (whose lines mser's insertions evict).
+  CHECK(steps <= 2 * (L3Residency::kLevels + 1));
 }
 
 TEST_CASE("memory model: saturation is bounded (latency finite, utilisation below 1)",

@@ -17,13 +17,19 @@ void check_geometry(const CacheGeometry& g, const std::string& what) {
          "ways x line (" + std::to_string(g.ways) + " x " + std::to_string(g.line_bytes) + ")");
 }
 
+namespace {
+const CacheGeometry& checked(const CacheGeometry& g) {
+  check_geometry(g, "cache");
+  return g;
+}
+}  // namespace
+
+// checked() first: sets() divides by the ways.
 LruCache::LruCache(const CacheGeometry& geometry)
-    : geometry_(geometry),
+    : geometry_(checked(geometry)),
       sets_(geometry.sets()),
       tags_(geometry.sets() * geometry.ways, kInvalid),
-      dirty_(geometry.sets() * geometry.ways, 0) {
-  check_geometry(geometry, "cache");
-}
+      dirty_(geometry.sets() * geometry.ways, 0) {}
 
 LruCache::Result LruCache::access(std::uint64_t line, bool write) {
   const unsigned ways = geometry_.ways;

@@ -201,8 +201,9 @@ int main(int argc, char** argv) {
   profile_cmd->add_flag("--quiet", prof.quiet, "No progress or summary");
   profile_cmd->add_option("command", prof.command, "-- PROGRAM ARGS...")->required();
   profile_cmd->footer(
-      "Needs valgrind (Debian package valgrind). lackey is some 50-100x slower than the program "
-      "alone; --max-instructions bounds a long run. base_ipc is written as a placeholder: fit "
+      "Needs valgrind (Debian package valgrind). lackey is slow (about 0.5 M instructions/s on a "
+      "shared 2-vCPU VM, far beyond 100x the program alone); --max-instructions bounds a long run. "
+      "base_ipc is written as a placeholder: fit "
       "it against measured IPC. Exit 1 when the program fails, with its status.");
 
   try {

@@ -103,6 +103,15 @@ void Profiler::finish() {
   current_.l3_misses.assign(capacities_kb_.size(), 0);
 }
 
+void Profiler::reset_counts() {
+  slices_.clear();
+  current_ = SliceCounts{};
+  current_.l3_misses.assign(capacities_kb_.size(), 0);
+  instructions_ = 0;
+  touched_.clear();
+  recent_refills_.clear();
+}
+
 SliceCounts Profiler::total() const {
   SliceCounts sum;
   sum.l3_misses.assign(capacities_kb_.size(), 0);

@@ -58,6 +58,10 @@ class Profiler {
   // `size` bytes at `address`; an access across a line boundary touches both lines.
   void access(std::uint64_t address, std::uint64_t size, AccessKind kind);
   void finish();
+  // Starts counting afresh (slices, instructions, footprint) with the caches and the L3 stack
+  // as they are: what ran before warmed them. Footprint then counts the lines that miss the L1
+  // from here on (lines still in the L1 at the reset are not counted until they leave it).
+  void reset_counts();
 
   const ProfilerConfig& config() const { return config_; }
   // MRC capacities in KB, ascending, without duplicates, including the L3's.

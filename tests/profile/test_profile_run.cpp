@@ -106,6 +106,20 @@ TEST_CASE(
   CHECK(read_file(dir / "err").find("exit status 7") != std::string::npos);
   CHECK(read_file(out) == before);
 
+  // --skip-instructions beyond the program's end: exit 1, nothing written; within it, the
+  // source says what was skipped.
+  CHECK(run(prof + "--skip-instructions 1000000000 -- " STREAM_READ " 64 1 2>" +
+            (dir / "err").string()) == 1);
+  CHECK(read_file(dir / "err").find("before the 1000000000 of --skip-instructions") !=
+        std::string::npos);
+  CHECK(read_file(out) == before);
+  const fs::path skipped = dir / "skipped.json";
+  REQUIRE(run(bin + " profile --quiet --skip-instructions 200000 --out " + skipped.string() +
+              " -- " STREAM_READ " 512 2 2>/dev/null") == 0);
+  const auto sdoc = nlohmann::json::parse(read_file(skipped));
+  CHECK(sdoc["sim"]["source"].get<std::string>().find("first 200000 instructions run through "
+                                                      "the caches uncounted") != std::string::npos);
+
   // Bad arguments: exit 2, nothing written.
   const fs::path other = dir / "other.json";
   CHECK(run(bin + " profile --out " + other.string() +

@@ -222,3 +222,26 @@ TEST_CASE("lackey trace lines parse and anything else is not an event") {
   CHECK_FALSE(parse_lackey_line(" L 0400,"));
   CHECK_FALSE(parse_lackey_line(""));
 }
+
+TEST_CASE("Profiler: reset_counts starts counting afresh with the caches kept warm") {
+  ProfilerConfig c;
+  c.slice_instructions = 100;
+  Profiler p(c);
+  for (int pass = 0; pass < 2; ++pass)
+    for (std::uint64_t a = 0; a < 32 * 1024; a += 64) {  // 32 KB: fits the 64 KB L1
+      p.instruction();
+      p.access(a, 8, AccessKind::Load);
+    }
+  REQUIRE(p.total().l1_refills == 512);
+  p.reset_counts();
+  CHECK(p.instructions() == 0);
+  CHECK(p.slices().empty());
+  for (std::uint64_t a = 0; a < 32 * 1024; a += 64) {
+    p.instruction();
+    p.access(a, 8, AccessKind::Load);
+  }
+  p.finish();
+  CHECK(p.instructions() == 512);
+  CHECK(p.total().l1_refills == 0);  // warm from before the reset
+  CHECK(p.total().loads == 512);
+}

@@ -192,6 +192,11 @@ int main(int argc, char** argv) {
       ->add_option("--max-instructions", prof.max_instructions,
                    "Stop after this many instructions (default: the whole run)")
       ->check(CLI::PositiveNumber);
+  profile_cmd
+      ->add_option("--skip-instructions", prof.skip_instructions,
+                   "Run this many instructions through the caches first, uncounted (e.g. "
+                   "a program's start-up); --max-instructions counts from there")
+      ->check(CLI::PositiveNumber);
   profile_cmd->add_option("--caches", prof.caches_kb,
                           "L1,L2,L3 capacities in KB of the target (default 64,256,2048)");
   profile_cmd->add_option("--ways", prof.ways,

@@ -200,6 +200,7 @@ ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
   std::vector<char> buf(1 << 20);
   std::string carry;  // a line cut by the end of a read
   const std::uint64_t max = o.max_instructions;
+  std::uint64_t to_skip = o.skip_instructions;
   auto last_report = start;
   std::uint64_t next_check = 1 << 22;
   bool stop = false;
@@ -211,7 +212,12 @@ ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
     }
     switch (e->kind) {
       case TraceEvent::Kind::Instruction:
-        if (max && profiler.instructions() >= max) {
+        if (to_skip > 0 && profiler.instructions() == to_skip) {
+          profiler.reset_counts();
+          to_skip = 0;
+          next_check = 1 << 22;
+        }
+        if (max && to_skip == 0 && profiler.instructions() >= max) {
           stop = true;
           return;
         }
@@ -264,9 +270,9 @@ ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
         last_report = now;
         const double s = std::chrono::duration<double>(now - start).count();
         char line[160];
-        std::snprintf(line, sizeof line, "profile: %.1f M instructions after %.0f s (%.2f M/s)\n",
-                      static_cast<double>(profiler.instructions()) / 1e6, s,
-                      static_cast<double>(profiler.instructions()) / 1e6 / s);
+        std::snprintf(line, sizeof line, "profile: %.1f M instructions%s after %.0f s\n",
+                      static_cast<double>(profiler.instructions()) / 1e6,
+                      to_skip > 0 ? " skipped" : "", s);
         *progress << line << std::flush;
       }
     }
@@ -286,6 +292,11 @@ ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
                      std::to_string(WTERMSIG(status)) + " (" + ::strsignal(WTERMSIG(status)) +
                      ") under valgrind; no profile written");
   }
+  if (to_skip > 0)
+    throw RunError("'" + quoted_command(o.command) + "' ended after " +
+                   std::to_string(profiler.instructions()) + " instructions, before the " +
+                   std::to_string(o.skip_instructions) +
+                   " of --skip-instructions; no profile written");
   if (profiler.instructions() == 0)
     throw RunError("the trace of '" + quoted_command(o.command) +
                    "' has no instructions: is it valgrind lackey's?");
@@ -343,9 +354,13 @@ nlohmann::json workload_document(const ProfileOptions& o, const profile::Profile
       << quoted_command(o.command) << "' (program " << run.program << ", run in "
       << fs::current_path().string() << ") under " << run.valgrind_version
       << " --tool=lackey --trace-mem=yes"
-      << (run.bounded ? ", stopped after the first " + std::to_string(o.max_instructions) +
-                            " instructions (--max-instructions)"
-                      : std::string(", whole run"))
+      << (o.skip_instructions
+              ? ", the first " + std::to_string(o.skip_instructions) +
+                    " instructions run through the caches uncounted (--skip-instructions)"
+              : std::string())
+      << (run.bounded ? ", stopped after " + std::to_string(o.max_instructions) +
+                            " counted instructions (--max-instructions)"
+                      : std::string(o.skip_instructions ? ", to the end" : ", whole run"))
       << ". Data accesses through an LRU model of the target: " << geometry("L1", c.l1) << ", "
       << geometry("L2", c.l2) << ", " << geometry("L3", c.l3)
       << ", 64-byte lines, write-back, write-allocate, L1/L2 non-inclusive. Slices of "

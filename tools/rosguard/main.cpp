@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "host_model.h"
 #include "loader.h"
+#include "profile.h"
 #include "runner.h"
 #include "version.h"
 
@@ -137,8 +138,8 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"workloads", "platforms", "policies", "backends", "pmc-sources"}));
 
   CalibrateOptions cal;
-  auto* calibrate = app.add_subcommand(
-      "calibrate", "Measure this host and fit the sim platform model to it.");
+  auto* calibrate =
+      app.add_subcommand("calibrate", "Measure this host and fit the sim platform model to it.");
   calibrate->add_flag("--quick", cal.quick,
                       "The short suite (a few working sets, fewer repetitions; minutes)");
   calibrate->add_option("--out", cal.out,
@@ -147,8 +148,9 @@ int main(int argc, char** argv) {
   calibrate->add_flag("--install", cal.install,
                       "Also save platform.json as this host's model, which \"platform\": "
                       "\"host\" uses in sim");
-  calibrate->add_option("--from", cal.from,
-                        "Refit the measurements of an earlier calibration.json (measures nothing)")
+  calibrate
+      ->add_option("--from", cal.from,
+                   "Refit the measurements of an earlier calibration.json (measures nothing)")
       ->check(CLI::ExistingFile);
   calibrate->add_option("--name", cal.name, "Name of the fitted platform (default: host)");
   calibrate->add_flag("--quiet", cal.quiet, "No progress");
@@ -175,6 +177,40 @@ int main(int argc, char** argv) {
       "(bandwidth_read, under a second) and there is no memory model, so the sim backend "
       "cannot run the result. Notes on what is missing or not usable go to stderr.");
 
+  ProfileOptions prof;
+  auto* profile_cmd = app.add_subcommand(
+      "profile",
+      "Run a program under valgrind's lackey and write a sim workload profile from its memory "
+      "trace (L2 refills and write-backs per kilo-instruction, miss-ratio curve, per phase).");
+  profile_cmd->add_option("--out", prof.out, "Workload JSON to write (atomically)")->required();
+  profile_cmd
+      ->add_option("--slice-instructions", prof.slice_instructions,
+                   "Instructions per slice (default 2000000: about 1 ms at 2 GHz and IPC "
+                   "1); adjacent similar slices are merged into phases")
+      ->check(CLI::PositiveNumber);
+  profile_cmd
+      ->add_option("--max-instructions", prof.max_instructions,
+                   "Stop after this many instructions (default: the whole run)")
+      ->check(CLI::PositiveNumber);
+  profile_cmd
+      ->add_option("--skip-instructions", prof.skip_instructions,
+                   "Run this many instructions through the caches first, uncounted (e.g. "
+                   "a program's start-up); --max-instructions counts from there")
+      ->check(CLI::PositiveNumber);
+  profile_cmd->add_option("--caches", prof.caches_kb,
+                          "L1,L2,L3 capacities in KB of the target (default 64,256,2048)");
+  profile_cmd->add_option("--ways", prof.ways,
+                          "L1,L2,L3 associativity (default 4,8,16: Cortex-A78AE L1D and L2, "
+                          "DSU-AE L3)");
+  profile_cmd->add_option("--name", prof.name, "Workload name (default: the program's file name)");
+  profile_cmd->add_flag("--quiet", prof.quiet, "No progress or summary");
+  profile_cmd->add_option("command", prof.command, "-- PROGRAM ARGS...")->required();
+  profile_cmd->footer(
+      "Needs valgrind (Debian package valgrind). lackey is slow (about 0.5 M instructions/s on a "
+      "shared 2-vCPU VM, far beyond 100x the program alone); --max-instructions bounds a long run. "
+      "base_ipc is written as a placeholder: fit "
+      "it against measured IPC. Exit 1 when the program fails, with its status.");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -195,6 +231,7 @@ int main(int argc, char** argv) {
           loader, backends, check_file,
           check_backend.empty() ? std::nullopt : std::optional<std::string>(check_backend),
           check_points);
+    if (*profile_cmd) return profile_command(prof, SchemaSet(loader.home().schemas()));
     if (*calibrate) return calibrate_host(cal, loader);
     if (*list) return list_catalogue(loader, policies, backends, list_what);
     if (*probe) return platform_probe_command(SchemaSet(loader.home().schemas()), probe_out);

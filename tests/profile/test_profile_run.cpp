@@ -1,0 +1,137 @@
+// `rosguard profile` on a program built here (stream_read.cpp) under valgrind's lackey: the
+// refills per load land where the loop's shape puts them, the MRC shows the working set, and
+// the command's exits and output follow its contract. SKIPPED without valgrind.
+#include <sys/wait.h>
+
+#include <catch2/catch.hpp>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "files.h"
+#include "profile.h"
+#include "schema.h"
+
+namespace fs = std::filesystem;
+using namespace rosguard;
+
+namespace {
+
+bool have_valgrind() {
+  return std::system("command -v valgrind >/dev/null 2>&1") == 0;
+}
+
+profile::SliceCounts profile_stream(const std::string& kb, const std::string& passes,
+                                    std::vector<std::uint64_t>& capacities) {
+  ProfileOptions o;
+  o.command = {STREAM_READ, kb, passes};
+  profile::Profiler profiler(profile_config(o));
+  trace_program(o, profiler, nullptr);
+  capacities = profiler.capacities_kb();
+  return profiler.total();
+}
+
+int run(const std::string& command) {
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace
+
+TEST_CASE("profile of a sequential read: one L1 and one L2 refill per 8 loads, MRC of 1 MB") {
+  if (!have_valgrind()) {
+    WARN("SKIPPED: valgrind is not installed (Debian package valgrind)");
+    return;
+  }
+  // The difference of 4 and 2 passes over 1 MB is two passes of the loop alone (the program's
+  // start-up and exit cancel).
+  std::vector<std::uint64_t> caps;
+  const profile::SliceCounts a = profile_stream("1024", "2", caps);
+  const profile::SliceCounts b = profile_stream("1024", "4", caps);
+  const double loads = static_cast<double>(b.loads - a.loads);
+  const double l1 = static_cast<double>(b.l1_refills - a.l1_refills);
+  const double l2 = static_cast<double>(b.l2_refills - a.l2_refills);
+  CHECK(loads == Approx(2.0 * 1024 * 1024 / 8).epsilon(0.01));
+  // 1 MB is beyond both the 64 KB L1 and the 256 KB L2: every line refills both, per pass.
+  CHECK(1000.0 * l1 / loads == Approx(125).epsilon(0.02));
+  CHECK(1000.0 * l2 / loads == Approx(125).epsilon(0.02));
+  CHECK(b.stores - a.stores < 100);
+  // LRU behind the L2: a 1 MB cycle misses in 256 and 512 KB, hits from 2 MB on.
+  for (std::size_t i = 0; i < caps.size(); ++i) {
+    const double missed = static_cast<double>(b.l3_misses[i] - a.l3_misses[i]) / l2;
+    INFO("capacity " << caps[i] << " KB: miss ratio " << missed);
+    if (caps[i] <= 512) CHECK(missed > 0.98);
+    if (caps[i] >= 2048) CHECK(missed < 0.02);
+  }
+}
+
+TEST_CASE(
+    "rosguard profile writes a valid workload, exits 1 when the program fails, 2 on bad "
+    "arguments") {
+  if (!have_valgrind()) {
+    WARN("SKIPPED: valgrind is not installed (Debian package valgrind)");
+    return;
+  }
+  const fs::path dir =
+      fs::temp_directory_path() / ("rosguard-profile-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string bin = ROSGUARD_BINARY;
+  const fs::path out = dir / "stream.json";
+  const std::string prof =
+      bin + " profile --quiet --slice-instructions 100000 --out " + out.string() + " ";
+
+  REQUIRE(run(prof + "--name stream -- " STREAM_READ " 512 3 2>" + (dir / "err").string()) == 0);
+  const auto doc = nlohmann::json::parse(read_file(out));
+  SchemaSet schemas(fs::path(ROSGUARD_TEST_SOURCE_DIR) / "scenarios" / "schema");
+  schemas.validate(doc, SchemaKind::Workload, out.string());
+  CHECK(doc["name"] == "stream");
+  const auto& sim = doc["sim"];
+  CHECK(sim["footprint_kb"].get<double>() >= 512);
+  CHECK(sim["footprint_kb"].get<double>() < 1024);
+  double fractions = 0, refills = 0;
+  for (const auto& ph : sim["phases"]) {
+    fractions += ph["fraction"].get<double>();
+    refills += ph["fraction"].get<double>() * ph["l2_refill_pki"].get<double>();
+    CHECK(ph["base_ipc"] == 1.0);  // the placeholder the source says must be fitted
+  }
+  CHECK(fractions == Approx(1.0).epsilon(1e-9));
+  CHECK(refills > 5);  // a 512 KB stream refills the L2 throughout
+  CHECK(sim["source"].get<std::string>().find("placeholder") != std::string::npos);
+  CHECK(sim["source"].get<std::string>().find("lackey") != std::string::npos);
+
+  // The program fails: exit 1 with its status, the old file left as it was.
+  const std::string before = read_file(out);
+  CHECK(run(prof + "-- " STREAM_READ " 64 1 7 2>" + (dir / "err").string()) == 1);
+  CHECK(read_file(dir / "err").find("exit status 7") != std::string::npos);
+  CHECK(read_file(out) == before);
+
+  // --skip-instructions beyond the program's end: exit 1, nothing written; within it, the
+  // source says what was skipped.
+  CHECK(run(prof + "--skip-instructions 1000000000 -- " STREAM_READ " 64 1 2>" +
+            (dir / "err").string()) == 1);
+  CHECK(read_file(dir / "err").find("before the 1000000000 of --skip-instructions") !=
+        std::string::npos);
+  CHECK(read_file(out) == before);
+  const fs::path skipped = dir / "skipped.json";
+  REQUIRE(run(bin + " profile --quiet --skip-instructions 200000 --out " + skipped.string() +
+              " -- " STREAM_READ " 512 2 2>/dev/null") == 0);
+  const auto sdoc = nlohmann::json::parse(read_file(skipped));
+  CHECK(sdoc["sim"]["source"].get<std::string>().find("first 200000 instructions run through "
+                                                      "the caches uncounted") != std::string::npos);
+
+  // Bad arguments: exit 2, nothing written.
+  const fs::path other = dir / "other.json";
+  CHECK(run(bin + " profile --out " + other.string() +
+            " --caches 64,256 -- " STREAM_READ " 64 1 2>/dev/null") == 2);
+  CHECK(run(bin + " profile --out " + other.string() +
+            " --ways 4,8,0 -- " STREAM_READ " 64 1 2>/dev/null") == 2);
+  CHECK(run(bin + " profile --out " + other.string() + " -- /no/such/program 2>/dev/null") == 2);
+  CHECK_FALSE(fs::exists(other));
+
+  // No valgrind on PATH: said plainly, exit 1.
+  CHECK(run("PATH=/nonexistent " + bin + " profile --out " + other.string() +
+            " -- " STREAM_READ " 64 1 2>" + (dir / "err").string()) == 1);
+  CHECK(read_file(dir / "err").find("valgrind is not installed") != std::string::npos);
+  fs::remove_all(dir);
+}

@@ -403,19 +403,18 @@ void Suite::measure_costs() {
     std::vector<double> latency;
     latency.reserve(static_cast<std::size_t>(n));
     std::atomic<bool> done{false};
-    RtThread subscriber(ThreadSpec{"cal-lsub", nrt_core, SchedClass::Fifo, prio::kController},
-                        [&] {
-                          while (!done.load(std::memory_order_acquire)) {
-                            const auto e = sub_waker.epoch();
-                            SampleMsg m;
-                            bool got = false;
-                            while (topic.take(sub, m)) {
-                              latency.push_back(ns_to_us(now_ns() - m.t_published));
-                              got = true;
-                            }
-                            if (!got) sub_waker.wait(e, -1);
-                          }
-                        });
+    RtThread subscriber(ThreadSpec{"cal-lsub", nrt_core, SchedClass::Fifo, prio::kController}, [&] {
+      while (!done.load(std::memory_order_acquire)) {
+        const auto e = sub_waker.epoch();
+        SampleMsg m;
+        bool got = false;
+        while (topic.take(sub, m)) {
+          latency.push_back(ns_to_us(now_ns() - m.t_published));
+          got = true;
+        }
+        if (!got) sub_waker.wait(e, -1);
+      }
+    });
     notes_.sched(subscriber.outcome());
     run_on(nrt_core, prio::kPmc, "cal-lpub", [&] {
       paced(
@@ -591,53 +590,52 @@ void Suite::measure_costs() {
     notes_.sched(spinner.outcome());
     while (!spinning.load(std::memory_order_acquire))
       std::this_thread::yield();
-    RtThread controller(
-        ThreadSpec{"cal-ctl", far_core, SchedClass::Fifo, prio::kController}, [&] {
-          const auto send = [&] {
-            for (const auto& c : out.commands) {
-              ControlMsg m;
-              m.command = c.command;
-              m.t_cause = c.cause;
-              control.publish(pub, m);
-            }
-          };
-          const auto drain = [&] {
-            ControlMsg m;
-            while (control.take(sub, m)) {
-            }
-            out.clear();
-          };
-          driver.rt_signal(t, 0, true, out);
-          drain();
-          int i = 0;
-          while (!done.load(std::memory_order_acquire)) {
-            const auto e = ctl_waker.epoch();
-            SampleMsg msg;
-            bool got = false;
-            while (samples.take(sample_sub, msg)) {
-              if (!got) woke.push_back(now_ns());
-              got = true;
-              t += kNsPerMs;
-              for (auto& c : counters) {
-                c.value += per_sample;
-                c.time_enabled_ns += kNsPerMs;
-                c.time_running_ns += kNsPerMs;
-              }
-              meter.bytes += static_cast<double>(per_sample) * kLineBytes;
-              if (i++ % 200 == 199) {  // an activation edge now and then
-                driver.rt_signal(t, 0, false, out);
-                driver.rt_signal(t, 0, true, out);
-              } else if (auto due = driver.next_wakeup(); due && *due <= t) {
-                driver.wake(t, out);
-              } else {
-                driver.sample(t, 0, counters, t, out);
-              }
-              send();
-              drain();
-            }
-            if (!got) ctl_waker.wait(e, -1);
+    RtThread controller(ThreadSpec{"cal-ctl", far_core, SchedClass::Fifo, prio::kController}, [&] {
+      const auto send = [&] {
+        for (const auto& c : out.commands) {
+          ControlMsg m;
+          m.command = c.command;
+          m.t_cause = c.cause;
+          control.publish(pub, m);
+        }
+      };
+      const auto drain = [&] {
+        ControlMsg m;
+        while (control.take(sub, m)) {
+        }
+        out.clear();
+      };
+      driver.rt_signal(t, 0, true, out);
+      drain();
+      int i = 0;
+      while (!done.load(std::memory_order_acquire)) {
+        const auto e = ctl_waker.epoch();
+        SampleMsg msg;
+        bool got = false;
+        while (samples.take(sample_sub, msg)) {
+          if (!got) woke.push_back(now_ns());
+          got = true;
+          t += kNsPerMs;
+          for (auto& c : counters) {
+            c.value += per_sample;
+            c.time_enabled_ns += kNsPerMs;
+            c.time_running_ns += kNsPerMs;
           }
-        });
+          meter.bytes += static_cast<double>(per_sample) * kLineBytes;
+          if (i++ % 200 == 199) {  // an activation edge now and then
+            driver.rt_signal(t, 0, false, out);
+            driver.rt_signal(t, 0, true, out);
+          } else if (auto due = driver.next_wakeup(); due && *due <= t) {
+            driver.wake(t, out);
+          } else {
+            driver.sample(t, 0, counters, t, out);
+          }
+          send();
+          drain();
+        }
+        if (!got) ctl_waker.wait(e, -1);
+      }
+    });
     notes_.sched(controller.outcome());
     run_on(nrt_core, prio::kPmc, "cal-feed", [&] {
       paced(

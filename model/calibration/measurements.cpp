@@ -9,8 +9,7 @@ using nlohmann::json;
 
 template <typename T>
 T field(const json& j, const char* key, const std::string& file, const std::string& path) {
-  if (!j.is_object() || !j.contains(key))
-    throw InputError(file, path + "/" + key, "missing");
+  if (!j.is_object() || !j.contains(key)) throw InputError(file, path + "/" + key, "missing");
   try {
     return j.at(key).get<T>();
   } catch (const json::exception&) {
@@ -86,8 +85,7 @@ Measurements measurements_from_json(const json& j, const std::string& file,
       k.corunners.push_back({field<std::string>(co[c], "kernel", file, cp),
                              field<double>(co[c], "working_set_kb", file, cp)});
     }
-    if (!(k.ns_per_line > 0.0))
-      throw InputError(file, rp + "/ns_per_line", "must be positive");
+    if (!(k.ns_per_line > 0.0)) throw InputError(file, rp + "/ns_per_line", "must be positive");
     m.runs.push_back(std::move(k));
   }
   m.costs_us = field<std::map<std::string, std::vector<double>>>(j, "costs_us", file, base);

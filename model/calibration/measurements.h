@@ -11,10 +11,9 @@
 #pragma once
 
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 namespace rosguard::calibration {
 
@@ -22,13 +21,13 @@ namespace rosguard::calibration {
 struct HostFacts {
   std::string hostname;
   std::string cpu_model;
-  int cpus = 0;                // usable CPUs
-  int clusters = 1;            // sets of CPUs that share the last-level cache
+  int cpus = 0;      // usable CPUs
+  int clusters = 1;  // sets of CPUs that share the last-level cache
   int cores_per_cluster = 1;
   double freq_mhz = 0.0;
   int line_bytes = 64;
   double l1d_kb = 0.0, l2_kb = 0.0, l3_kb_per_cluster = 0.0;
-  std::string date;            // ISO 8601 UTC, when the suite started
+  std::string date;  // ISO 8601 UTC, when the suite started
 };
 
 // One built-in kernel ("bandwidth_read", "bandwidth_write", "latency") over one working set,

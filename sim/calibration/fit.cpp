@@ -630,8 +630,7 @@ double profile_lower_bound(const Measurements& m, const FitOptions& opt, const s
   FitOptions held = opt;
   held.fixed[name] = best;
   const FitReport at_best = fit_once(m, held);
-  const double target =
-      at_best.objective + at_best.objective / std::max(1, at_best.dof);  // + s^2
+  const double target = at_best.objective + at_best.objective / std::max(1, at_best.dof);  // + s^2
   double hi = std::log(best), lo = hi;
   // Step down by factors of e until the objective passes the target (or 40 e-folds).
   for (int i = 0; i < 40; ++i) {
@@ -660,10 +659,10 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
         options.fixed.count(name))
       throw e;
     const std::string fitted_as =
-        fmt("%.4g", e.value()) + (std::isfinite(e.log_std_error())
-                                      ? " with a standard error of its logarithm of " +
-                                            fmt("%.3g", e.log_std_error())
-                                      : std::string(", where the fit does not depend on it"));
+        fmt("%.4g", e.value()) +
+        (std::isfinite(e.log_std_error())
+             ? " with a standard error of its logarithm of " + fmt("%.3g", e.log_std_error())
+             : std::string(", where the fit does not depend on it"));
     if (exponent) {
       opt.fixed[name] = options.capacity_exponent;
       held[name] = "not identified (its best fit is " + fitted_as + "): held at " +
@@ -682,11 +681,12 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
       }
     }
     opt.fixed[name] = bound;
-    held[name] = "not identified (the co-runs show too little contention to fit it to: its "
-                 "best fit is " +
-                 fitted_as + "): held at " + fmt("%.4g", bound) +
-                 ", the lower end of its one-standard-error profile interval, the most "
-                 "contention the measurements allow";
+    held[name] =
+        "not identified (the co-runs show too little contention to fit it to: its "
+        "best fit is " +
+        fitted_as + "): held at " + fmt("%.4g", bound) +
+        ", the lower end of its one-standard-error profile interval, the most "
+        "contention the measurements allow";
   };
   for (;;) {
     try {

@@ -5,8 +5,8 @@
 // fits them by non-linear least squares (Eigen's Levenberg-Marquardt) on relative residuals
 // log(predicted / measured ns_per_line), each weighted by the run's repeatability (0.02 / max(cv,
 // 0.02): a run whose repetitions scatter counts less), and reports every parameter with its
-// standard error and every run with its (unweighted) residual. Predictions are exactly the sim's: the kernel's profile
-// (sim/workload/profile.h: kernel_profile) on the memory model's steady state
+// standard error and every run with its (unweighted) residual. Predictions are exactly the sim's:
+// the kernel's profile (sim/workload/profile.h: kernel_profile) on the memory model's steady state
 // (sim/platform/contention.h), the measured kernel on core 0 of cluster 0 and its co-runners on
 // the next cores of that cluster.
 //
@@ -31,12 +31,11 @@
 
 #include <map>
 #include <nlohmann/json.hpp>
-
-#include "core/error.h"
 #include <string>
 #include <vector>
 
 #include "calibration/measurements.h"
+#include "core/error.h"
 #include "platform/sim_platform.h"
 
 namespace rosguard::calibration {

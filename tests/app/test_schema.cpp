@@ -87,10 +87,11 @@ TEST_CASE("schema: unknown keys list what is allowed and suggest a near name", "
 TEST_CASE("schema: enum errors list the allowed values", "[schema]") {
   json w = workload();
   w["hw"]["kernel"] = "stream";
-  CHECK(error_of(w, SchemaKind::Workload) ==
-        std::pair<std::string, std::string>{
-            "/hw/kernel",
-            R"(must be one of "bandwidth_read", "bandwidth_write", "latency", "proxy", not "stream")"});
+  CHECK(
+      error_of(w, SchemaKind::Workload) ==
+      std::pair<std::string, std::string>{
+          "/hw/kernel",
+          R"(must be one of "bandwidth_read", "bandwidth_write", "latency", "proxy", not "stream")"});
   json doc = scenario();
   doc["regulation"] = {{"policy", 3}};
   CHECK(error_of(doc).second ==

@@ -15,7 +15,9 @@ namespace {
 
 const fs::path kFixture = "tests/sim/fixtures/calibration-vm.json";
 
-json read_json(const fs::path& p) { return json::parse(test::read_text(p)); }
+json read_json(const fs::path& p) {
+  return json::parse(test::read_text(p));
+}
 
 // bandwidth_read's measured ns per line alone at `kb`, from the fixture.
 double measured_ns(double kb) {
@@ -60,8 +62,8 @@ TEST_CASE("calibrate --from: the fit converges and its platform runs the shipped
         {"nrt", {{{"name", "nrt0"}, {"core", 1}, {"workload", "bandwidth_write"}}}}}},
       {"regulation", {{"policy", "none"}}}};
   { std::ofstream(dir.path() / "s.json") << scenario.dump(); }
-  const auto run = test::run_cli({"run", (dir.path() / "s.json").string(), "--out",
-                                  (dir.path() / "o").string(), "--quiet"});
+  const auto run = test::run_cli(
+      {"run", (dir.path() / "s.json").string(), "--out", (dir.path() / "o").string(), "--quiet"});
   INFO(run.output);
   REQUIRE(run.code == 0);
   const auto rows = test::read_csv(dir.path() / "o/points.csv");
@@ -76,9 +78,8 @@ TEST_CASE("calibrate --install: the fitted platform becomes the host model sim u
   test::TempDir dir;
   const fs::path model = dir.path() / "share/rosguard/host/platform.json";
   ::setenv("ROSGUARD_HOST_MODEL", model.c_str(), 1);
-  const auto cal = test::run_cli({"calibrate", "--from",
-                                  (test::source_dir() / kFixture).string(), "--out",
-                                  (dir.path() / "cal").string(), "--install", "--quiet"});
+  const auto cal = test::run_cli({"calibrate", "--from", (test::source_dir() / kFixture).string(),
+                                  "--out", (dir.path() / "cal").string(), "--install", "--quiet"});
   INFO(cal.output);
   REQUIRE(cal.code == 0);
   REQUIRE(fs::exists(model));
@@ -89,9 +90,10 @@ TEST_CASE("calibrate --install: the fitted platform becomes the host model sim u
   ::unsetenv("ROSGUARD_HOST_MODEL");
 }
 
-TEST_CASE("calibrate: bad measurements are exit 2 naming the file and path, and --strict refuses "
-          "an unidentified bandwidth with exit 1 and keeps the measurements",
-          "[sim][cli][calibrate]") {
+TEST_CASE(
+    "calibrate: bad measurements are exit 2 naming the file and path, and --strict refuses "
+    "an unidentified bandwidth with exit 1 and keeps the measurements",
+    "[sim][cli][calibrate]") {
   test::TempDir dir;
   json broken = read_json(test::source_dir() / kFixture);
   broken["measurements"]["runs"][3].erase("ns_per_line");

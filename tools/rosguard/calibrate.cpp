@@ -95,13 +95,11 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
 #endif
 }
 
-json calibration_document(const calibration::Measurements& m,
-                          const std::vector<std::string>& notes, const json& probe,
-                          const std::string& status) {
-  return json{{"rosguard", kVersion},   {"revision", kGitRevision}, {"status", status},
-              {"host_probe", probe},    {"suite_notes", notes},     {"measurements", m}};
+json calibration_document(const calibration::Measurements& m, const std::vector<std::string>& notes,
+                          const json& probe, const std::string& status) {
+  return json{{"rosguard", kVersion}, {"revision", kGitRevision}, {"status", status},
+              {"host_probe", probe},  {"suite_notes", notes},     {"measurements", m}};
 }
-
 
 }  // namespace
 
@@ -116,8 +114,8 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
-    throw InputError("", "", "--out " + dir.string() + ": cannot create the folder (" +
-                                 ec.message() + ")");
+    throw InputError("", "",
+                     "--out " + dir.string() + ": cannot create the folder (" + ec.message() + ")");
 
   StopSignalGuard signals;
   std::vector<std::string> notes;
@@ -140,15 +138,15 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
     json doc = calibration_document(m, notes, probe, "fit refused");
     doc["error"] = e.what();
     write_file_atomic(cal_file, doc.dump(2) + "\n");
-    throw RunError(std::string(e.what()) + " (the measurements are kept in " +
-                   cal_file.string() + ")");
+    throw RunError(std::string(e.what()) + " (the measurements are kept in " + cal_file.string() +
+                   ")");
   }
 
   // The platform must be one the loader accepts and the sim can run.
   json platform = calibration::fitted_platform(m, report, opt.name);
   const fs::path platform_file = dir / "platform.json";
-  SchemaSet(loader.home().schemas()).validate(platform, SchemaKind::Platform,
-                                              platform_file.string());
+  SchemaSet(loader.home().schemas())
+      .validate(platform, SchemaKind::Platform, platform_file.string());
   json doc = calibration_document(m, notes, probe, "fitted");
   doc["fit"] = calibration::to_json(report);
   write_file_atomic(platform_file, platform.dump(2) + "\n");

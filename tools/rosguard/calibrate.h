@@ -11,13 +11,13 @@
 namespace rosguard {
 
 struct CalibrateOptions {
-  bool quick = false;     // the short suite (a few sizes, fewer repetitions)
-  std::string out;        // output folder (default: results/calibration)
-  bool install = false;   // also save platform.json as this host's model
-  std::string from;       // refit the measurements of an earlier calibration.json, measure nothing
-  bool quiet = false;     // no progress
+  bool quick = false;    // the short suite (a few sizes, fewer repetitions)
+  std::string out;       // output folder (default: results/calibration)
+  bool install = false;  // also save platform.json as this host's model
+  std::string from;      // refit the measurements of an earlier calibration.json, measure nothing
+  bool quiet = false;    // no progress
   std::string name = "host";  // the fitted platform's name
-  bool strict = false;    // refuse a fit that leaves a bandwidth unidentified (else: held)
+  bool strict = false;        // refuse a fit that leaves a bandwidth unidentified (else: held)
 };
 
 // Exit code 0 on success; throws InputError (bad options or --from file) or RunError (the suite

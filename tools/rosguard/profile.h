@@ -20,7 +20,7 @@ struct ProfileOptions {
   std::string out;                   // the workload JSON to write
   std::string name;                  // default: the program's file name
   std::uint64_t slice_instructions = 2'000'000;
-  std::uint64_t max_instructions = 0;  // 0: the whole run
+  std::uint64_t max_instructions = 0;   // 0: the whole run
   std::uint64_t skip_instructions = 0;  // run through the caches uncounted first
   std::string caches_kb = "64,256,2048";
   std::string ways = "4,8,16";

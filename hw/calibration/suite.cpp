@@ -153,18 +153,6 @@ struct Config {
   bool operator<(const Config& o) const { return key() < o.key(); }
 };
 
-double cv_of(const std::vector<double>& v) {
-  if (v.size() < 2) return 0.0;
-  double mean = 0.0;
-  for (double x : v)
-    mean += x;
-  mean /= static_cast<double>(v.size());
-  double ss = 0.0;
-  for (double x : v)
-    ss += (x - mean) * (x - mean);
-  return std::sqrt(ss / static_cast<double>(v.size() - 1)) / mean;
-}
-
 class Suite {
  public:
   Suite(const SuiteOptions& o, const SuiteShape& shape, std::vector<int> cores)
@@ -253,7 +241,7 @@ void Suite::record(const Config& c, const Corunner* co, const std::vector<double
   for (int i = 0; i < c.n; ++i)
     r.corunners.push_back({co->kernel, co->kb});
   r.ns_per_line = median(ns);
-  r.cv = cv_of(ns);
+  r.cv = ns.size() < 2 ? 0.0 : coefficient_of_variation(ns);  // one window: no spread seen
   r.samples = static_cast<int>(ns.size());
   m_.runs.push_back(std::move(r));
 }
@@ -340,55 +328,64 @@ void Suite::measure_costs() {
     rethrow_if_failed(t);
   };
 
+  // Paced messages published from the nRT core (`publish_one`, at the PMC thread's priority) on a
+  // topic whose one subscriber (the controller's priority, threads named `pub_name` and
+  // `sub_name`) sleeps on `sub_core`: each message's publish -> subscriber awake, in us.
+  const auto timed_topic =
+      [&](int sub_core, const std::string& pub_name, const std::string& sub_name,
+          const std::function<void(Topic<SampleMsg>&, std::size_t)>& publish_one) {
+        Topic<SampleMsg> topic;
+        Waker sub_waker;
+        const std::size_t pub = topic.add_publisher();
+        const std::size_t sub = topic.subscribe(sub_waker);
+        std::vector<double> latency;
+        latency.reserve(static_cast<std::size_t>(n));
+        std::atomic<bool> done{false};
+        RtThread subscriber(ThreadSpec{sub_name, sub_core, SchedClass::Fifo, prio::kController},
+                            [&] {
+                              while (!done.load(std::memory_order_acquire)) {
+                                const auto e = sub_waker.epoch();
+                                SampleMsg m;
+                                bool got = false;
+                                while (topic.take(sub, m)) {
+                                  latency.push_back(ns_to_us(now_ns() - m.t_published));
+                                  got = true;
+                                }
+                                if (!got) sub_waker.wait(e, -1);
+                              }
+                            });
+        notes_.sched(subscriber.outcome());
+        run_on(nrt_core, prio::kPmc, pub_name,
+               [&] { paced([&](int) { publish_one(topic, pub); }, n); });
+        done.store(true, std::memory_order_release);
+        sub_waker.notify();
+        subscriber.join();
+        rethrow_if_failed(subscriber);
+        return latency;
+      };
+
   // pmc_callback (the group read into a sample), publish (on the samples topic, subscriber
   // asleep on another core) and message_latency (publish -> the subscriber awake).
   if (!stopping()) {
     step("costs: pmc_callback, publish, message_latency");
-    Topic<SampleMsg> topic;
-    Waker sub_waker;
-    const std::size_t pub = topic.add_publisher();
-    const std::size_t sub = topic.subscribe(sub_waker);
-    std::vector<double> cb, publish, latency;
+    std::vector<double> cb, publish;
     cb.reserve(static_cast<std::size_t>(n));
     publish.reserve(static_cast<std::size_t>(n));
-    latency.reserve(static_cast<std::size_t>(n));
-    std::atomic<bool> done{false};
-    RtThread subscriber(ThreadSpec{"cal-sub", far_core, SchedClass::Fifo, prio::kController}, [&] {
-      while (!done.load(std::memory_order_acquire)) {
-        const auto e = sub_waker.epoch();
-        SampleMsg m;
-        bool got = false;
-        while (topic.take(sub, m)) {
-          latency.push_back(ns_to_us(now_ns() - m.t_published));
-          got = true;
-        }
-        if (!got) sub_waker.wait(e, -1);
-      }
-    });
-    notes_.sched(subscriber.outcome());
-    run_on(nrt_core, prio::kPmc, "cal-pmc", [&] {
-      paced(
-          [&](int) {
-            SampleMsg msg;
-            msg.count = static_cast<std::uint8_t>(plan.metric_events);
-            const TimeNs t0 = now_ns();
-            group->read(std::span(msg.counters.data(), group_size));
-            const TimeNs t1 = now_ns();
-            msg.t_published = t1;
-            topic.publish(pub, msg);
-            const TimeNs t2 = now_ns();
-            cb.push_back(ns_to_us(t1 - t0));
-            publish.push_back(ns_to_us(t2 - t1));
-          },
-          n);
-    });
-    done.store(true, std::memory_order_release);
-    sub_waker.notify();
-    subscriber.join();
-    rethrow_if_failed(subscriber);
+    costs["message_latency"] =
+        timed_topic(far_core, "cal-pmc", "cal-sub", [&](Topic<SampleMsg>& topic, std::size_t pub) {
+          SampleMsg msg;
+          msg.count = static_cast<std::uint8_t>(plan.metric_events);
+          const TimeNs t0 = now_ns();
+          group->read(std::span(msg.counters.data(), group_size));
+          const TimeNs t1 = now_ns();
+          msg.t_published = t1;
+          topic.publish(pub, msg);
+          const TimeNs t2 = now_ns();
+          cb.push_back(ns_to_us(t1 - t0));
+          publish.push_back(ns_to_us(t2 - t1));
+        });
     costs["pmc_callback"] = std::move(cb);
     costs["publish"] = std::move(publish);
-    costs["message_latency"] = std::move(latency);
   }
 
   // local_message_latency: the same publish -> subscriber awake, with both on one core (the
@@ -396,40 +393,12 @@ void Suite::measure_costs() {
   // priority) preempts the publisher (the PMC thread's) at once, no inter-processor wake-up.
   if (!stopping()) {
     step("costs: local_message_latency");
-    Topic<SampleMsg> topic;
-    Waker sub_waker;
-    const std::size_t pub = topic.add_publisher();
-    const std::size_t sub = topic.subscribe(sub_waker);
-    std::vector<double> latency;
-    latency.reserve(static_cast<std::size_t>(n));
-    std::atomic<bool> done{false};
-    RtThread subscriber(ThreadSpec{"cal-lsub", nrt_core, SchedClass::Fifo, prio::kController}, [&] {
-      while (!done.load(std::memory_order_acquire)) {
-        const auto e = sub_waker.epoch();
-        SampleMsg m;
-        bool got = false;
-        while (topic.take(sub, m)) {
-          latency.push_back(ns_to_us(now_ns() - m.t_published));
-          got = true;
-        }
-        if (!got) sub_waker.wait(e, -1);
-      }
-    });
-    notes_.sched(subscriber.outcome());
-    run_on(nrt_core, prio::kPmc, "cal-lpub", [&] {
-      paced(
-          [&](int) {
-            SampleMsg msg;
-            msg.t_published = now_ns();
-            topic.publish(pub, msg);
-          },
-          n);
-    });
-    done.store(true, std::memory_order_release);
-    sub_waker.notify();
-    subscriber.join();
-    rethrow_if_failed(subscriber);
-    costs["local_message_latency"] = std::move(latency);
+    costs["local_message_latency"] =
+        timed_topic(nrt_core, "cal-lpub", "cal-lsub", [](Topic<SampleMsg>& topic, std::size_t pub) {
+          SampleMsg msg;
+          msg.t_published = now_ns();
+          topic.publish(pub, msg);
+        });
   }
 
   // throttle_activation: a command on the control topic wakes CFB, which wakes the waiting THR

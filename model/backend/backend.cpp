@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/hash.h"
+#include "results/results.h"
 
 namespace rosguard {
 
@@ -40,15 +41,7 @@ double BaselineRuns::time_cv() const {
   std::vector<double> t;
   for (const auto& [rep, r] : runs)
     if (std::isfinite(r.time_us)) t.push_back(r.time_us);
-  if (t.size() < 2) return kNaN;
-  double mean = 0.0;
-  for (double x : t)
-    mean += x;
-  mean /= static_cast<double>(t.size());
-  double ss = 0.0;
-  for (double x : t)
-    ss += (x - mean) * (x - mean);
-  return mean > 0.0 ? std::sqrt(ss / static_cast<double>(t.size() - 1)) / mean : kNaN;
+  return coefficient_of_variation(t);
 }
 
 std::string BaselineRuns::noise_warning(const std::string& key) const {

@@ -89,6 +89,18 @@ double median(std::vector<double> v) {
   return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+double coefficient_of_variation(const std::vector<double>& v) {
+  if (v.size() < 2) return kNaN;
+  double mean = 0.0;
+  for (double x : v)
+    mean += x;
+  mean /= static_cast<double>(v.size());
+  double ss = 0.0;
+  for (double x : v)
+    ss += (x - mean) * (x - mean);
+  return mean > 0.0 ? std::sqrt(ss / static_cast<double>(v.size() - 1)) / mean : kNaN;
+}
+
 double maximum(const std::vector<double>& v) {
   return v.empty() ? kNaN : *std::max_element(v.begin(), v.end());
 }

@@ -48,6 +48,8 @@ double median(std::vector<double> values);
 double maximum(const std::vector<double>& values);
 // Percentile q (0..100), linear between the closest ranks (numpy's default); NaN when empty.
 double percentile(std::vector<double> values, double q);
+// Sample standard deviation over the mean; NaN for fewer than two values or a mean <= 0.
+double coefficient_of_variation(const std::vector<double>& values);
 
 // RFC 4180 quoting when needed.
 std::string csv_escape(const std::string& field);

@@ -650,13 +650,16 @@ double profile_lower_bound(const Measurements& m, const FitOptions& opt, const s
 FitReport fit(const Measurements& m, const FitOptions& options) {
   FitOptions opt = options;
   std::map<std::string, std::string> held;  // parameter -> why
+  std::set<std::string> holding;            // profile searches under way
   // Holds the parameter `e` names (FitOptions::hold_unidentified) or rethrows it.
   std::function<void(const UnidentifiedParameter&)> hold = [&](const UnidentifiedParameter& e) {
     const std::string& name = e.parameter();
     const bool bandwidth = name.ends_with(".bandwidth_mbps");
     const bool exponent = name == "l3.capacity_exponent";
+    // A parameter whose profile search is already under way (two bandwidths each leaving the
+    // other free) cannot be held this way: refuse, naming it.
     if (!opt.hold_unidentified || !(bandwidth || exponent) || held.count(name) ||
-        options.fixed.count(name))
+        holding.count(name) || options.fixed.count(name))
       throw e;
     const std::string fitted_as =
         fmt("%.4g", e.value()) +
@@ -671,6 +674,7 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
       return;
     }
     double bound = 0.0;
+    holding.insert(name);
     for (;;) {
       try {
         bound = profile_lower_bound(m, opt, name, e.value());

@@ -12,6 +12,7 @@ packages=(
   python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-pytest
   linux-perf stress-ng
   valgrind
+  help2man bash-completion
 )
 [[ "${ROSGUARD_WITH_SIM:-ON}" == OFF ]] || packages+=(libsystemc-dev)
 

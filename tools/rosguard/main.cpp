@@ -97,8 +97,9 @@ int main(int argc, char** argv) {
   using namespace rosguard;
 
   CLI::App app{"rosguard " + std::string(kVersion) +
-               ": simulate, run and analyse memory-bandwidth regulation (ROSGuard)\n"
-               "for ROS2-style mixed-criticality applications on multicore SoCs."};
+                   ": simulate, run and analyse memory-bandwidth regulation (ROSGuard)\n"
+                   "for ROS2-style mixed-criticality applications on multicore SoCs.",
+               "rosguard"};  // the name in usage lines, however it was started
   app.footer(kFooter);
   app.require_subcommand(1);
   // Baked in at configure time (version.h): the same revision the manifests record.

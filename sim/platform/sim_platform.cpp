@@ -119,6 +119,7 @@ SimPlatform parse_sim_platform(const PlatformInfo& p) {
   s.l3.latency_ns = l3.at("latency_ns").get<double>();
   s.l3.queue_ns = l3.at("queue_ns").get<double>();
   s.l3.bandwidth_mbps = l3.at("bandwidth_mbps").get<double>();
+  s.l3.exclusive_of_l2 = l3.value("exclusive_of_l2", false);
   const auto& dram = mem.at("dram");
   s.dram.latency_ns = dram.at("latency_ns").get<double>();
   s.dram.queue_ns = dram.at("queue_ns").get<double>();

@@ -36,6 +36,7 @@ struct L3Params {
   double latency_ns = 20.0;
   double queue_ns = 8.0;
   double bandwidth_mbps = 60000.0;
+  bool exclusive_of_l2 = false;  // filled by the L2s' victims (platform "exclusive_of_l2")
 };
 
 struct DramParams {

@@ -9,13 +9,19 @@
 
 namespace rosguard::sim {
 
+double kernel_reuse_kb(double working_set_kb, const SimPlatform& platform) {
+  return std::max(0.0, working_set_kb - (platform.l3.exclusive_of_l2 ? platform.l2_kb : 0.0));
+}
+
 cache::MissRatioCurve derived_mrc(double kernel_working_set_kb, double footprint_kb, double l3_hit,
-                                  double l3_capacity_kb) {
-  if (kernel_working_set_kb > 0.0)
-    return kernel_working_set_kb <= l3_capacity_kb
-               ? cache::MissRatioCurve::step(kernel_working_set_kb, 1.0, 1.0 - l3_hit)
-               : cache::MissRatioCurve::step(kernel_working_set_kb, 1.0 - l3_hit, 0.0);
-  return cache::MissRatioCurve::uniform_reuse(footprint_kb, l3_hit, l3_capacity_kb);
+                                  const SimPlatform& platform) {
+  const double capacity = platform.l3.capacity_kb;
+  if (kernel_working_set_kb > 0.0) {
+    const double step = kernel_reuse_kb(kernel_working_set_kb, platform);
+    return step <= capacity ? cache::MissRatioCurve::step(step, 1.0, 1.0 - l3_hit)
+                            : cache::MissRatioCurve::step(step, 1.0 - l3_hit, 0.0);
+  }
+  return cache::MissRatioCurve::uniform_reuse(footprint_kb, l3_hit, capacity);
 }
 
 WorkloadProfile parse_profile(const WorkloadInfo& w, const SimPlatform& platform,
@@ -40,7 +46,7 @@ WorkloadProfile parse_profile(const WorkloadInfo& w, const SimPlatform& platform
       kernel_ws = w.doc.at("hw").value("working_set_kb", 2048.0);
   }
   const cache::MissRatioCurve derived =
-      derived_mrc(kernel_ws, p.footprint_kb, p.l3_hit, platform.l3.capacity_kb);
+      derived_mrc(kernel_ws, p.footprint_kb, p.l3_hit, platform);
   double total = 0.0;
   std::size_t index = 0;
   for (const auto& ph : s.at("phases")) {
@@ -83,13 +89,13 @@ WorkloadProfile kernel_profile(const std::string& name, const std::string& kerne
   p.name = name;
   p.instructions = working_set_kb * 1024.0 / kKernelLineBytes * passes;
   p.footprint_kb = working_set_kb;
-  p.l3_hit = working_set_kb <= platform.l3.capacity_kb ? 1.0 : 0.0;
+  p.l3_hit = kernel_reuse_kb(working_set_kb, platform) <= platform.l3.capacity_kb ? 1.0 : 0.0;
   Phase ph;
   ph.base_ipc = 1.0 / ((in_l2 ? model.ns_per_line_l2 : model.ns_per_line_l3) * platform.freq_ghz());
   ph.refill_pki = in_l2 ? 0.0 : 1000.0;
   ph.wb_pki = !in_l2 && kernel == "bandwidth_write" ? 1000.0 : 0.0;
   ph.mlp = model.mlp;
-  ph.mrc = derived_mrc(working_set_kb, p.footprint_kb, p.l3_hit, platform.l3.capacity_kb);
+  ph.mrc = derived_mrc(working_set_kb, p.footprint_kb, p.l3_hit, platform);
   p.phases.push_back(ph);
   return p;
 }

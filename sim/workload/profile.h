@@ -13,8 +13,9 @@
 //   - measured: the phase's "mrc" (rosguard profile: Mattson stack distances of its L2 misses);
 //   - a built-in kernel (hw.kernel bandwidth_read / bandwidth_write / latency: one access per
 //     line, cyclically over working_set_kb W, so every reuse has LRU stack distance W): a step at
-//     W; the level on the L3's side of the step is the profile's isolation miss ratio 1 - l3_hit,
-//     the other side LRU's (1 below W, 0 from W on);
+//     kernel_reuse_kb(W) (W, or W - l2_kb where the L3 is exclusive of the L2, which then holds
+//     the most recent l2_kb of the stream); the level on the L3 capacity's side of the step is the
+//     profile's isolation miss ratio 1 - l3_hit, the other side LRU's (1 below, 0 from it on);
 //   - otherwise (footprint_kb F, l3_hit h): MissRatioCurve::uniform_reuse(F, h, L3 capacity),
 //     reuse distances spread uniformly up to the footprint.
 // The derived curves keep the isolation hit ratio at the L3's capacity: l3_hit, as before.
@@ -64,10 +65,15 @@ struct WorkloadProfile {
 WorkloadProfile parse_profile(const WorkloadInfo& workload, const SimPlatform& platform,
                               const std::string& file, const std::string& base);
 
-// The curve of a phase without a measured one (see above): a step at `kernel_working_set_kb`
-// when the workload is a built-in cyclic kernel (> 0), else uniform reuse up to the footprint.
+// The L3 share a cyclic stream over `working_set_kb` needs to hit: the working set, less the
+// L2 where the L3 is exclusive of it (platform memory.l3.exclusive_of_l2).
+double kernel_reuse_kb(double working_set_kb, const SimPlatform& platform);
+
+// The curve of a phase without a measured one (see above): a step at
+// kernel_reuse_kb(kernel_working_set_kb) when the workload is a built-in cyclic kernel (> 0),
+// else uniform reuse up to the footprint.
 cache::MissRatioCurve derived_mrc(double kernel_working_set_kb, double footprint_kb, double l3_hit,
-                                  double l3_capacity_kb);
+                                  const SimPlatform& platform);
 
 // Bytes between two accesses of the built-in kernels (hw/workload/kernels.cpp): one 64-byte line.
 inline constexpr double kKernelLineBytes = 64.0;
@@ -79,8 +85,9 @@ inline constexpr double kKernelLineBytes = 64.0;
 //   - within the L2 (working set <= l2_kb): base_ipc = 1 / (ns_per_line_l2 x f), no L2 misses;
 //   - beyond it: base_ipc = 1 / (ns_per_line_l3 x f), one L2 refill per line (l2_refill_pki
 //     1000) and, for bandwidth_write, one write-back per line too (the line is dirty);
-//   - l3_hit = 1 when the working set fits the cluster's L3, else 0 (a cyclic stream through an
-//     LRU cache larger than the cache misses on every line); footprint = the working set;
+//   - l3_hit = 1 when kernel_reuse_kb(working set) fits the cluster's L3, else 0 (a cyclic
+//     stream through an LRU cache larger than the cache misses on every line); footprint = the
+//     working set;
 //     mlp from the model; the curve derived_mrc(working set, ...): a step from 1 to 0 there.
 // The model's steady state then gives ns_per_line_l3 + (L3 queueing + DRAM latency) / mlp per
 // line beyond the L2 (platform/contention.h). sim/calibration/fit.h fits the models with this

@@ -105,7 +105,7 @@ TEST_CASE("memory model: the L3 is shared as LRU shares it, by the phases' miss-
   WorkloadProfile small = profile("mser");
   small.footprint_kb = 512;
   for (Phase& ph : small.phases)
-    ph.mrc = derived_mrc(0.0, small.footprint_kb, small.l3_hit, p.l3.capacity_kb);
+    ph.mrc = derived_mrc(0.0, small.footprint_kb, small.l3_hit, p);
   const MemoryState fits = m.solve(std::vector<CoreDemand>{demand(small, 0), demand(small, 0)});
   CHECK(fits.l3_hit[0] == Approx(small.l3_hit));
   // A throttled co-runner's lines have been evicted: the L3 is the other's alone.
@@ -123,6 +123,23 @@ TEST_CASE("memory model: the L3 is shared as LRU shares it, by the phases' miss-
   CHECK(occ[0] > 4 * occ[1]);
   CHECK(mixed.l3_hit[1] < sift.l3_hit);
   CHECK(mixed.l3_hit[1] > 0.0);
+  // The 2 MB stream needs 2 MB - 256 KB of an L3 exclusive of the 256 KB L2: beside the light
+  // co-runner it keeps its hits. Were the L3 not exclusive, it would need all 2 MB, and the
+  // co-runner's few lines would make it miss on every line (LRU's cliff).
+  CHECK(mixed.l3_hit[0] == Approx(br.l3_hit));
+  SimPlatform inclusive = p;
+  inclusive.l3.exclusive_of_l2 = false;
+  const WorkloadProfile br_incl =
+      parse_profile({"bandwidth_read", "scenarios/workloads/bandwidth_read.json",
+                     read_json("scenarios/workloads/bandwidth_read.json")},
+                    inclusive, "bandwidth_read.json", "/sim");
+  const WorkloadProfile sift_incl =
+      parse_profile({"sift", "scenarios/workloads/sift.json",
+                     read_json("scenarios/workloads/sift.json")},
+                    inclusive, "sift.json", "/sim");
+  CHECK(ContentionModel(inclusive)
+            .solve(std::vector<CoreDemand>{demand(br_incl, 0), demand(sift_incl, 0)})
+            .l3_hit[0] == 0.0);
   // Another cluster does not count.
   const MemoryState apart = m.solve(std::vector<CoreDemand>{demand(br, 0), demand(br, 1)});
   CHECK(apart.l3_hit[0] == Approx(br.l3_hit));

@@ -414,7 +414,7 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   base.dram.bandwidth_mbps = 1.5 * dram_peak;
   base.dram.queue_ns = base.dram.latency_ns;
   base.mshr.per_core = opt.mshr_per_core;
-  base.mshr.per_cluster = opt.mshr_per_core * base.cores_per_cluster;
+  base.mshr.per_cluster = opt.mshr_per_cluster;
 
   std::vector<Slot> slots;
   std::vector<FittedParameter> fixed_params;

@@ -19,9 +19,9 @@
 //   fixed or derived: kernels.latency.mlp = 1 (a pointer chase has one load in flight);
 //     l3.latency_ns = the fitted kernels.latency.ns_per_line_l3 (the model only uses latencies
 //     above it, so no time measurement can identify it; the pointer chase within the L3 is its
-//     load-to-use latency); mshr.per_core = FitOptions::mshr_per_core and mshr.per_cluster =
-//     that x cores per cluster (the runs cannot tell a kernel's mlp from the buffers' bound:
-//     held where they do not bind); anything named in FitOptions::fixed.
+//     load-to-use latency); mshr.per_core and mshr.per_cluster = FitOptions::mshr_per_core and
+//     mshr_per_cluster (the runs cannot tell a kernel's mlp from the buffers' bound: held where
+//     they do not bind); anything named in FitOptions::fixed.
 //
 // Contract: pure C++ (no SystemC, no OS calls). fit() throws RunError naming what is missing
 // when the data cannot identify a parameter it must fit, and RunError with the LM status when
@@ -47,9 +47,10 @@ struct FitOptions {
   // Refuse a fitted parameter whose logarithm has a larger standard error (1: the data leave it
   // free within a factor e either way): the data do not identify it.
   double max_log_std_error = 1.0;
-  // The misses-in-flight bound per core (mshr.per_core; per cluster: x cores per cluster),
-  // held: the most a kernel's fitted mlp may reach (the workload schema's bound on mlp).
-  double mshr_per_core = 64.0;
+  // The misses-in-flight bounds, held where they do not bind (the platform schema's largest
+  // values): a kernel's fitted mlp stays below the core's, and no co-run reaches the cluster's.
+  double mshr_per_core = 1024.0;
+  double mshr_per_cluster = 4096.0;
   // Parameters held at a given value instead of fitted, by their report name
   // ("l3.queue_ns", "kernels.bandwidth_read.mlp", ...): for what this host's data cannot
   // identify. Reported as fixed.

@@ -46,9 +46,9 @@ struct DramParams {
 };
 
 // Memory-level parallelism as a limit (the platform's "memory.mshr"): L2 refills in flight.
-struct MshrParams {
-  double per_core = 64.0;
-  double per_cluster = 256.0;
+struct MshrParams {  // defaults: the schema's largest, which no workload reaches
+  double per_core = 1024.0;
+  double per_cluster = 4096.0;
 };
 
 struct CoreParams {

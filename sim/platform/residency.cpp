@@ -34,7 +34,18 @@ void L3Residency::advance(double now_ns, std::span<const CoreDemand> demands) {
   kb_.resize(n, 0.0);
   rate_.assign(n, 0.0);
   hits_.assign(n, 1.0);
-  target_ = model_.occupancies(demands);
+  key_.clear();
+  for (const CoreDemand& d : demands) {
+    key_.push_back(static_cast<std::uintptr_t>(d.cluster));
+    key_.push_back(d.resident ? 1 : 0);
+    key_.push_back(reinterpret_cast<std::uintptr_t>(d.resident_phase ? d.resident_phase : d.phase));
+  }
+  auto memo = targets_memo_.find(key_);
+  if (memo == targets_memo_.end()) {
+    if (targets_memo_.size() > 4096) targets_memo_.clear();
+    memo = targets_memo_.emplace(key_, model_.occupancies(demands)).first;
+  }
+  target_ = memo->second;
   for (std::size_t k = 0; k < n; ++k) {
     const CoreDemand& d = demands[k];
     if (d.workload == nullptr) {  // holds nothing

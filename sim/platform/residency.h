@@ -33,6 +33,8 @@
 // Contract: pure C++, deterministic; one instance per memory system.
 #pragma once
 
+#include <cstdint>
+#include <map>
 #include <span>
 #include <vector>
 
@@ -72,6 +74,10 @@ class L3Residency {
   std::vector<double> target_;
   std::vector<double> rate_;
   std::vector<double> hits_;
+  // Targets by what they depend on (per demand: cluster, resident, the phase of its curve):
+  // the partition is a fixed point of bisections, and the same demand sets recur.
+  std::map<std::vector<std::uintptr_t>, std::vector<double>> targets_memo_;
+  std::vector<std::uintptr_t> key_;  // scratch
 };
 
 }  // namespace rosguard::sim

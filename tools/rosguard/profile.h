@@ -35,6 +35,8 @@ struct ProfileRun {
   std::string valgrind_version;
   bool bounded = false;  // stopped at max_instructions
   double wall_seconds = 0;
+  // CPU time (user + system) of valgrind (with the program) and of this process.
+  double tracer_cpu_seconds = 0, profiler_cpu_seconds = 0;
   std::string date_utc;
 };
 

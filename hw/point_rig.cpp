@@ -82,8 +82,9 @@ std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricP
 }
 
 PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
-                   std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace)
-    : s_(s), plan_(plan), options_(options), trace_(trace), origin_(now_ns()) {
+                   std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace,
+                   const ThrottleChoice& throttle)
+    : s_(s), plan_(plan), options_(options), trace_(trace), throttle_(throttle), origin_(now_ns()) {
   // Wiring: every publisher and subscriber exists before the first thread starts.
   for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
     controls_.push_back(std::make_unique<Topic<ControlMsg>>());
@@ -126,6 +127,8 @@ void PointRig::wire_nodes(const PmcSource& source) {
     c.watchdog_ns = s_.hw.watchdog_ms * kNsPerMs;
     c.mode = n.mode;
     c.sched = sched_of(s_);
+    c.throttle = throttle_.kind;
+    c.freezer_root = throttle_.freezer_root.value_or("");
     c.group_events = plan_.group_events;
     c.metric_events = plan_.metric_events;
     c.trace = trace_;

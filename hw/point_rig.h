@@ -14,6 +14,7 @@
 #include "hw/nodes/controller.h"
 #include "hw/nodes/nrt_node.h"
 #include "hw/nodes/rt_node.h"
+#include "hw/throttle/throttle.h"
 #include "hw/wait.h"
 
 namespace rosguard::hw {
@@ -23,7 +24,8 @@ class NodeMeter;
 class PointRig {
  public:
   PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
-           std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace);
+           std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace,
+           const ThrottleChoice& throttle);
   ~PointRig();
   PointRig(const PointRig&) = delete;
   PointRig& operator=(const PointRig&) = delete;
@@ -50,6 +52,7 @@ class PointRig {
   const MetricPlan& plan_;
   const HwOptions& options_;
   const bool trace_;
+  const ThrottleChoice& throttle_;
   const TimeNs origin_;
   Waker engine_waker_;
   ErrorBox errors_{engine_waker_};

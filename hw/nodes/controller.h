@@ -28,6 +28,29 @@
 
 namespace rosguard::hw {
 
+// What the controller did, for a host that shows it (rosguard guard publishes and logs these).
+// Pushed on the controller thread into a lock-free ring (ControllerConfig::notes); a full ring
+// drops the note, never blocks the controller.
+struct ControllerNote {
+  enum class Kind : std::uint8_t {
+    Sample,        // entity's counters read: value = bytes accounted, value2 = first metric counter
+                   // (cumulative); used / budget: its account's window so far, in bytes
+    Budget,        // percent of the entity's window budget used after a sample (value)
+    WindowClosed,  // a window closed: value = bytes used in it
+    Command,       // command sent to entity
+    Activation,    // regulation active (active = true) or not
+    Policy,        // a new policy took over (post_policy)
+  };
+  Kind kind = Kind::Sample;
+  TimeNs t = 0;
+  std::size_t entity = 0;
+  double value = 0.0, value2 = 0.0;
+  double used = 0.0, budget = 0.0;
+  Command command = Command::Off;
+  bool active = false;
+};
+using NoteRing = SpscRing<ControllerNote, 8192>;
+
 struct ControllerConfig {
   int core = 0;
   SchedClass sched = SchedClass::Fifo;
@@ -40,6 +63,9 @@ struct ControllerConfig {
   bool trace = false;
   TimeNs fail_after_ns = -1;
   std::function<TimeNs()> clock = now_ns;  // CLOCK_MONOTONIC; tests inject their own
+  bool keep_measurements = true;  // false: no per-read timing kept (a daemon: bounded memory)
+  NoteRing* notes = nullptr;      // optional: what the controller did, for its host
+  Waker* notes_waker = nullptr;   // notified after each batch of notes
 };
 
 class Controller {
@@ -56,6 +82,9 @@ class Controller {
   void set_groups(std::vector<CounterGroup*> groups) { groups_ = std::move(groups); }
   void start();
   void shutdown();
+  // Any thread: a new policy for the next windows (Regulator::set_policy), taken over by the
+  // controller thread at its next pass; one pending at a time (a later post replaces it).
+  void post_policy(std::unique_ptr<Policy> policy);
   // One pass: every pending input, then every wake-up due now. Returns whether it did anything.
   // The controller thread loops over it; tests call it directly (thread not started).
   bool serve();
@@ -69,6 +98,7 @@ class Controller {
   const ControllerDriver& driver() const { return driver_; }
   const std::vector<double>& external_reads_us() const { return reads_us_; }
   const TraceLog& trace() const { return trace_; }
+  std::uint64_t notes_dropped() const { return notes_dropped_; }
 
  private:
   void main();
@@ -77,6 +107,7 @@ class Controller {
   void read_entities(const std::vector<std::size_t>& entities);
   void trace_bandwidth(std::size_t e, TimeNs measured, double bytes);
   TimeNs now();
+  void note(const ControllerNote& n);
 
   ControllerConfig cfg_;
   ControllerDriver driver_;
@@ -102,6 +133,8 @@ class Controller {
   std::vector<std::string> counter_names_;
   std::vector<TimeNs> last_sample_t_;
   TraceLog trace_;
+  std::atomic<Policy*> pending_policy_{nullptr};
+  std::uint64_t notes_dropped_ = 0;
   std::unique_ptr<RtThread> thread_;
   bool shut_ = false;
 };

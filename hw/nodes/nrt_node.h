@@ -27,6 +27,7 @@
 #include "hw/executor/executor.h"
 #include "hw/nodes/messages.h"
 #include "hw/pmc_source/pmc_source.h"
+#include "hw/throttle/throttle.h"
 #include "hw/topic/topic.h"
 #include "hw/workload/workload.h"
 #include "scenario/scenario.h"
@@ -42,6 +43,13 @@ struct NrtConfig {
   TimeNs watchdog_ns = 100 * kNsPerMs;
   NrtMode mode = NrtMode::Loop;
   SchedClass sched = SchedClass::Fifo;
+  // How THR holds the core (hw/throttle/throttle.h); Freezer needs freezer_root (commands only).
+  ThrottleKind throttle = ThrottleKind::Fifo;
+  std::string freezer_root;
+  // No workload of its own: the node regulates whatever else runs on its core (rosguard guard).
+  // No NCT thread; external sampling only; the counter group comes from set_group().
+  bool foreign = false;
+  bool keep_measurements = true;  // false: no activation delays kept (a daemon: bounded memory)
   std::vector<std::string> group_events;  // opened on the workload; the metric's come first
   std::size_t metric_events = 1;          // how many of them the regulator gets
   bool trace = false;
@@ -78,6 +86,10 @@ class NrtRunner {
   NrtRunner(const NrtRunner&) = delete;
   NrtRunner& operator=(const NrtRunner&) = delete;
 
+  // Foreign nodes, before start(): the core's counters.
+  void set_group(std::unique_ptr<CounterGroup> group) { group_ = std::move(group); }
+  // The freezer's cgroup (throttle Freezer), where a foreign node's host puts the core's processes.
+  FreezerCgroup* cgroup() { return cgroup_.get(); }
   void start();
   void begin();
   void end_loop();
@@ -127,6 +139,9 @@ class NrtRunner {
   TimeNs origin_;
   std::string track_state_, track_thr_;
 
+  ThrottleSched sched_;
+  std::unique_ptr<FreezerCgroup> cgroup_;  // the command's processes (freezer); outlives threads
+  std::unique_ptr<Throttler> throttler_;
   std::unique_ptr<BuiltinWorkload> builtin_;
   WorkCounters work_;
   std::unique_ptr<CounterGroup> group_;

@@ -54,6 +54,27 @@ std::string_view to_string(SchedulerKind k) {
   return k == SchedulerKind::Fifo ? "fifo" : "other";
 }
 
+std::string_view to_string(ThrottleMode m) {
+  switch (m) {
+    case ThrottleMode::Auto:
+      return "auto";
+    case ThrottleMode::Fifo:
+      return "fifo";
+    case ThrottleMode::Idle:
+      return "idle";
+    case ThrottleMode::Freezer:
+      return "freezer";
+  }
+  return "auto";
+}
+
+ThrottleMode parse_throttle_mode(const std::string& s) {
+  if (s == "fifo") return ThrottleMode::Fifo;
+  if (s == "idle") return ThrottleMode::Idle;
+  if (s == "freezer") return ThrottleMode::Freezer;
+  return ThrottleMode::Auto;
+}
+
 PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file) {
   PlatformInfo p;
   p.name = doc.at("name").get<std::string>();
@@ -237,6 +258,7 @@ HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const st
   out.pmc_source = parse_pmc_source(hw.at("pmc_source").get<std::string>());
   out.scheduler =
       hw.at("scheduler").get<std::string>() == "fifo" ? SchedulerKind::Fifo : SchedulerKind::Other;
+  out.throttle = parse_throttle_mode(hw.value("throttle", std::string("auto")));
   out.watchdog_ms = hw.at("watchdog_ms").get<std::int64_t>();
   // Three measurements give a median that one outlier cannot move.
   out.baseline_repetitions = std::max(repetitions, 3);

@@ -45,6 +45,8 @@ struct WorkloadInfo {
 enum class NrtMode : std::uint8_t { Loop, Once };
 enum class PmcSourceKind : std::uint8_t { Auto, Perf, Software, Instrumented };
 enum class SchedulerKind : std::uint8_t { Fifo, Other };
+// How the hw backend holds a throttled nRT core (hw/throttle/throttle.h).
+enum class ThrottleMode : std::uint8_t { Auto, Fifo, Idle, Freezer };
 
 struct RtNodeSpec {
   std::string name;
@@ -86,6 +88,7 @@ struct SimSettings {
 struct HwSettings {
   PmcSourceKind pmc_source = PmcSourceKind::Auto;
   SchedulerKind scheduler = SchedulerKind::Fifo;
+  ThrottleMode throttle = ThrottleMode::Auto;
   std::int64_t watchdog_ms = 100;
   // Measurements of each isolation baseline (hw.baseline_repetitions; absent: the larger of
   // repetitions and 3).
@@ -130,5 +133,7 @@ std::optional<double> min_simulated_seconds(const Scenario& s);
 std::string_view to_string(NrtMode m);
 std::string_view to_string(PmcSourceKind k);
 std::string_view to_string(SchedulerKind k);
+std::string_view to_string(ThrottleMode m);
+ThrottleMode parse_throttle_mode(const std::string& s);  // a schema-validated name
 
 }  // namespace rosguard

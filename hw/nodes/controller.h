@@ -39,7 +39,18 @@ struct ControllerConfig {
   std::size_t metric_events = 1;
   bool trace = false;
   TimeNs fail_after_ns = -1;
+  std::size_t rt_count = 1;                // RT indices the enable / disable signals may carry
   std::function<TimeNs()> clock = now_ns;  // CLOCK_MONOTONIC; tests inject their own
+};
+
+// One enable / disable signal as the controller saw it: sent (the publisher's stamp: its
+// CLOCK_MONOTONIC, or a DDS source timestamp mapped onto it) and received (taken by the
+// controller thread).
+struct SignalRecord {
+  std::size_t rt = 0;
+  bool started = false;
+  TimeNs t_sent = 0;
+  TimeNs t_received = 0;
 };
 
 class Controller {
@@ -64,10 +75,15 @@ class Controller {
   int windows_opened() const { return opened_.load(std::memory_order_acquire); }
   // Enable / disable signals processed so far (the engine waits for all it knows were sent).
   int rt_events() const { return rt_events_.load(std::memory_order_acquire); }
+  // Disable signals (ends of jobs) of RT node `rt` processed so far.
+  int rt_finished(std::size_t rt) const {
+    return rt < cfg_.rt_count ? finished_[rt].load(std::memory_order_acquire) : 0;
+  }
   bool failed_on_purpose() const { return faulted_.load(std::memory_order_acquire); }
   // After shutdown() (or from the serve() caller):
   const ControllerDriver& driver() const { return driver_; }
   const std::vector<double>& external_reads_us() const { return reads_us_; }
+  const std::vector<SignalRecord>& signals() const { return signals_; }
   const TraceLog& trace() const { return trace_; }
 
  private:
@@ -94,6 +110,8 @@ class Controller {
   std::atomic<bool> stop_{false};
   std::atomic<int> opened_{0};
   std::atomic<int> rt_events_{0};
+  std::unique_ptr<std::atomic<int>[]> finished_;
+  std::vector<SignalRecord> signals_;
   std::atomic<bool> faulted_{false};
   TimeNs first_activation_ = -1;
   TimeNs last_t_ = 0;

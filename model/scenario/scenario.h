@@ -45,6 +45,9 @@ struct WorkloadInfo {
 enum class NrtMode : std::uint8_t { Loop, Once };
 enum class PmcSourceKind : std::uint8_t { Auto, Perf, Software, Instrumented };
 enum class SchedulerKind : std::uint8_t { Fifo, Other };
+enum class TransportKind : std::uint8_t { Inproc, Dds };
+// Where an RT node's job start / stop comes from: its own jobs here, or a topic (another process).
+enum class RtSignal : std::uint8_t { Self, Topic };
 
 struct RtNodeSpec {
   std::string name;
@@ -52,6 +55,7 @@ struct RtNodeSpec {
   WorkloadInfo workload;
   int iterations = 1;
   std::optional<std::int64_t> period_us;  // absent: jobs back to back
+  RtSignal signal = RtSignal::Self;
 };
 
 struct NrtNodeSpec {
@@ -90,6 +94,10 @@ struct HwSettings {
   // Measurements of each isolation baseline (hw.baseline_repetitions; absent: the larger of
   // repetitions and 3).
   int baseline_repetitions = 3;
+  TransportKind transport = TransportKind::Inproc;
+  std::optional<std::uint32_t> dds_domain_id;  // absent: ROS_DOMAIN_ID, else 0
+  std::string dds_namespace;                   // "" or "/a[/b]"
+  std::int64_t signal_timeout_ms = 60000;
 };
 
 struct Scenario {
@@ -130,5 +138,7 @@ std::optional<double> min_simulated_seconds(const Scenario& s);
 std::string_view to_string(NrtMode m);
 std::string_view to_string(PmcSourceKind k);
 std::string_view to_string(SchedulerKind k);
+std::string_view to_string(TransportKind k);
+std::string_view to_string(RtSignal s);
 
 }  // namespace rosguard

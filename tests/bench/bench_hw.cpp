@@ -105,7 +105,7 @@ void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
     state.SkipWithError("needs two CPUs");
     return;
   }
-  Topic<TimeNs> ping, pong;
+  InprocTopic<TimeNs> ping, pong;
   Waker ping_waker, pong_waker;
   const auto ping_pub = ping.add_publisher();
   const auto ping_sub = ping.subscribe(ping_waker);

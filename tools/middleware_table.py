@@ -9,7 +9,8 @@ Exp. 2: self-sampling overhead vs sampling period: the PMC thread's CPU time per
         of samples.csv sampling_overhead) and as a share of the period; nRT slowdown of monitor
         over none (median of the repetitions' ratios).
 Exp. 3: activation delay (over-budget sample published / read -> THR entered), p50 and p99 of
-        the interval points, per sampling period pooled.
+        the interval points, per sampling period pooled; and the activation signal (the enable /
+        disable published on /rosguard/run/active -> taken by the controller), p50.
 """
 import csv
 import statistics
@@ -48,14 +49,21 @@ def main(folder):
         return out
 
     print("**Exp. 1 and 3: PMC callback and activation delay (us, all sampling periods)**\n")
-    print("| transport | sampling | PMC callback p50 | activation delay p50 | p99 | max |")
-    print("|---|---|---|---|---|---|")
+    print("| transport | sampling | PMC callback p50 | activation delay p50 | p99 | max "
+          "| activation signal p50 |")
+    print("|---|---|---|---|---|---|---|")
     for t in transports:
         for s in ("self", "external"):
             cb = pooled(t, s, "monitor", "pmc_callback") + pooled(t, s, "interval", "pmc_callback")
             ad = pooled(t, s, "interval", "activation_delay")
+            sig = sum((pooled(t, s, p, "signal_latency") for p in ("none", "monitor", "interval")),
+                      [])
+            if not (cb and ad):
+                print(f"| {t} | {s} | - | - | - | - | - |")
+                continue
+            sig_text = f"{statistics.median(sig):.1f}" if sig else "-"  # sim: not modelled
             print(f"| {t} | {s} | {statistics.median(cb):.1f} | {statistics.median(ad):.1f} | "
-                  f"{pct(ad, 99):.1f} | {max(ad):.1f} |" if cb and ad else f"| {t} | {s} | - | - | - | - |")
+                  f"{pct(ad, 99):.1f} | {max(ad):.1f} | {sig_text} |")
     print()
     print("**Exp. 2: self-sampling overhead vs sampling period** (PMC thread CPU time per period, "
           "us, and its share of the period; nRT slowdown monitor / none, median of repetitions)\n")

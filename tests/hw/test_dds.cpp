@@ -263,7 +263,8 @@ TEST_CASE("dds: a plain Cyclone DDS subscriber with ROS 2 names receives a run's
   std::lock_guard lock(got.mu);
   WARN("plain subscriber got " << got.pmc.size() << " PmcSample, " << got.commands.size()
                                << " Command, " << got.active.size() << " Bool messages");
-  // Self-sampling at 1 ms over 3 regulated jobs of about 100 ms (none while throttled, one or two per 5 ms regulation period at least): many.
+  // Self-sampling at 1 ms over 3 regulated jobs of about 100 ms (none while throttled, one or two
+  // per 5 ms regulation period at least): many.
   REQUIRE(got.pmc.size() >= 20);
   for (std::size_t i = 0; i < got.pmc.size(); ++i) {
     const auto& p = got.pmc[i];

@@ -30,6 +30,17 @@
 //   local delivery), a Cyclone receive thread otherwise. It must be short and must not block
 //   (e.g. a futex wake); it must not call back into DDS on this reader.
 // - Errors are DdsError (a std::runtime_error) naming the operation, the topic and Cyclone's text.
+//
+// Example (link rosguard::dds): follow an RT node's activity and publish commands.
+//   namespace d = rosguard::dds;
+//   d::Participant p;  // ROS_DOMAIN_ID or 0
+//   rosguard::hw::Waker waker;  // or any notification that does not block
+//   d::Reader<d::BoolMsg> active(p, d::active_topic("", "planner"), [&] { waker.notify(); });
+//   d::Writer<d::CommandMsg> cmd(p, d::command_topic("", "nrt0"));
+//   d::BoolMsg b;
+//   std::int64_t sent_realtime_ns;
+//   while (active.take(b, &sent_realtime_ns)) { /* b.data: job started / ended */ }
+//   cmd.write({d::command::kThr, cause_ns});
 #pragma once
 
 #include <dds/dds.h>

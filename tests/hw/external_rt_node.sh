@@ -22,6 +22,8 @@ trap cleanup EXIT
 # A namespace of this test run alone: parallel tests (and other users of the domain) never see
 # each other's topics.
 ns="/rosguard_test_ext_$$_${RANDOM}"
+# Both processes on the loopback interface with unicast discovery (no multicast needed).
+export CYCLONEDDS_URI="file://$src/tests/hw/cyclonedds-loopback.xml"
 
 scenario() {  # $1: signal timeout in ms
   cat <<EOF

@@ -224,6 +224,11 @@ TEST_CASE("dds: a plain Cyclone DDS subscriber with ROS 2 names receives a run's
                           << ns << R"(" } }
 })";
 
+  // Both processes on the loopback interface with unicast discovery (no multicast needed); the
+  // child inherits the variable.
+  const std::string uri =
+      std::string("file://") + ROSGUARD_TEST_SOURCE_DIR + "/tests/hw/cyclonedds-loopback.xml";
+  ::setenv("CYCLONEDDS_URI", uri.c_str(), 1);
   // The subscriber: Cyclone's C API only, names spelled out as a ROS 2 user would see them.
   Collected got;
   const dds_entity_t participant = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);

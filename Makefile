@@ -4,6 +4,7 @@
 #   make install [PREFIX=/usr/local]   installs bin/rosguard, share/rosguard/, the CMake package
 #   make test-nosim   builds without the sim backend (no SystemC) in $(BUILD)-nosim, runs its tests
 #   make validate     runs scenarios/validation/ on hw and in sim, writes results/validation/report.md
+#   make bench-middleware  the paper's experiments 1-3 on hw, transport inproc vs dds, as a table
 BUILD ?= build
 JOBS ?= $(shell nproc)
 PREFIX ?= /usr/local
@@ -17,7 +18,7 @@ PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
 .PHONY: all deps configure build test test-nosim run install reproduce validate validate-readme \
-        bench format clean
+        bench bench-middleware format clean
 
 all: build
 
@@ -65,6 +66,12 @@ validate-readme:
 bench: build
 	$(BUILD)/tests/bench/rosguard_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 	tests/bench/time_sweep.sh $(BUILD) 5 $(JOBS)
+
+# The paper's experiments 1-3 on hw, transport inproc vs dds (scenarios/bench/hw-middleware.json),
+# and the README's middleware table from them.
+bench-middleware: build
+	$(ROSGUARD) run scenarios/bench/hw-middleware.json --backend hw --out results/hw-middleware --overwrite
+	$(PYTHON) tools/middleware_table.py results/hw-middleware
 
 format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i

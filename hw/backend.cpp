@@ -23,6 +23,7 @@
 #include "hw/isolation.h"
 #include "hw/point_rig.h"
 #include "hw/safety_net.h"
+#include "hw/topic/dds/dds.h"
 #include "policy/rules.h"
 #include "results/results.h"
 
@@ -34,6 +35,23 @@ std::string cpu_list(const std::vector<int>& cpus) {
   for (int c : cpus)
     s += (s.empty() ? "" : ", ") + std::to_string(c);
   return s.empty() ? "none" : s;
+}
+
+// The transport in the manifest; for DDS, where a ROS 2 user finds the traffic.
+void report_transport(const Scenario& s, RunContext& ctx) {
+  ctx.fact("transport", std::string(to_string(s.hw.transport)));
+  if (s.hw.transport != TransportKind::Dds) return;
+  std::uint32_t domain = 0;
+  try {
+    domain = s.hw.dds_domain_id ? *s.hw.dds_domain_id : dds::default_domain_id();
+  } catch (const dds::DdsError& e) {
+    throw RunError(e.what());
+  }
+  const std::string ns = s.hw.dds_namespace;
+  ctx.fact("dds", "Cyclone DDS " DDS_VERSION ", domain " + std::to_string(domain) +
+                      (s.hw.dds_domain_id ? "" : " (ROS_DOMAIN_ID or 0)") + ", topics " + ns +
+                      "/rosguard/<node>/{active,pmc,command} (DDS rt" + ns +
+                      "/rosguard/...), ROS 2 default QoS (reliable, keep last 10, volatile)");
 }
 
 class HwBackend : public Backend {
@@ -183,6 +201,7 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   ctx.fact("metric_basis", plan.basis);
   if (!plan.fallback.empty()) ctx.fallback("metric", plan.fallback);
   report_shared_core(s, ctx);
+  report_transport(s, ctx);
   const auto source = sources_.find(plan.source)->make();
   const ThrottleChoice& throttle = throttle_for(s, ctx);
   // The engine's thread above every node thread while they run (restored before the safety

@@ -132,7 +132,7 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
   cc.notes = &notes_;
   cc.notes_waker = &notes_waker_;
   for (std::size_t i = 0; i < s_.nrt.size(); ++i) {
-    controls_.push_back(std::make_unique<Topic<ControlMsg>>());
+    controls_.push_back(std::make_unique<InprocTopic<ControlMsg>>());
     control_ptrs.push_back(controls_.back().get());
     NrtConfig c;
     c.name = s_.nrt[i].name;
@@ -263,7 +263,8 @@ void Guard::drain() {
     switch (n.kind) {
       case ControllerNote::Kind::Sample: {
         ++stats_.samples;
-        GuardSample g{s_.nrt[e].name, s_.nrt[e].core, n.t, n.value, 0.0, n.used, n.budget};
+        GuardSample g{s_.nrt[e].name, s_.nrt[e].core, n.t,     n.value, 0.0,
+                      n.used,         n.budget,       n.value2};
         if (last_sample_t_[e] > 0 && n.t > last_sample_t_[e])
           g.mbps = n.value / kBytesPerMb / (static_cast<double>(n.t - last_sample_t_[e]) / 1e9);
         last_sample_t_[e] = n.t;
@@ -280,7 +281,7 @@ void Guard::drain() {
           logln(s_.nrt[e].name + ": " + std::string(to_string(shown_state_[e])) + " -> " +
                 std::string(to_string(next)) + " (" + std::string(to_string(n.command)) + ")");
         shown_state_[e] = next;
-        publisher_.command({s_.nrt[e].name, s_.nrt[e].core, n.t, n.command});
+        publisher_.command({s_.nrt[e].name, s_.nrt[e].core, n.t, n.command, n.cause});
         break;
       }
       case ControllerNote::Kind::Activation:

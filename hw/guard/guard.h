@@ -92,12 +92,14 @@ struct GuardSample {
   double mbps = 0.0;          // since the core's previous sample
   double used_bytes = 0.0;    // in the window so far
   double budget_bytes = 0.0;  // of the window
+  double counter = 0.0;       // the metric's first counter, cumulative (as read)
 };
 struct GuardCommandNote {
   std::string core_name;
   int core = 0;
   TimeNs t = 0;
   Command command = Command::Off;
+  TimeNs cause = 0;  // the read that caused a THR (0 otherwise)
 };
 
 class GuardPublisher {
@@ -173,8 +175,8 @@ class Guard {
 
   Waker engine_waker_, notes_waker_;
   NoteRing notes_;
-  Topic<RtEventMsg> rt_topic_;
-  Topic<SampleMsg> samples_;  // unused (external sampling); the controller needs one
+  InprocTopic<RtEventMsg> rt_topic_;
+  InprocTopic<SampleMsg> samples_;  // unused (external sampling); the controller needs one
   std::size_t rt_pub_ = 0;
   std::vector<std::unique_ptr<Topic<ControlMsg>>> controls_;
   std::vector<std::unique_ptr<NrtRunner>> nodes_;

@@ -29,6 +29,8 @@ Controller::Controller(ControllerConfig config, std::unique_ptr<Regulator> regul
   for (std::size_t e = 0; e < controls_.size(); ++e)
     counter_names_.push_back("nrt" + std::to_string(e) + " MB/s");
   last_sample_t_.assign(controls_.size(), 0);
+  finished_ = std::make_unique<std::atomic<int>[]>(cfg_.rt_count);
+  signals_.reserve(1024);
 }
 
 Controller::~Controller() {
@@ -77,6 +79,7 @@ void Controller::send(const DriverCommand& c) {
   n.t = now;
   n.entity = c.entity;
   n.command = c.command;
+  n.cause = c.cause;
   note(n);
 }
 
@@ -175,8 +178,13 @@ bool Controller::serve() {
   while (rt_topic_.take(rt_sub_, ev)) {
     busy = true;
     const TimeNs t = now();
+    if (ev.rt >= cfg_.rt_count)
+      throw RunError("an enable / disable signal names RT node " + std::to_string(ev.rt) + " of " +
+                     std::to_string(cfg_.rt_count));
+    signals_.push_back({ev.rt, ev.started, ev.t, t});
     driver_.rt_signal(t, ev.rt, ev.started, out_);
     handle();
+    if (!ev.started) finished_[ev.rt].fetch_add(1, std::memory_order_acq_rel);
     rt_events_.fetch_add(1, std::memory_order_acq_rel);
     engine_waker_.notify();
   }

@@ -47,6 +47,7 @@ struct ControllerNote {
   double value = 0.0, value2 = 0.0;
   double used = 0.0, budget = 0.0;
   Command command = Command::Off;
+  TimeNs cause = 0;  // Command: the read that caused it
   bool active = false;
 };
 using NoteRing = SpscRing<ControllerNote, 8192>;
@@ -62,10 +63,21 @@ struct ControllerConfig {
   std::size_t metric_events = 1;
   bool trace = false;
   TimeNs fail_after_ns = -1;
+  std::size_t rt_count = 1;                // RT indices the enable / disable signals may carry
   std::function<TimeNs()> clock = now_ns;  // CLOCK_MONOTONIC; tests inject their own
   bool keep_measurements = true;  // false: no per-read timing kept (a daemon: bounded memory)
   NoteRing* notes = nullptr;      // optional: what the controller did, for its host
   Waker* notes_waker = nullptr;   // notified after each batch of notes
+};
+
+// One enable / disable signal as the controller saw it: sent (the publisher's stamp: its
+// CLOCK_MONOTONIC, or a DDS source timestamp mapped onto it) and received (taken by the
+// controller thread).
+struct SignalRecord {
+  std::size_t rt = 0;
+  bool started = false;
+  TimeNs t_sent = 0;
+  TimeNs t_received = 0;
 };
 
 class Controller {
@@ -93,10 +105,15 @@ class Controller {
   int windows_opened() const { return opened_.load(std::memory_order_acquire); }
   // Enable / disable signals processed so far (the engine waits for all it knows were sent).
   int rt_events() const { return rt_events_.load(std::memory_order_acquire); }
+  // Disable signals (ends of jobs) of RT node `rt` processed so far.
+  int rt_finished(std::size_t rt) const {
+    return rt < cfg_.rt_count ? finished_[rt].load(std::memory_order_acquire) : 0;
+  }
   bool failed_on_purpose() const { return faulted_.load(std::memory_order_acquire); }
   // After shutdown() (or from the serve() caller):
   const ControllerDriver& driver() const { return driver_; }
   const std::vector<double>& external_reads_us() const { return reads_us_; }
+  const std::vector<SignalRecord>& signals() const { return signals_; }
   const TraceLog& trace() const { return trace_; }
   std::uint64_t notes_dropped() const { return notes_dropped_; }
 
@@ -125,6 +142,8 @@ class Controller {
   std::atomic<bool> stop_{false};
   std::atomic<int> opened_{0};
   std::atomic<int> rt_events_{0};
+  std::unique_ptr<std::atomic<int>[]> finished_;
+  std::vector<SignalRecord> signals_;
   std::atomic<bool> faulted_{false};
   TimeNs first_activation_ = -1;
   TimeNs last_t_ = 0;

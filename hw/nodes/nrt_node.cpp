@@ -82,6 +82,7 @@ NrtRunner::NrtRunner(NrtConfig config, const WorkloadInfo& workload, const PmcSo
   pmc_us_.reserve(1 << 16);
   read_us_.reserve(1 << 16);
   overhead_us_.reserve(1 << 16);
+  thr_entries_.reserve(1 << 14);
 }
 
 NrtRunner::~NrtRunner() {
@@ -215,6 +216,7 @@ void NrtRunner::thr_main() {
     const auto epoch = thr_waker_.epoch();
     if (state_.load(std::memory_order_acquire) == NodeState::Thr) {
       const TimeNs enter = now_ns();
+      thr_entries_.push_back(enter);
       throttler_->hold(
           [this] {
             return state_.load(std::memory_order_relaxed) == NodeState::Thr &&

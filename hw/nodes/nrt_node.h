@@ -118,6 +118,8 @@ class NrtRunner {
   const std::vector<double>& pmc_callbacks_us() const { return pmc_us_; }
   const std::vector<double>& pmc_reads_us() const { return read_us_; }
   const std::vector<double>& sampling_overheads_us() const { return overhead_us_; }
+  // When the THR callback started spinning, each time (CLOCK_MONOTONIC ns).
+  const std::vector<TimeNs>& thr_entries() const { return thr_entries_; }
   std::vector<const TraceLog*> traces() const { return {&cfb_trace_, &thr_trace_, &pmc_trace_}; }
 
  private:
@@ -166,6 +168,7 @@ class NrtRunner {
   static constexpr int kOverheadPeriods = 10;
   int overhead_periods_ = 0;  // PMC thread only
   std::vector<double> activation_us_, pmc_us_, read_us_, overhead_us_;
+  std::vector<TimeNs> thr_entries_;  // THR thread
   TraceLog cfb_trace_, thr_trace_, pmc_trace_;
 
   std::unique_ptr<RtThread> cfb_, thr_, pmc_, nct_;

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "hw/common/sys.h"
+#include "hw/guard/dds_guard.h"
 #include "hw/guard/guard.h"
 #include "hw_test_files.h"
 #include "policy/policy.h"
@@ -365,4 +366,63 @@ TEST_CASE("rosguard guard: SIGHUP reloads, SIGTERM leaves no throttled core and 
   if (quiet) CHECK(st.share(std::chrono::milliseconds(400)) > 2.0 * at5);
   CHECK(st.all_sched_other());
   fs::remove_all(dir);
+}
+
+TEST_CASE("guard over DDS: Bool activity in, samples (with budgets) and commands out, ROS 2 names",
+          "[hw][guard][dds]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng, taskset and two CPUs");
+    return;
+  }
+  const std::string uri =
+      std::string("file://") + ROSGUARD_TEST_SOURCE_DIR + "/tests/hw/cyclonedds-loopback.xml";
+  ::setenv("CYCLONEDDS_URI", uri.c_str(), 1);
+  const std::string ns = "/guard_test_" + std::to_string(::getpid());
+  const int core = cpus.back(), ctl = cpus.front();
+  Stress st(core);
+  PolicyRegistry policies;
+  register_builtin(policies);
+  DdsActivity activity(std::nullopt, ns);
+  DdsPublisher publisher({"be"}, std::nullopt, ns);
+  // Plain Cyclone endpoints with the ROS 2 names, as an RT node and a `ros2 topic echo` would use.
+  dds::Participant outside;
+  dds::Writer<dds::BoolMsg> rt(outside, ns + "/rosguard/planner/active");
+  dds::Reader<dds::PmcSampleMsg> pmc(outside, ns + "/rosguard/be/pmc");
+  dds::Reader<dds::CommandMsg> cmd(outside, ns + "/rosguard/be/command");
+  CHECK(dds::dds_topic_name(ns + "/rosguard/be/pmc") == "rt" + ns + "/rosguard/be/pmc");
+  std::ostringstream log;
+  Guard g(settings_for(ctl, core, 10.0), policies, activity, publisher, log);
+  g.start();
+  // Wait for discovery both ways (volatile topics keep nothing for late joiners).
+  for (int i = 0; i < 200 && (rt.matched() == 0 || pmc.matched() == 0 || cmd.matched() == 0); ++i)
+    serve_for(g, std::chrono::milliseconds(10));
+  REQUIRE(rt.matched() > 0);
+  REQUIRE(pmc.matched() > 0);
+  dds::BoolMsg on{true};
+  rt.write(on);
+  serve_for(g, std::chrono::milliseconds(500));
+  dds::BoolMsg off{false};
+  rt.write(off);
+  serve_for(g, std::chrono::milliseconds(100));
+  INFO(log.str());
+  CHECK(g.stats().activations == 1);
+  CHECK(g.stats().throttles > 5);
+  std::size_t samples = 0, thr = 0;
+  dds::PmcSampleMsg s{};
+  double budget = 0.0;
+  while (pmc.take(s)) {
+    ++samples;
+    CHECK(s.count == 3);
+    CHECK(s.entity == 0u);
+    budget = static_cast<double>(s.value[2]);
+  }
+  dds::CommandMsg c{};
+  while (cmd.take(c))
+    thr += c.command == dds::command::kThr ? 1 : 0;
+  CHECK(samples > 100);  // 1 kHz sampling for 0.5 s
+  CHECK(budget == Approx(0.10 * 1000.0 * 1048576.0 * 0.010).epsilon(1e-6));
+  CHECK(thr == g.stats().throttles);
+  g.shutdown();
+  CHECK(realtime_threads().empty());
 }

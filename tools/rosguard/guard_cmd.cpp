@@ -9,6 +9,7 @@
 #include "loader.h"
 
 #ifdef ROSGUARD_WITH_HW
+#include "hw/guard/dds_guard.h"
 #include "hw/guard/fifo_activity.h"
 #include "hw/guard/guard.h"
 #endif
@@ -95,6 +96,11 @@ int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyR
     return 0;
   }
   const auto& act = doc.at("activity");
+  const auto& dds_cfg = doc.at("dds");
+  const std::optional<std::uint32_t> domain =
+      dds_cfg.contains("domain_id") ? std::optional(dds_cfg.at("domain_id").get<std::uint32_t>())
+                                    : std::nullopt;
+  const std::string ns = dds_cfg.at("namespace").get<std::string>();
   std::unique_ptr<hw::ActivitySource> activity;
   if (act.at("source").get<std::string>() == "fifo") {
     activity = std::make_unique<hw::FifoActivity>(
@@ -103,17 +109,16 @@ int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyR
                     << "' (expected '<rt name> 1|0')\n";
         });
   } else {
-    throw InputError(settings.file, "/activity/source",
-                     "\"dds\" needs the DDS transport, which this build does not have yet; use "
-                     "\"fifo\"");
+    activity = std::make_unique<hw::DdsActivity>(domain, ns);
   }
   std::unique_ptr<hw::GuardPublisher> publisher;
   if (doc.at("publish").at("transport").get<std::string>() == "none") {
     publisher = std::make_unique<hw::NullPublisher>();
   } else {
-    throw InputError(settings.file, "/publish/transport",
-                     "\"dds\" needs the DDS transport, which this build does not have yet; use "
-                     "\"none\"");
+    std::vector<std::string> cores;
+    for (const auto& n : settings.nrt)
+      cores.push_back(n.name);
+    publisher = std::make_unique<hw::DdsPublisher>(cores, domain, ns);
   }
 
   // Signals: SIGINT / SIGTERM stop, SIGHUP reloads; the handlers only set flags, which the main

@@ -157,6 +157,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   calibrate->add_option("--name", cal.name, "Name of the fitted platform (default: host)");
   calibrate->add_flag("--quiet", cal.quiet, "No progress");
+  calibrate
+      ->add_option("--transport", cal.transport,
+                   "Topic transport whose message costs are measured: inproc (default) or dds "
+                   "(Cyclone DDS with ROS 2 names, as hw.transport dds)")
+      ->check(CLI::IsMember({"inproc", "dds"}));
   calibrate->add_flag("--strict", cal.strict,
                       "Refuse the fit when the co-runs leave a memory bandwidth unidentified "
                       "(default: hold it at the most contention the data allow, with a note)");

@@ -215,6 +215,11 @@ TEST_CASE("as an unprivileged user SCHED_FIFO is refused and the idle throttle s
   CHECK_THAT(out, Catch::Contains("SCHED_FIFO refused (EPERM"));
   // No cgroup of its own for nobody: the freezer is unavailable, and says why.
   CHECK_THAT(out, Catch::Contains("freezer           unavailable here"));
+  if (out.find("  idle              not measured") != std::string::npos) {
+    WARN("SKIPPED (the figure): other work held the probed core (the SCHED_IDLE worker never ran)");
+    fs::remove_all(dir);
+    return;
+  }
   const auto at = out.find("  idle              hold ");
   REQUIRE(at != std::string::npos);
   const double hold_pct = std::strtod(out.c_str() + at + 25, nullptr);

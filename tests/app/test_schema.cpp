@@ -198,6 +198,7 @@ TEST_CASE("schema: apply_defaults fills nested objects and array items", "[schem
     CHECK(doc["sim"] == json({{"quantum_us", 10}}));
     CHECK(doc["hw"] == json({{"pmc_source", "auto"},
                              {"scheduler", "fifo"},
+                             {"throttle", "auto"},
                              {"watchdog_ms", 100},
                              {"transport", "inproc"},
                              {"dds", {{"namespace", ""}, {"signal_timeout_ms", 60000}}}}));

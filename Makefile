@@ -5,6 +5,7 @@
 #   make test-nosim   builds without the sim backend (no SystemC) in $(BUILD)-nosim, runs its tests
 #   make validate     runs scenarios/validation/ on hw and in sim, writes results/validation/report.md
 #   make fit-table1   refits the seven Table 1 workloads (base_ipc; measured profiles' rates scaled)
+#   make bench-middleware  the paper's experiments 1-3 on hw, transport inproc vs dds, as a table
 BUILD ?= build
 JOBS ?= $(shell nproc)
 PREFIX ?= /usr/local
@@ -18,7 +19,7 @@ PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
 .PHONY: all deps configure build test test-nosim run install reproduce validate validate-readme \
-        bench-parallel \
+        bench-parallel bench-middleware \
         bench format clean fit-table1
 
 all: build
@@ -79,6 +80,12 @@ bench: build
 # 2 x 5 whole sweeps): --jobs 1 against --jobs $(JOBS).
 bench-parallel: build
 	tests/bench/parallel_efficiency.sh $(BUILD) 5 $(JOBS)
+
+# The paper's experiments 1-3 on hw, transport inproc vs dds (scenarios/bench/hw-middleware.json),
+# and the README's middleware table from them.
+bench-middleware: build
+	$(ROSGUARD) run scenarios/bench/hw-middleware.json --backend hw --out results/hw-middleware --overwrite
+	$(PYTHON) tools/middleware_table.py results/hw-middleware
 
 format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i

@@ -153,3 +153,43 @@ def test_exp8_fails_when_every_threshold_gives_the_same_run(tmp_path):
     assert verdicts(rows) == {"8a": False, "8b": False}
     assert "0 of 6 series differ" in rows[0][2]
     assert "0 throttles" in rows[0][2]
+
+
+# --- experiment 4 -------------------------------------------------------------------------
+
+def setpoint_points():
+    points = []
+    for w in ("bandwidth_read", "mser"):
+        points += resultgen.sweep({"rt_workload": w, "nrt_workload": w},
+                                  {"nodes.rt[0].workload": [w],
+                                   "regulation.threshold_pct": [5, 10, 30],
+                                   "regulation.policy": ["interval", "monolithic"]})
+    return points
+
+
+def paper_like_setpoint(s):
+    t, mono = s["threshold_pct"], s["policy"] == "monolithic"
+    nrt = {5: 8.0, 10: 8.0, 30: 2.8}[t] * (2.0 if mono else 1.0)
+    rt = 1.1 + 0.01 * t
+    # resultgen's RT time is 3 jobs of 20 ms: 60 ms x slowdown / 5 ms intervals
+    intervals = 3 * resultgen.ISOLATION[s["rt_workload"]][0] * rt / 5000
+    return {"rt_slowdown": rt, "nrt_slowdown": nrt, "throttle_count": round(intervals)}
+
+
+def test_exp4_holds_on_the_paper_like_setpoint_sweep(tmp_path):
+    rows = paper_table.exp4(results(tmp_path, "exp4", setpoint_points(), paper_like_setpoint))
+    assert verdicts(rows) == {"4a": True, "4b": True, "4c": True, "4d": True}
+
+
+def test_exp4_fails_each_statement_that_the_numbers_contradict(tmp_path):
+    def figures(s):
+        f = paper_like_setpoint(s)
+        f["rt_slowdown"] = 1.5 - 0.01 * s["threshold_pct"]      # lower threshold: RT worse
+        if s["policy"] == "monolithic":
+            f["nrt_slowdown"] = 1.2                             # monolithic penalises less
+        elif s["threshold_pct"] == 10:
+            f["nrt_slowdown"] = 4.0                             # no saturation at 10 %
+        f["throttle_count"] = 3                                 # budget rarely spent at 30 %
+        return f
+    rows = paper_table.exp4(results(tmp_path, "exp4", setpoint_points(), figures))
+    assert verdicts(rows) == {"4a": False, "4b": False, "4c": False, "4d": False}

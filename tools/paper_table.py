@@ -2,8 +2,11 @@
 """The paper's findings next to what the sim reproduces, computed from results/paper/.
 
 Reads the results of `make reproduce` (one folder per scenario of scenarios/paper/), states each
-experiment's finding as the paper does, the numbers the sim gives for it, and whether the finding
-holds (computed here, never typed in). Writes docs/paper-vs-sim.md, copies one figure per
+of the paper's statements as the paper does (an experiment with several statements gets one row
+each: 4a-4d, 7a-7d, 8a-8b), the numbers the sim gives for it, and whether it holds, computed here
+and never typed in. Where the paper gives no number ("pretty close", "generally"), the reading
+used is a named constant below and is written into the statement. tools/sensitivity.py runs the
+same checks on variants of the platform. Writes docs/paper-vs-sim.md, copies one figure per
 experiment into the gallery folder, and replaces the README's section between the markers
 <!-- reproduced:begin --> and <!-- reproduced:end -->.
 

@@ -81,3 +81,17 @@ def test_the_orin_platform_sources_every_number_and_ranges_its_guesses():
                 yield from sources(v)
     for s in sources(doc):
         assert not re.search(r"chosen so that|tuned|so that .* close to isolation", s), s
+
+
+def test_a_variant_scenario_names_the_refitted_workload_files():
+    scenario = {"nodes": {"controller": {"core": 0},
+                          "rt": [{"name": "rt0", "core": 1, "workload": "mser"}],
+                          "nrt": [{"name": "nrt0", "core": 2, "workload": "own.json"}]},
+                "sweep": {"nodes.nrt[0].workload": ["sift", "mser", "latency"],
+                          "regulation.threshold_pct": [20, 30]}}
+    fitted = {"mser": Path("/v/mser.json"), "sift": Path("/v/sift.json")}
+    s = sensitivity.use_workloads(scenario, fitted)
+    assert s["nodes"]["rt"][0]["workload"] == "/v/mser.json"
+    assert s["nodes"]["nrt"][0]["workload"] == "own.json"          # not a refitted one: kept
+    assert s["sweep"]["nodes.nrt[0].workload"] == ["/v/sift.json", "/v/mser.json", "latency"]
+    assert s["sweep"]["regulation.threshold_pct"] == [20, 30]

@@ -290,7 +290,8 @@ def exp7(r):
     ms = sum(s for s, _ in pairs) / len(pairs)
     me = sum(e for _, e in pairs) / len(pairs)
     rows.append(("7c", f"external sampling penalises the nRT node less than self-sampling "
-                 f"(\"generally\": at {100 * GENERALLY:.0f} % of the points or more, and on average; "
+                 f"(\"generally\": at {100 * GENERALLY:.0f} % of the points or more, and on "
+                 f"average; "
                  f"1 ms / 5 ms)",
                  f"external <= self at {less} of {len(pairs)} points; mean nRT slowdown self "
                  f"{ms:.3f}, external {me:.3f}",
@@ -348,7 +349,8 @@ def exp8(r):
     budget = top.config["reference_mbps"] * ts[0] / 100
     spread = max(max(v) / min(v) - 1 for _, _, v in series)
     rows.append(("8a", f"the threshold changes the outcome: different nRT slowdowns at "
-                 f"{' / '.join(f'{t:g}' for t in ts)} % (pairwise by >= {100 * DISTINCT:.0f} %, for at "
+                 f"{' / '.join(f'{t:g}' for t in ts)} % (pairwise by >= {100 * DISTINCT:.0f} %, "
+                 f"for at "
                  f"least half of the nRT x sampling series)",
                  f"{len(distinct)} of {len(series)} series differ"
                  + (f" ({', '.join(distinct)})" if distinct else "") +

@@ -5,11 +5,11 @@ A platform number with no source of its own says so in its "source": "NAME: gues
 range LOW-HIGH" (NAME a key beside that source) or, in a cost distribution's source, "guess,
 plausible range LOW-HIGH" (the distribution's mean or median; its min, max and sd scale with it).
 For each such guess this tool writes two variants of the platform file, with the number at LOW
-and at HIGH, re-fits the workload profiles to the paper's Table 1 on it (rosguard-sim-calibrate --fit, as
-for the shipped profiles), runs the paper's scenarios (scenarios/paper/) on it in sim, one
-repetition each,
-re-runs the checks of tools/paper_table.py, and writes a table: per parameter the range and which
-findings change their verdict at each end against the unchanged platform. A "guess" without a
+and at HIGH; on each it re-fits the workload profiles to the paper's Table 1
+(rosguard-sim-calibrate --fit, as for the shipped profiles), runs the paper's scenarios
+(scenarios/paper/) in sim with one repetition each, re-runs the checks of tools/paper_table.py,
+and writes a table: per parameter the range and which findings change their verdict at each end
+against the unchanged platform. A "guess" without a
 range is listed as such and not swept.
 
     python3 tools/sensitivity.py [--platform scenarios/platforms/orin-agx.json]
@@ -175,7 +175,8 @@ def describe(verdicts: dict, base: dict) -> str:
 
 def render(platform_file: Path, guesses, unranged, base, ends, seconds) -> str:
     fails = [n for n, ok in base.items() if not ok]
-    lines = [f"Platform `{platform_file.relative_to(ROOT) if platform_file.is_relative_to(ROOT) else platform_file}`, "
+    shown = platform_file.relative_to(ROOT) if platform_file.is_relative_to(ROOT) else platform_file
+    lines = [f"Platform `{shown}`, "
              f"every guessed number at each end of its plausible range (the rest unchanged), the "
              f"workload profiles re-fitted to Table 1 on each variant, the paper's scenarios in "
              f"sim with one repetition each. With the file as it is, "

@@ -116,20 +116,26 @@ def variant(platform: dict, guess: Guess, value: float) -> dict:
 def refit_workloads(platform_file: Path, folder: Path, calibrate: Path) -> dict:
     """Copies of the workloads with a Table 1 reference, re-fitted to it on this platform.
 
-    The profiles' base IPCs and miss rates are fitted to the paper's Table 1 on the platform
+    The profiles' base IPCs (and miss rates, unless a profile's source says they were kept as
+    measured: --ipc-only) are fitted to the paper's Table 1 on the platform
     (rosguard-sim-calibrate --fit), so a variant of the platform gets its own fit, as a new
     platform file would. Returns {workload name: fitted file}.
     """
     folder.mkdir(parents=True, exist_ok=True)
-    fitted = {}
+    fitted, modes = {}, {(): [], ("--ipc-only",): []}
     for w in sorted((ROOT / "scenarios" / "workloads").glob("*.json")):
         doc = json.loads(w.read_text())
         if "reference" in doc and "sim" in doc:
             target = folder / w.name
             target.write_text(w.read_text())
             fitted[doc.get("name", w.stem)] = target.resolve()
-    subprocess.run([str(calibrate), "--fit", "--write", str(platform_file)]
-                   + [str(f) for f in fitted.values()], check=True, stdout=subprocess.DEVNULL)
+            # A profile whose rates were kept as measured (fitted with --ipc-only) keeps them.
+            ipc_only = "--ipc-only" in doc["sim"].get("source", "")
+            modes[("--ipc-only",) if ipc_only else ()].append(str(target))
+    for flags, files in modes.items():
+        if files:
+            subprocess.run([str(calibrate), "--fit", *flags, "--write", str(platform_file)]
+                           + files, check=True, stdout=subprocess.DEVNULL)
     return fitted
 
 

@@ -4,6 +4,8 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace rosguard {
 
@@ -18,9 +20,29 @@ class InputError : public std::runtime_error {
         json_path_(std::move(json_path)),
         message_(std::move(message)) {}
 
+  // Several problems in one document (a schema validation): the first is this error's path and
+  // message; what() adds "(and N more problems)"; problems() lists every one in full.
+  InputError(std::string file, std::vector<std::pair<std::string, std::string>> problems)
+      : InputError(file, problems.at(0).first,
+                   problems.at(0).second + more_suffix(problems.size() - 1)) {
+    message_ = problems.front().second;
+    for (const auto& [path, message] : problems)
+      problems_.push_back(format(file_, path, message));
+  }
+
   const std::string& file() const { return file_; }
   const std::string& json_path() const { return json_path_; }
   const std::string& message() const { return message_; }
+  // " (and N more problems)", or "" for none.
+  static std::string more_suffix(std::size_t more) {
+    if (more == 0) return "";
+    return " (and " + std::to_string(more) + " more problem" + (more > 1 ? "s" : "") + ")";
+  }
+
+  // Every problem, each as "file: path: message"; one entry (what()) for a single problem.
+  std::vector<std::string> problems() const {
+    return problems_.empty() ? std::vector<std::string>{what()} : problems_;
+  }
 
  private:
   static std::string format(const std::string& file, const std::string& path,
@@ -32,6 +54,7 @@ class InputError : public std::runtime_error {
   }
 
   std::string file_, json_path_, message_;
+  std::vector<std::string> problems_;
 };
 
 // A failure while running (a backend, a counter, a worker). Exit code 1.

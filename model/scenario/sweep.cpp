@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cstdio>
+#include <map>
 
 #include "core/hash.h"
 
@@ -133,6 +134,13 @@ SweepPlan::SweepPlan(const nlohmann::json& doc, const std::vector<std::string>& 
                                " paths, so each value must be a list of " +
                                std::to_string(k.names.size()) + " values (value " +
                                std::to_string(i) + " is not)");
+    // Equal values would make equal points: each run twice, and two rows with one meaning.
+    std::map<nlohmann::json, std::size_t> seen;  // json's order: 5 and 5.0 are one value
+    for (std::size_t i = 0; i < k.values->size(); ++i)
+      if (const auto [it, fresh] = seen.emplace((*k.values)[i], i); !fresh)
+        throw InputError("", where + "/" + std::to_string(i),
+                         "sweep '" + key + "' repeats value " + std::to_string(it->second) + " (" +
+                             (*k.values)[i].dump() + "); each value may appear once");
     if (__builtin_mul_overflow(count_, static_cast<std::uint64_t>(k.values->size()), &count_))
       throw InputError("", "/sweep",
                        "the sweep has more points than a 64-bit count can hold (" +

@@ -54,6 +54,7 @@ concurrent)
     wait "$pid" || fail "a shard exited $?"
   done
   echo "rows $(rows "$tmp/c") of 24, samples $(tail -n +2 "$tmp/c/samples.csv" | wc -l) of 240"
+  [[ ! -e "$tmp/c/.lock" ]] || fail "the shards left a .lock behind"
   dups=$(tail -n +2 "$tmp/c/points.csv" | cut -d, -f1,2 | sort | uniq -d | wc -l)
   [[ $dups -eq 0 ]] || fail "$dups run(s) have more than one row"
   [[ $(rows "$tmp/c") -eq 24 ]] || fail "expected 24 rows, got $(rows "$tmp/c")"
@@ -227,6 +228,19 @@ folders)
     grep -q -- "${bad%% *}" "$tmp/err" || fail "$bad: the message does not name the option"
   done
   [[ ! -e "$tmp/o2" ]] || fail "a usage error created the results folder"
+  ;;
+progress)
+  # stderr not a terminal: plain progress lines (no carriage returns), counting runs only, the
+  # last one at the total; no .lock is left behind.
+  ROSGUARD_FAKE_SLEEP_MS=20 "$bin" run $scenario --out "$tmp/p" --jobs 1 2> "$tmp/err" ||
+    fail "run: $(cat "$tmp/err")"
+  grep -q $'\r' "$tmp/err" && fail "carriage returns in a non-terminal progress output"
+  [[ $(grep -c '^progress: \[' "$tmp/err") -ge 2 ]] || fail "no periodic lines: $(cat "$tmp/err")"
+  grep '^progress: ' "$tmp/err" | tail -1 | grep -q '^progress: \[24/24 runs\] 100%' ||
+    fail "last progress line: $(grep '^progress: ' "$tmp/err" | tail -1)"
+  [[ ! -e "$tmp/p/.lock" ]] || fail "the finished run left its .lock"
+  "$bin" run $scenario --out "$tmp/q" --quiet 2> "$tmp/err2" || fail "quiet run"
+  grep -q '^progress:' "$tmp/err2" && fail "--quiet printed progress"
   ;;
 trace)
   # --trace writes a Chrome trace with one process per point and repetition.

@@ -78,3 +78,22 @@ TEST_CASE("expand_sweep builds the same points as SweepPlan", "[sweep]") {
   for (std::size_t i = 0; i < points.size(); ++i)
     CHECK(points[i].id == plan.point(i).id);
 }
+
+TEST_CASE("SweepPlan refuses a value listed twice, naming the second", "[sweep]") {
+  try {
+    SweepPlan plan(doc_with({{"a", json::array({5, 10, 5.0})}}), {"a"});
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(e.json_path() == "/sweep/a/2");
+    CHECK_THAT(e.message(), Catch::Contains("repeats value 0"));
+  }
+  try {
+    SweepPlan plan(doc_with({{"a+b", json::array({json::array({1, 2}), json::array({1, 3}),
+                                                  json::array({1, 2})})}}),
+                   {"a+b"});
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(e.json_path() == "/sweep/a+b/2");
+  }
+  CHECK(SweepPlan(doc_with({{"a", json::array({5, 6})}}), {"a"}).count() == 2);
+}

@@ -108,19 +108,33 @@ void AppendFile::append(const std::string& data) {
   write_all(fd_, data, path_);
 }
 
-FileLock::FileLock(const fs::path& path) {
-  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd_ < 0) fail("cannot open lock file", path);
-  struct flock whole {};  // l_start = l_len = 0: the whole file
-  whole.l_type = F_WRLCK;
-  whole.l_whence = SEEK_SET;
-  while (::fcntl(fd_, F_OFD_SETLKW, &whole) != 0) {
-    if (errno == EINTR) continue;
-    const int err = errno;
+FileLock::FileLock(const fs::path& path) : path_(path) {
+  while (true) {
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) fail("cannot open lock file", path);
+    struct flock whole {};  // l_start = l_len = 0: the whole file
+    whole.l_type = F_WRLCK;
+    whole.l_whence = SEEK_SET;
+    while (::fcntl(fd_, F_OFD_SETLKW, &whole) != 0) {
+      if (errno == EINTR) continue;
+      const int err = errno;
+      ::close(fd_);
+      errno = err;
+      fail("cannot lock", path);
+    }
+    // Still the file the path names? (Its previous holder may have removed it meanwhile.)
+    struct stat held {
+    }, named{};
+    if (::fstat(fd_, &held) == 0 && ::stat(path.c_str(), &named) == 0 &&
+        held.st_dev == named.st_dev && held.st_ino == named.st_ino)
+      return;
     ::close(fd_);
-    errno = err;
-    fail("cannot lock", path);
   }
+}
+
+void FileLock::remove_file() {
+  std::error_code ec;
+  fs::remove(path_, ec);  // gone already is fine
 }
 
 FileLock::~FileLock() {

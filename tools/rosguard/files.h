@@ -45,6 +45,9 @@ class AppendFile {
 // server (flock is only emulated by them there), and unlike classic fcntl locks it is neither
 // shared by the threads of a process nor dropped when another descriptor of the file closes.
 // The kernel releases it when its holder dies. Waiting for it retries on EINTR.
+// The holder may remove the file (remove_file(): a finished run leaves no .lock behind); a
+// waiter that then gets the lock of the removed file notices (the path no longer names the file
+// it locked) and locks the path afresh.
 class FileLock {
  public:
   explicit FileLock(const std::filesystem::path& path);
@@ -52,7 +55,11 @@ class FileLock {
   FileLock(const FileLock&) = delete;
   FileLock& operator=(const FileLock&) = delete;
 
+  // Unlinks the lock file while holding it (its lock is released at destruction as usual).
+  void remove_file();
+
  private:
+  std::filesystem::path path_;
   int fd_ = -1;
 };
 

@@ -104,7 +104,8 @@ int main(int argc, char** argv) {
   // Baked in at configure time (version.h): the same revision the manifests record.
   app.set_version_flag("--version",
                        std::string("rosguard ") + kVersion + "\ngit revision: " + kGitRevision +
-                           "\nbuild type: " + kBuildType + "\nbackends: " + kBackendsBuilt);
+                           "\nbuild type: " + kBuildType + "\ncompiler: " + kCompiler +
+                           "\nbackends: " + kBackendsBuilt);
 
   RunArgs run_args;
   auto* run = add_run_command(app, run_args);
@@ -246,7 +247,8 @@ int main(int argc, char** argv) {
       return run_analysis(loader.home(), args);
     }
   } catch (const InputError& e) {
-    std::cerr << "error: " << e.what() << "\n";
+    for (const auto& problem : e.problems())
+      std::cerr << "error: " << problem << "\n";
     return 2;
   } catch (const RunError& e) {
     std::cerr << "error: " << e.what() << "\n";

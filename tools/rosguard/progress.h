@@ -1,27 +1,47 @@
-// Progress of `rosguard run` on a terminal: one line on stderr, rewritten in place ("[done/total]
-// percent, elapsed, ETA, what finished last"). Silent when disabled or stderr is not a tty.
+// Progress of `rosguard run` on stderr: "[done/total] percent, elapsed, ETA, what finished last",
+// counting point runs (baselines measured between them are not counted, but named).
+// On a terminal: one line rewritten in place, clipped to the terminal's width so that it never
+// wraps (a wrapped line leaves a stale row behind at every update). Elsewhere (a pipe, a log
+// file, CI, a Slurm job's output): a plain line every `interval` seconds and one at the end.
 #pragma once
 
 #include <chrono>
 #include <cstddef>
+#include <ostream>
 #include <string>
 
 namespace rosguard {
 
 class Progress {
  public:
+  enum class Mode { Off, Terminal, Lines };
+
+  // Mode from `enabled` and whether stderr is a terminal.
   Progress(std::size_t total, bool enabled);
+  // Explicit mode and stream (tests): `columns` is the terminal width for Terminal.
+  Progress(std::size_t total, Mode mode, std::ostream& out, std::size_t columns = 80,
+           double interval_s = 5.0);
+
   void update(std::size_t done, const std::string& what);
-  // Clears the line (before other output, and at the end).
+  // Clears the in-place line (before other output, and at the end); in Lines mode prints the
+  // final count once if it was not the last line printed.
   void finish();
   // Seconds since construction.
   double seconds() const;
 
  private:
   using clock = std::chrono::steady_clock;
+  std::string text(std::size_t done, const std::string& what) const;
+
   std::size_t total_;
-  bool enabled_;
+  Mode mode_;
+  std::ostream& out_;
+  std::size_t columns_;
+  double interval_s_;
   clock::time_point start_;
+  double last_line_s_ = -1e300;
+  std::size_t done_ = 0, printed_ = static_cast<std::size_t>(-1);
+  std::string what_;
 };
 
 }  // namespace rosguard

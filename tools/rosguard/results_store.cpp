@@ -305,6 +305,7 @@ std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefres
                  {"skipped_on_resume", report.skipped_on_resume}};
   m["elapsed_s"] = report.elapsed_s;
   write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
+  lock.remove_file();  // a shard still running locks a fresh one
   return rows;
 }
 

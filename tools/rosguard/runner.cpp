@@ -68,6 +68,7 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
 struct TaskPlan {
   std::vector<std::vector<Task>> phases;
   std::size_t tasks = 0;       // in all phases
+  std::size_t runs = 0;        // point runs among them (the rest measure baselines)
   std::size_t skipped = 0;     // runs of this shard already in points.csv
   std::set<std::string> keys;  // baselines this shard's points use
 };
@@ -125,6 +126,8 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
   }
   const auto add = [&](std::vector<Task> phase) {
     plan.tasks += phase.size();
+    for (const Task& t : phase)
+      plan.runs += t.kind == Task::Kind::Point ? 1 : 0;
     if (!phase.empty()) plan.phases.push_back(std::move(phase));
   };
   if (!interleave) {  // every baseline first, then the points in sweep order
@@ -178,7 +181,6 @@ class TaskRunner {
       if (stop_signal()) exec_.stop_all();
       if (!exec_.busy()) break;
       auto [id, r] = exec_.wait_one();
-      ++finished_;
       const Task& t = tasks[id];
       const std::string label = t.kind == Task::Kind::Isolation
                                     ? "isolation " + t.iso_key + " #" + std::to_string(t.rep)
@@ -193,7 +195,8 @@ class TaskRunner {
       }
       absorb(r);
       on_result(t, r);
-      progress_.update(finished_, label);
+      if (t.kind == Task::Kind::Point) ++runs_done_;
+      progress_.update(runs_done_, label);
     }
   }
 
@@ -219,7 +222,7 @@ class TaskRunner {
   std::set<std::pair<std::string, std::string>> fallbacks_seen_;
   std::string failure_;
   bool interrupted_ = false;
-  std::size_t finished_ = 0;
+  std::size_t runs_done_ = 0;  // point runs finished (progress counts runs, not baselines)
 };
 
 // The phases in order; after each phase of baselines they are saved (for resumed runs and other
@@ -324,7 +327,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     RunState st{&loaded, backend.get(), opened.baselines, opt.trace};
     auto exec = make_executor(st, backend->process_per_task(), worker_count(opt, *backend));
     StopSignalGuard signals;
-    Progress progress(plan.tasks, !opt.quiet);
+    Progress progress(plan.runs, !opt.quiet);
     TaskRunner runner(loaded, *exec, progress, report, opened.fallbacks);
     json trace_events = json::array();
     run_tasks(plan, st, store, runner, report, trace_events);

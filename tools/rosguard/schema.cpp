@@ -377,14 +377,13 @@ SchemaSet::SchemaSet(const std::filesystem::path& dir) : impl_(std::make_unique<
 
 SchemaSet::~SchemaSet() = default;
 
-std::optional<std::pair<std::string, std::string>> SchemaSet::first_error(const json& doc,
-                                                                          SchemaKind kind) const {
+std::vector<std::pair<std::string, std::string>> SchemaSet::errors(const json& doc,
+                                                                   SchemaKind kind) const {
   valijson::Validator validator;
   valijson::ValidationResults results;
   valijson::adapters::NlohmannJsonAdapter adapter(doc);
-  if (validator.validate(*impl_->compiled.at(kind), adapter, &results)) return std::nullopt;
-  std::optional<std::pair<std::string, std::string>> first;
-  std::size_t leaves = 0;
+  if (validator.validate(*impl_->compiled.at(kind), adapter, &results)) return {};
+  std::vector<std::pair<std::string, std::string>> out;
   valijson::ValidationResults::Error e;
   valijson::ValidationResults::Error deepest;
   while (results.popError(e)) {
@@ -392,18 +391,22 @@ std::optional<std::pair<std::string, std::string>> SchemaSet::first_error(const 
       if (e.context.size() >= deepest.context.size()) deepest = e;
       continue;
     }
-    if (!first) first = impl_->render(kind, doc, e);
-    ++leaves;
+    out.push_back(impl_->render(kind, doc, e));
   }
-  if (!first) first = impl_->explain_wrapper(kind, doc, deepest);
-  if (leaves > 1)
-    first->second +=
-        " (and " + std::to_string(leaves - 1) + " more problem" + (leaves > 2 ? "s" : "") + ")";
-  return first;
+  if (out.empty()) out.push_back(impl_->explain_wrapper(kind, doc, deepest));
+  return out;
+}
+
+std::optional<std::pair<std::string, std::string>> SchemaSet::first_error(const json& doc,
+                                                                          SchemaKind kind) const {
+  const auto all = errors(doc, kind);
+  if (all.empty()) return std::nullopt;
+  return std::make_pair(all.front().first,
+                        all.front().second + InputError::more_suffix(all.size() - 1));
 }
 
 void SchemaSet::validate(const json& doc, SchemaKind kind, const std::string& file) const {
-  if (auto err = first_error(doc, kind)) throw InputError(file, err->first, err->second);
+  if (auto all = errors(doc, kind); !all.empty()) throw InputError(file, std::move(all));
 }
 
 void SchemaSet::apply_defaults(json& doc, SchemaKind kind) const {

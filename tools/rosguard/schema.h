@@ -10,6 +10,8 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace rosguard {
 
@@ -31,7 +33,10 @@ class SchemaSet {
   // their own defaults too).
   void apply_defaults(nlohmann::json& doc, SchemaKind kind) const;
 
-  // Validation error of `doc` as (JSON pointer, message), or nullopt when valid.
+  // Every validation problem of `doc` as (JSON pointer, message); empty when valid.
+  std::vector<std::pair<std::string, std::string>> errors(const nlohmann::json& doc,
+                                                          SchemaKind kind) const;
+  // The first problem, its message ending "(and N more problems)"; nullopt when valid.
   std::optional<std::pair<std::string, std::string>> first_error(const nlohmann::json& doc,
                                                                  SchemaKind kind) const;
 

@@ -17,7 +17,7 @@ PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
 .PHONY: all deps configure build test test-nosim run install reproduce sensitivity validate \
-        validate-readme bench format clean
+        validate-readme bench-parallel bench format clean
 
 all: build
 
@@ -71,6 +71,11 @@ validate-readme:
 bench: build
 	$(BUILD)/tests/bench/rosguard_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 	tests/bench/time_sweep.sh $(BUILD) 5 $(JOBS)
+
+# Parallel efficiency on scenarios/bench/sweep-10k.json (10,000 points; long: about
+# 2 x 5 whole sweeps): --jobs 1 against --jobs $(JOBS).
+bench-parallel: build
+	tests/bench/parallel_efficiency.sh $(BUILD) 5 $(JOBS)
 
 format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i

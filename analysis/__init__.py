@@ -10,9 +10,13 @@ Entry points:
 * ``python3 -m analysis compare A B [--out DIR]``: per-point slowdown differences, error
   summary and scatter figure (``analysis.compare``), called by ``rosguard compare``.
 
-Only the standard library, numpy and matplotlib (Debian packages) are used.
+* ``from analysis import load``: ``points, samples = load(DIR)``, pandas DataFrames with each
+  column's unit and meaning in ``attrs`` (``analysis.frame``).
+
+Only the standard library and Debian's numpy, scipy, pandas and matplotlib are used.
 """
 
+from analysis.frame import load
 from analysis.results import InvalidInput, NotAResultsFolder, Results, load_results
 
-__all__ = ["InvalidInput", "NotAResultsFolder", "Results", "load_results"]
+__all__ = ["InvalidInput", "NotAResultsFolder", "Results", "load", "load_results"]

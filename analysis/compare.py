@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+import scipy.stats
 
 from analysis import style
 from analysis.results import InvalidInput, load_results
@@ -65,29 +66,14 @@ class Comparison:
     errors: dict          # {"rt" | "nrt": ErrorSummary}
 
 
-def rank(values) -> np.ndarray:
-    """Ranks 1..n, ties sharing their average rank."""
-    v = np.asarray(values, dtype=float)
-    order = np.argsort(v, kind="mergesort")
-    ranks = np.empty(len(v))
-    i = 0
-    while i < len(v):
-        j = i
-        while j + 1 < len(v) and v[order[j + 1]] == v[order[i]]:
-            j += 1
-        ranks[order[i:j + 1]] = (i + j) / 2.0 + 1.0
-        i = j + 1
-    return ranks
-
-
 def spearman(x, y) -> float:
-    """Spearman rank correlation; NaN for fewer than 2 pairs or a constant side."""
+    """Spearman rank correlation (scipy); NaN for fewer than 2 pairs or a constant side."""
     if len(x) < 2:
         return math.nan
-    rx, ry = rank(x), rank(y)
-    if np.all(rx == rx[0]) or np.all(ry == ry[0]):
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if np.all(x == x[0]) or np.all(y == y[0]):
         return math.nan
-    return float(np.corrcoef(rx, ry)[0, 1])
+    return float(scipy.stats.spearmanr(x, y).correlation)
 
 
 def error_summary(pairs) -> ErrorSummary:

@@ -9,9 +9,10 @@ packages=(
   cmake g++ make pkg-config
   libeigen3-dev catch2 nlohmann-json3-dev libvalijson-dev libcli11-dev
   libbenchmark-dev
-  python3 python3-matplotlib python3-numpy python3-pytest
+  python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-pytest
   linux-perf stress-ng
   valgrind
+  help2man bash-completion
 )
 [[ "${ROSGUARD_WITH_SIM:-ON}" == OFF ]] || packages+=(libsystemc-dev)
 

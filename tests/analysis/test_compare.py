@@ -51,10 +51,6 @@ def hand_pair(tmp_path):
             write_hand(tmp_path / "simulated", B_VALUES, "sim"))
 
 
-def test_rank_shares_ties():
-    assert list(compare.rank([3.0, 1.0, 2.0, 2.0])) == [4.0, 1.0, 2.5, 2.5]
-
-
 @pytest.mark.parametrize("x, y, expected", [
     ([1, 2, 3, 4], [10, 20, 30, 40], 1.0),
     ([1, 2, 3, 4], [4, 3, 2, 1], -1.0),

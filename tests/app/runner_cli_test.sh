@@ -269,6 +269,15 @@ assert m["scenario"]["expanded"]["regulation"]["sampling"] == "self"  # a schema
 assert len(m["scenario"]["points"]) == 12
 assert m["counts"]["rows"] == 24 and m["status"] == "complete"
 PY
+  # columns.json: unit and meaning of exactly the columns points.csv has, in order.
+  /usr/bin/python3 - "$tmp/m" <<'PY' || fail "columns.json does not describe points.csv"
+import json, sys
+d = json.load(open(sys.argv[1] + "/columns.json"))
+header = open(sys.argv[1] + "/points.csv").readline().strip().split(",")
+assert [c["name"] for c in d["points.csv"]] == header, d["points.csv"]
+assert all(c["unit"] and c["meaning"] for c in d["points.csv"] + d["samples.csv"])
+assert {c["name"]: c["unit"] for c in d["points.csv"]}["nrt_bandwidth_mbps"] == "MiB/s"
+PY
   ;;
 list)
   # `list` alone shows every catalogue; `list KIND` one; an unknown kind is a usage error.

@@ -460,3 +460,32 @@ TEST_CASE("loader: a controller sharing a core with a node is a warning, said on
   REQUIRE(ls.warnings.size() == 1);
   CHECK_THAT(ls.warnings[0], StartsWith("the controller shares core 1 with node 'rt0'"));
 }
+
+TEST_CASE("loader: a budget below one sampling period's traffic is a warning naming the "
+          "thresholds it makes alike",
+          "[loader]") {
+  TempDir dir;
+  // bandwidth_read: 26271.74 MiB/s in isolation, so 26.3 MiB per 1 ms sample; the budget of a
+  // 5 ms period is 262.7 MiB x threshold_pct / 100: below one sample up to 19 %, not at 25 %.
+  const auto file = dir.write("s.json", R"({"name": "t", "backend": "sim",
+      "nodes": {"controller": {"core": 0},
+        "rt": [{"name": "rt0", "core": 1, "workload": "mser"}],
+        "nrt": [{"name": "nrt0", "core": 2, "workload": "bandwidth_read"}]},
+      "regulation": {"policy": "interval", "sampling_period_us": 1000,
+                     "regulation_period_us": 5000},
+      "sweep": {"regulation.threshold_pct": [5, 19, 25]}})");
+  Loader loader = make_loader();
+  const auto ls = loader.load(file);
+  REQUIRE(ls.warnings.size() == 1);
+  CHECK_THAT(ls.warnings[0], StartsWith("budget below one sampling period's traffic: nRT node "
+                                        "'nrt0' (bandwidth_read) uses about 26.3 MiB per 1000 us"));
+  CHECK_THAT(ls.warnings[0], Contains("at threshold_pct 5, 19:"));
+  // A shorter sampling period: one sample's traffic fits every budget.
+  const auto fine = dir.write("f.json", R"({"name": "t", "backend": "sim",
+      "nodes": {"controller": {"core": 0},
+        "rt": [{"name": "rt0", "core": 1, "workload": "mser"}],
+        "nrt": [{"name": "nrt0", "core": 2, "workload": "bandwidth_read"}]},
+      "regulation": {"policy": "interval", "sampling_period_us": 100,
+                     "regulation_period_us": 5000, "threshold_pct": 5}})");
+  CHECK(loader.load(fine).warnings.empty());
+}

@@ -40,6 +40,19 @@ grep -qE '^git revision: ([0-9a-f]{12}(-dirty)?|unknown)$' <<<"$version" ||
   fail "--version: no git revision line"
 grep -qE '^build type: ' <<<"$version" || fail "--version: no build type line"
 
+# The man page (from --help) and bash completion.
+page=$prefix/share/man/man1/rosguard.1
+[[ -s $page ]] || fail "share/man/man1/rosguard.1 is not installed"
+grep -q '^\.SH NAME' "$page" && grep -q 'rosguard run' "$page" || fail "rosguard.1 lacks its sections"
+if command -v man >/dev/null; then
+  MANPATH=$prefix/share/man man rosguard 2>&1 | grep -q 'rosguard calibrate' ||
+    fail "man rosguard does not show the page"
+fi
+completion=$prefix/share/bash-completion/completions/rosguard
+[[ -s $completion ]] || fail "bash completion is not installed"
+bash -c "source '$completion' && complete -p rosguard" | grep -q _rosguard ||
+  fail "the completion does not register for rosguard"
+
 # A platform that exists only in the installed data: the binary must list it.
 cp "$prefix/share/rosguard/scenarios/platforms/orin-agx.json" \
    "$prefix/share/rosguard/scenarios/platforms/only-in-the-install.json"

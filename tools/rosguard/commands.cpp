@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "results/columns.h"
 
 #ifdef ROSGUARD_WITH_HW
 #include "hw/pmc_source/pmc_source.h"
@@ -127,6 +128,14 @@ int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
           "(reserved) this machine: on hw probed when a scenario loads (rosguard platform "
           "probe shows it); on sim the installed calibrated model (" +
               model + ")");
+  } else if (what == "columns") {
+    // Markdown, as the README's results section shows it (tools/columns_doc.py).
+    std::cout << "| `points.csv` column | unit | meaning |\n|---|---|---|\n";
+    for (const auto& c : point_column_dictionary())
+      std::cout << "| `" << c.name << "` | " << c.unit << " | " << c.meaning << " |\n";
+    std::cout << "\n| `samples.csv` kind | unit | meaning |\n|---|---|---|\n";
+    for (const auto& c : sample_kind_dictionary())
+      std::cout << "| `" << c.name << "` | " << c.unit << " | " << c.meaning << " |\n";
   } else if (what == "policies") {
     std::cout << "policies:\n";
     for (const auto& p : policies.all())

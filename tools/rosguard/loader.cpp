@@ -8,8 +8,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "core/error.h"
 
@@ -192,6 +194,57 @@ std::vector<std::string> controller_sharing_warnings(const std::vector<LoadedPoi
       if (r.core == n.controller_core) warn(r.name);
     for (const auto& r : n.nrt)
       if (r.core == n.controller_core) warn(r.name);
+  }
+  return warnings;
+}
+
+// Interval regulation samples every sampling period and compares what a period used so far with
+// the budget. A budget below the traffic of one sampling period is spent at the first sample of
+// every regulation period, whatever it is: the nRT core then runs one sampling period in each
+// regulation period, and every threshold below that point acts alike. Said once per (nRT node,
+// sampling period, regulation period), with the thresholds it affects; the traffic is the
+// workload's reference (isolation) bandwidth, so a node slowed by contention may stay a little
+// under it.
+std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoint>& points) {
+  struct Case {
+    double traffic_mib = 0.0, reference = 0.0;
+    std::set<double> thresholds;
+  };
+  std::map<std::tuple<std::string, std::int64_t, std::int64_t>, Case> cases;
+  for (const auto& lp : points) {
+    const RegulationSpec& r = lp.scenario.regulation;
+    if (r.policy != "interval" || r.reference_mbps <= 0.0) continue;
+    const double budget_mib = r.threshold_pct / 100.0 * r.reference_mbps *
+                              static_cast<double>(r.regulation_period_us) / 1e6;
+    for (const auto& n : lp.scenario.nodes.nrt) {
+      const auto& ref = n.workload.doc.value("reference", nlohmann::json::object());
+      if (!ref.contains("mbps") || !ref["mbps"].is_number()) continue;
+      const double mbps = ref["mbps"].get<double>();
+      const double traffic_mib = mbps * static_cast<double>(r.sampling_period_us) / 1e6;
+      if (budget_mib >= traffic_mib) continue;
+      Case& c =
+          cases[{n.name + "' (" + n.workload.name, r.sampling_period_us, r.regulation_period_us}];
+      c.traffic_mib = traffic_mib;
+      c.reference = mbps;
+      c.thresholds.insert(r.threshold_pct);
+    }
+  }
+  std::vector<std::string> warnings;
+  for (const auto& [key, c] : cases) {
+    const auto& [node, sampling, regulation] = key;
+    std::ostringstream t;
+    std::size_t k = 0;
+    for (double th : c.thresholds)
+      t << (k++ ? ", " : "") << th;
+    std::ostringstream w;
+    w.precision(3);
+    w << "budget below one sampling period's traffic: nRT node '" << node << ") uses about "
+      << c.traffic_mib << " MiB per " << sampling << " us sample at its reference " << c.reference
+      << " MiB/s, more than the budget of a " << regulation
+      << " us regulation period at threshold_pct " << t.str()
+      << ": it is throttled at its first sample of every period, so these thresholds act "
+         "alike (a shorter sampling period or a longer regulation period lets them differ)";
+    warnings.push_back(w.str());
   }
   return warnings;
 }
@@ -538,6 +591,8 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
     for (const auto& path : split_sweep_key(key))
       out.sweep_paths.push_back(path);
   for (auto& w : controller_sharing_warnings(out.points))
+    out.warnings.push_back(std::move(w));
+  for (auto& w : ineffective_budget_warnings(out.points))
     out.warnings.push_back(std::move(w));
   out.host_platform = host_used_;
   return out;

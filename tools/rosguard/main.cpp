@@ -97,15 +97,16 @@ int main(int argc, char** argv) {
   using namespace rosguard;
 
   CLI::App app{"rosguard " + std::string(kVersion) +
-               ": simulate, run and analyse memory-bandwidth regulation (ROSGuard)\n"
-               "for ROS2-style mixed-criticality applications on multicore SoCs."};
+                   ": simulate, run and analyse memory-bandwidth regulation (ROSGuard)\n"
+                   "for ROS2-style mixed-criticality applications on multicore SoCs.",
+               "rosguard"};  // the name in usage lines, however it was started
   app.footer(kFooter);
   app.require_subcommand(1);
   // Baked in at configure time (version.h): the same revision the manifests record.
-  app.set_version_flag("--version",
-                       std::string("rosguard ") + kVersion + "\ngit revision: " + kGitRevision +
-                           "\nbuild type: " + kBuildType + "\ncompiler: " + kCompiler +
-                           "\nbackends: " + kBackendsBuilt);
+  app.set_version_flag("--version", std::string("rosguard ") + kVersion +
+                                        "\ngit revision: " + kGitRevision +
+                                        "\nbuild type: " + kBuildType + "\ncompiler: " + kCompiler +
+                                        "\nbackends: " + kBackendsBuilt);
 
   RunArgs run_args;
   auto* run = add_run_command(app, run_args);
@@ -132,11 +133,15 @@ int main(int argc, char** argv) {
   compare->add_option("--out", cmp_out, "Output folder (default: RESULTS_B/compare)");
 
   std::string list_what;
-  auto* list =
-      app.add_subcommand("list", "List workloads, platforms, policies, backends or pmc-sources.");
-  list->add_option("kind", list_what,
-                   "workloads | platforms | policies | backends | pmc-sources (default: all)")
-      ->check(CLI::IsMember({"workloads", "platforms", "policies", "backends", "pmc-sources"}));
+  auto* list = app.add_subcommand("list",
+                                  "List workloads, platforms, policies, backends, pmc-sources or "
+                                  "the result columns.");
+  list->add_option(
+          "kind", list_what,
+          "workloads | platforms | policies | backends | pmc-sources | columns (default: all "
+          "but columns)")
+      ->check(CLI::IsMember(
+          {"workloads", "platforms", "policies", "backends", "pmc-sources", "columns"}));
 
   CalibrateOptions cal;
   auto* calibrate =

@@ -4,11 +4,13 @@
 #include <charconv>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <tuple>
 
 #include "core/error.h"
 #include "files.h"
 #include "host_facts.h"
+#include "results/columns.h"
 #include "results/results.h"
 #include "trace_writer.h"
 
@@ -17,6 +19,25 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 namespace {
+
+// DIR/columns.json: unit and meaning of every points.csv column of this run and of every
+// samples.csv kind (model/results/columns.h).
+json columns_json(const std::string& header_line) {
+  const auto entry = [](const ColumnInfo& c) {
+    return json{{"name", c.name}, {"unit", c.unit}, {"meaning", c.meaning}};
+  };
+  json points = json::array();
+  std::stringstream names(header_line);
+  for (std::string name; std::getline(names, name, ',');) {
+    const auto info = describe_point_column(name);
+    if (!info) throw ContractError("points.csv column '" + name + "' is not in the dictionary");
+    points.push_back(entry(*info));
+  }
+  json samples = json::array();
+  for (const auto& c : sample_kind_dictionary())
+    samples.push_back(entry(c));
+  return json{{"points.csv", points}, {"samples.csv", samples}};
+}
 
 using RunKey = std::pair<std::string, int>;  // (point id, rep)
 
@@ -131,8 +152,8 @@ void ResultsStore::prepare(bool overwrite, bool joining, const std::string& scen
   const fs::path manifest = dir_ / "manifest.json";
   if (!fs::exists(manifest, ec) && !fs::exists(points_path(), ec)) return;
   if (overwrite) {
-    for (const char* f :
-         {"manifest.json", "points.csv", "samples.csv", "baselines.json", "trace.json", ".lock"})
+    for (const char* f : {"manifest.json", "points.csv", "samples.csv", "baselines.json",
+                          "trace.json", "columns.json", ".lock"})
       fs::remove(dir_ / f, ec);
   } else if (!joining) {
     throw InputError("", "",
@@ -223,6 +244,7 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
   for (const auto& f : m["fallbacks"])
     opened.fallbacks.emplace(f.value("what", ""), f.value("detail", ""));
   write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
+  write_file_atomic(dir_ / "columns.json", columns_json(header_line_).dump(2) + "\n");
   return opened;
 }
 

@@ -42,9 +42,9 @@ Figures steady_state(const SimPlatform& p, const WorkloadProfile& w) {
   const ContentionModel model(p);
   double cycles = 0.0, l3 = 0.0, ns = 0.0;
   for (const Phase& ph : w.phases) {
-    CoreDemand d{0, &ph, w.l3_hit, w.footprint_kb, true, &ph};
+    CoreDemand d{0, &ph, &w, true, &ph};
     const MemoryState st = model.solve({&d, 1});
-    const CoreRates r = model.rates(ph, w.l3_hit, 0, st.capacity_factor[0], st);
+    const CoreRates r = model.rates(ph, st.l3_hit[0], 0, st);
     const double inst = w.instructions * ph.fraction;
     const double t = inst / r.inst_per_ns;
     ns += t;
@@ -95,7 +95,7 @@ int main(int argc, char** argv) {
       const double ref_ipc = doc["reference"].value("ipc", 0.0);
       const double ref_mbps = doc["reference"].value("mbps", 0.0);
       WorkloadInfo info{doc.value("name", ""), files[f], nlohmann::json::parse(doc.dump())};
-      WorkloadProfile w = parse_profile(info, files[f], "/sim");
+      WorkloadProfile w = parse_profile(info, plat, files[f], "/sim");
       if (fit && ref_ipc > 0) {
         // Fixed-point iteration on two scale factors; the rates are monotone in each.
         for (int it = 0; it < 200; ++it) {

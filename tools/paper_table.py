@@ -385,9 +385,10 @@ WHY = {
          "period) is paid by every running nRT node, so a looser sampling period lowers the nRT "
          "slowdown at every threshold; at low thresholds the nRT node is still running for part "
          "of the RT job (the throttled share is in the table), and that part pays the cost.",
-    "7a": "The RT slowdown in the model comes from L3 and DRAM contention while the nRT node "
-          "runs; with a bandwidth_read / _write nRT node the budget is spent early in each "
-          "5 ms interval, and the RT node is slowed in that part of it.",
+    "7a": "The RT slowdown in the model comes from L3 and DRAM contention in the part of each "
+          "interval the nRT node runs; against a bandwidth_read / _write nRT node that is "
+          "throttled late or not at all (experiment 4d) the RT node shares the cluster's L3 "
+          "with a stream for most of its job.",
     "7b": "A workload's nRT impact in the model is its throttling plus the sampling overhead "
           "plus contention; disparity's Table 1 bandwidth (1517 MB/s) is below every grid "
           "threshold's budget and below mser's, so a smooth-phase profile of it is never (or "

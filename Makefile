@@ -18,9 +18,8 @@ CMAKE_ARGS ?=
 PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
-.PHONY: all deps configure build test test-nosim run install reproduce validate validate-readme \
-        bench-parallel bench-middleware \
-        bench format clean fit-table1
+.PHONY: all deps configure build test test-nosim run install reproduce sensitivity validate \
+        validate-readme bench-parallel bench-middleware bench format clean fit-table1
 
 all: build
 
@@ -62,6 +61,12 @@ fit-table1: build
 # then the README gallery (docs/figures/) and the paper-vs-sim table regenerated from them.
 reproduce: build
 	@tools/reproduce.sh $(ROSGUARD)
+
+# Each guessed number of scenarios/platforms/orin-agx.json ("guess, plausible range LOW-HIGH" in
+# its source) at both ends of its range: the paper's scenarios in sim on each variant into
+# results/sensitivity/, the paper checks re-run, the README's sensitivity table regenerated.
+sensitivity: build
+	@$(PYTHON) tools/sensitivity.py --rosguard $(ROSGUARD) --jobs $(JOBS) --readme README.md
 
 # The sim-vs-hw validation suite (scenarios/validation/, held out from the calibration): hw and
 # sim runs into results/validation/{hw,sim}/, then report.md / report.json and the

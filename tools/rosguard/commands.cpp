@@ -202,8 +202,8 @@ int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
   } else {
     throw InputError("", "",
                      "cannot list '" + what +
-                         "': choose workloads, platforms, policies, backends, pmc-sources or "
-                         "throttles");
+                         "': choose workloads, platforms, policies, backends, pmc-sources, "
+                         "throttles or columns");
   }
   return 0;
 }

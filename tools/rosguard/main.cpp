@@ -117,8 +117,7 @@ int run_command(RunArgs& args, const std::string& command_line, rosguard::Loader
          {std::pair{args.slurm_options.array > 0, "--array"},
           std::pair{!args.slurm_options.sbatch_args.empty(), "--sbatch-arg"},
           std::pair{args.slurm_options.dry_run, "--dry-run"}})
-      if (given)
-        throw rosguard::InputError("", "", std::string(name) + " goes with --slurm");
+      if (given) throw rosguard::InputError("", "", std::string(name) + " goes with --slurm");
     return rosguard::run_scenario(opt, loader, backends);
   }
   if (!args.shard.empty())
@@ -162,8 +161,9 @@ int main(int argc, char** argv) {
       "Show how far a run is: points and runs done per shard and overall, the shards that failed "
       "or still run (also on Slurm), and the commands that re-run a failed shard.");
   status->add_option("results", status_dir, "Results folder of a run (its --out)")->required();
-  status->footer("Reads DIR/manifest.json, DIR/points.csv and, after --slurm, DIR/slurm/job.json "
-                 "and squeue. Exit 0; 2 when DIR is not a results folder.");
+  status->footer(
+      "Reads DIR/manifest.json, DIR/points.csv and, after --slurm, DIR/slurm/job.json "
+      "and squeue. Exit 0; 2 when DIR is not a results folder.");
 
   std::string plot_dir, plot_out;
   auto* plot = app.add_subcommand("plot", "Draw every figure a results folder supports.");

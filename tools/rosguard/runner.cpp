@@ -319,8 +319,8 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     order.emplace(p.sweep.id, p.sweep.index);
 
   // 2. The results folder: new, resumed, or shared with other shards of the same scenario.
-  ResultsStore store(results_folder(opt, loaded),
-                     join(header_of(loaded), ","), order, first.repetitions);
+  ResultsStore store(results_folder(opt, loaded), join(header_of(loaded), ","), order,
+                     first.repetitions);
   store.prepare(opt.overwrite, opt.resume || opt.shard_count > 1, scenario_hash(loaded));
   const ResultsStore::Opened opened =
       store.open(describe_run(loaded, first.backend, opt.command_line),

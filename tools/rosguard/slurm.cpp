@@ -94,9 +94,8 @@ std::string trimmed(std::string s) {
 std::string job_name_of(const std::string& scenario_name) {
   std::string name = "rosguard-";
   for (const char c : scenario_name)
-    name += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')
-                ? c
-                : '_';
+    name +=
+        (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-') ? c : '_';
   return name.substr(0, 64);
 }
 
@@ -155,8 +154,8 @@ std::string sbatch_script(const SbatchScriptInputs& in) {
     << "  exit 2\n"
     << "fi\n"
     << "exec " << shell_quote(in.rosguard.string()) << " run " << shell_quote(in.scenario.string())
-    << " --out " << shell_quote(in.out.string()) << " --shard \"$SLURM_ARRAY_TASK_ID/"
-    << in.shards << "\" --resume";
+    << " --out " << shell_quote(in.out.string()) << " --shard \"$SLURM_ARRAY_TASK_ID/" << in.shards
+    << "\" --resume";
   if (in.jobs)
     s << " --jobs " << *in.jobs;
   else
@@ -177,8 +176,7 @@ int submit_to_slurm(const RunOptions& run, const SlurmOptions& slurm, Loader& lo
     throw InputError("", "",
                      "--array " + std::to_string(slurm.array) + " exceeds the " +
                          plural(points, "point") + " of " + run.scenario_file +
-                         " (a shard holds whole points); choose at most " +
-                         std::to_string(points));
+                         " (a shard holds whole points); choose at most " + std::to_string(points));
   const int shards = slurm.array > 0 ? slurm.array
                                      : static_cast<int>(std::min<std::size_t>(
                                            points, static_cast<std::size_t>(kDefaultSlurmShards)));
@@ -241,8 +239,8 @@ int submit_to_slurm(const RunOptions& run, const SlurmOptions& slurm, Loader& lo
   if (ec) throw RunError("cannot create " + dir.string() + ": " + ec.message());
   const fs::path script_path = dir / "run.sbatch";
   write_file_atomic(script_path, script);
-  fs::permissions(script_path, fs::perms::owner_exec | fs::perms::group_exec,
-                  fs::perm_options::add, ec);
+  fs::permissions(script_path, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add,
+                  ec);
 
   const Captured sub = run_captured({sbatch->string(), "--parsable", script_path.string()}, false);
   if (sub.exit_code != 0)
@@ -327,9 +325,9 @@ std::optional<std::vector<SlurmTask>> slurm_queue(std::string& why) {
 }
 
 bool slurm_state_live(const std::string& state) {
-  for (const char* s : {"PENDING", "CONFIGURING", "RUNNING", "COMPLETING", "SUSPENDED",
-                        "REQUEUED", "REQUEUE_HOLD", "REQUEUE_FED", "RESIZING", "SIGNALING",
-                        "STAGE_OUT", "STOPPED", "RESV_DEL_HOLD"})
+  for (const char* s :
+       {"PENDING", "CONFIGURING", "RUNNING", "COMPLETING", "SUSPENDED", "REQUEUED", "REQUEUE_HOLD",
+        "REQUEUE_FED", "RESIZING", "SIGNALING", "STAGE_OUT", "STOPPED", "RESV_DEL_HOLD"})
     if (state == s) return true;
   return false;
 }

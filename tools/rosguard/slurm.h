@@ -37,11 +37,11 @@ struct SbatchScriptInputs {
   std::filesystem::path out;
   std::string job_name;
   int shards = 1;
-  std::optional<int> jobs;         // --jobs for each task; empty: the task's CPUs
+  std::optional<int> jobs;  // --jobs for each task; empty: the task's CPUs
   std::optional<std::string> backend;
   bool trace = false;
   std::vector<std::string> sbatch_args;
-  std::string summary;             // one comment line: what the job runs
+  std::string summary;  // one comment line: what the job runs
 };
 
 // The sbatch array script (bash). Paths are shell-quoted in the command; the #SBATCH lines are

@@ -181,12 +181,12 @@ void judge_running(ShardView& v, const json& entry, Queue& queue, const fs::path
     }
     std::error_code ec;
     const fs::path log = dir / "slurm" / (slurm_job + ".out");
-    v.state = "stopped: Slurm " + slurm_job +
-              (t ? " ended " + t->state + (t->reason.empty() || t->reason == "None"
-                                               ? std::string()
-                                               : " (" + t->reason + ")")
-                 : std::string(" is no longer in Slurm's queue")) +
-              " without finishing" + (fs::exists(log, ec) ? "; log " + log.string() : "");
+    v.state =
+        "stopped: Slurm " + slurm_job +
+        (t ? " ended " + t->state +
+                 (t->reason.empty() || t->reason == "None" ? std::string() : " (" + t->reason + ")")
+           : std::string(" is no longer in Slurm's queue")) +
+        " without finishing" + (fs::exists(log, ec) ? "; log " + log.string() : "");
     return;
   }
   if (!host.empty() && host == this_host() && pid > 0) {
@@ -270,7 +270,8 @@ int results_status(const fs::path& dir) {
     ShardView v;
     v.index = i;
     v.count = n;
-    for (std::size_t p = static_cast<std::size_t>(i); p < f.points; p += static_cast<std::size_t>(n)) {
+    for (std::size_t p = static_cast<std::size_t>(i); p < f.points;
+         p += static_cast<std::size_t>(n)) {
       ++v.points_total;
       const auto it = f.runs_of.find(p);
       const std::size_t runs = it == f.runs_of.end() ? 0 : it->second;

@@ -152,7 +152,22 @@ EOF
     slurm_cluster_logs
     slurm_skip "slurmctld / slurmd did not bring the node up within ${up_s} s"
   fi
-  echo "slurm: one-node cluster up in $((SECONDS - t0)) s ($(sinfo --version), $(nproc) CPU(s), $d)"
+  # A node that is up may still be unable to start a job here (a container that forbids what
+  # slurmstepd does): a trivial job tells the environment's failures from the test's.
+  local probe
+  probe=$(sbatch --parsable --output="$d/probe.out" --wrap 'echo probe-ok' 2>&1) ||
+    slurm_skip "the local cluster refuses a job: $probe"
+  probe=${probe%%;*}
+  t0=$SECONDS
+  while ((SECONDS - t0 < up_s)) && [[ -n $(squeue -h -j "$probe" -o %i 2>/dev/null) ]]; do
+    sleep 0.2
+  done
+  if ! grep -qx probe-ok "$d/probe.out" 2>/dev/null; then
+    echo "probe job $probe: $(squeue -h -t all -j "$probe" -o '%T %r' 2>/dev/null)"
+    slurm_cluster_logs
+    slurm_skip "the local cluster did not run a trivial job within ${up_s} s"
+  fi
+  echo "slurm: one-node cluster up and running jobs ($(sinfo --version), $(nproc) CPU(s), $d)"
 }
 
 # Waits until Slurm job $1 (every array task) has left the queue; $2: time limit in seconds.

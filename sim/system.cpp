@@ -41,8 +41,7 @@ IsolationProgress isolation_progress(const WorkloadProfile& profile, const SimPl
   const ContentionModel model(platform);
   std::vector<double> phase_ns_per_inst;
   for (const Phase& ph : profile.phases)
-    phase_ns_per_inst.push_back(
-        1.0 / model.alone_inst_per_ns(ph, profile.l3_hit, profile.footprint_kb, cluster));
+    phase_ns_per_inst.push_back(1.0 / model.alone_inst_per_ns(ph, cluster));
   IsolationProgress p;
   double work = 0.0, time = 0.0;
   for (std::size_t s = 0; s < profile.segments(); ++s) {

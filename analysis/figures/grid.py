@@ -124,7 +124,8 @@ def _draw_cell(ax, cell, conf_cols, conf_keys) -> list:
             s = stats[0]
             x = node + (i - (n - 1) / 2) * width
             ax.bar(x, s.mean - 1.0, width=width, bottom=1.0, color=style.colour(i),
-                   yerr=np.array([[s.mean - s.min], [s.max - s.mean]]),
+                   # clipped at 0: a mean of equal repetitions may round a hair outside them
+                   yerr=np.maximum(0.0, np.array([[s.mean - s.min], [s.max - s.mean]])),
                    error_kw={"elinewidth": 0.8, "capsize": 1.5, "ecolor": "0.2"})
             ax.annotate(f"{s.mean:.2f}", (x, max(s.max, 1.0)), xytext=(0, 1.5),
                         textcoords="offset points", rotation=90, ha="center", va="bottom",

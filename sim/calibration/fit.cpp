@@ -236,11 +236,10 @@ double predict_ns_per_line(const SimPlatform& platform, const KernelRun& run) {
     profiles.push_back(profile(c.kernel, c.working_set_kb));
   std::vector<sim::CoreDemand> demands;
   for (const auto& w : profiles)
-    demands.push_back({0, &w.phases[0], w.l3_hit, w.footprint_kb, true, &w.phases[0]});
+    demands.push_back({0, &w.phases[0], &w, true, &w.phases[0]});
   const sim::ContentionModel model(platform);
   const sim::MemoryState st = model.solve(demands);
-  const sim::CoreRates r =
-      model.rates(profiles[0].phases[0], profiles[0].l3_hit, 0, st.capacity_factor[0], st);
+  const sim::CoreRates r = model.rates(profiles[0].phases[0], st.l3_hit[0], 0, st);
   return 1.0 / r.inst_per_ns;  // one instruction per line
 }
 
@@ -308,7 +307,7 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   // Which runs the model covers, and what they can identify.
   std::vector<const KernelRun*> used;
   std::map<std::string, std::map<Level, std::vector<double>>> iso;  // kernel -> level -> ns
-  bool l3_corun = false, dram_corun = false, capacity_run = false;
+  bool l3_corun = false, dram_corun = false;
   // Co-runner counts of the bandwidth-latency curves: within the L3 (co-runners beyond the L2)
   // and beyond it (co-runners beyond the L3).
   std::set<std::size_t> l3_counts, dram_counts;
@@ -336,10 +335,8 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
       used.push_back(&r);
       if (r.corunners.empty()) iso[r.kernel][lv].push_back(r.ns_per_line);
       if (lv == Level::Dram) beyond_l3[r.kernel] = true;
-      double total_kb = r.working_set_kb;
       std::size_t co_l3 = 0, co_dram = 0;
       for (const auto& c : r.corunners) {
-        total_kb += c.working_set_kb;
         co_l3 += c.working_set_kb > host.l2_kb ? 1 : 0;
         co_dram += c.working_set_kb > host.l3_kb_per_cluster ? 1 : 0;
       }
@@ -347,7 +344,6 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
       if (lv == Level::Dram && co_dram > 0) dram_counts.insert(co_dram);
       l3_corun = l3_corun || (lv == Level::L3 && co_l3 > 0);
       dram_corun = dram_corun || (lv == Level::Dram && co_dram > 0);
-      capacity_run = capacity_run || (lv == Level::L3 && total_kb > host.l3_kb_per_cluster);
     }
     rep.runs.push_back(fr);
   }
@@ -417,7 +413,8 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   base.l3.queue_ns = lat_l3;
   base.dram.bandwidth_mbps = 1.5 * dram_peak;
   base.dram.queue_ns = base.dram.latency_ns;
-  base.l3.capacity_exponent = opt.capacity_exponent;
+  base.mshr.per_core = opt.mshr_per_core;
+  base.mshr.per_cluster = opt.mshr_per_cluster;
 
   std::vector<Slot> slots;
   std::vector<FittedParameter> fixed_params;
@@ -487,14 +484,27 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   add(
       "dram.bandwidth_mbps", [](SimPlatform& p) -> double& { return p.dram.bandwidth_mbps; },
       "co-runs beyond the L3");
-  if (capacity_run || opt.fixed.count("l3.capacity_exponent"))
-    add(
-        "l3.capacity_exponent", [](SimPlatform& p) -> double& { return p.l3.capacity_exponent; },
-        "runs whose resident footprints exceed the L3 while their own working set fits");
-  else
-    fixed_params.push_back({"l3.capacity_exponent", base.l3.capacity_exponent, 0.0, false,
-                            "fixed (as orin-agx): no run's resident footprints exceed the L3 "
-                            "while its own working set fits it"});
+  // The misses-in-flight bounds: the suite's runs cannot tell a kernel's mlp from the core's
+  // buffers (nor, with at most one co-runner count, the cluster's), so both are held where they
+  // do not bind unless the caller fixes them. The runs that overflow the L3 together are
+  // predicted by the shared-LRU model, which has no parameter.
+  for (const auto& [name, value, ref] :
+       {std::tuple{std::string("mshr.per_core"), base.mshr.per_core,
+                   std::function<double&(SimPlatform&)>(
+                       [](SimPlatform& p) -> double& { return p.mshr.per_core; })},
+        std::tuple{std::string("mshr.per_cluster"), base.mshr.per_cluster,
+                   std::function<double&(SimPlatform&)>(
+                       [](SimPlatform& p) -> double& { return p.mshr.per_cluster; })}}) {
+    if (const auto it = opt.fixed.find(name); it != opt.fixed.end()) {
+      ref(base) = it->second;
+      fixed_params.push_back({name, it->second, 0.0, false, "fixed by the caller"});
+      continue;
+    }
+    fixed_params.push_back({name, value, 0.0, false,
+                            "held at " + fmt("%g", value) +
+                                " (not identified: the runs cannot tell a kernel's misses in "
+                                "flight from the buffers' bound; this value does not bind)"});
+  }
   fixed_params.push_back(
       {"kernels.latency.mlp", 1.0, 0.0, false, "fixed: a pointer chase has one load in flight"});
 
@@ -655,24 +665,16 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
   std::function<void(const UnidentifiedParameter&)> hold = [&](const UnidentifiedParameter& e) {
     const std::string& name = e.parameter();
     const bool bandwidth = name.ends_with(".bandwidth_mbps");
-    const bool exponent = name == "l3.capacity_exponent";
     // A parameter whose profile search is already under way (two bandwidths each leaving the
     // other free) cannot be held this way: refuse, naming it.
-    if (!opt.hold_unidentified || !(bandwidth || exponent) || held.count(name) ||
-        holding.count(name) || options.fixed.count(name))
+    if (!opt.hold_unidentified || !bandwidth || held.count(name) || holding.count(name) ||
+        options.fixed.count(name))
       throw e;
     const std::string fitted_as =
         fmt("%.4g", e.value()) +
         (std::isfinite(e.log_std_error())
              ? " with a standard error of its logarithm of " + fmt("%.3g", e.log_std_error())
              : std::string(", where the fit does not depend on it"));
-    if (exponent) {
-      opt.fixed[name] = options.capacity_exponent;
-      held[name] = "not identified (its best fit is " + fitted_as + "): held at " +
-                   fmt("%g", options.capacity_exponent) +
-                   ", the value used when no run identifies it";
-      return;
-    }
     double bound = 0.0;
     holding.insert(name);
     for (;;) {
@@ -786,16 +788,19 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
        {{"latency_ns", sig(p.l3.latency_ns)},
         {"queue_ns", sig(p.l3.queue_ns)},
         {"bandwidth_mbps", sig(p.l3.bandwidth_mbps)},
-        {"capacity_exponent", sig(p.l3.capacity_exponent)},
         {"source", "fitted by " + by + ", " + residual + ": " +
-                       describe({"l3.latency_ns", "l3.queue_ns", "l3.bandwidth_mbps",
-                                 "l3.capacity_exponent"})}}},
+                       describe({"l3.latency_ns", "l3.queue_ns", "l3.bandwidth_mbps"})}}},
       {"dram",
        {{"latency_ns", sig(p.dram.latency_ns)},
         {"queue_ns", sig(p.dram.queue_ns)},
         {"bandwidth_mbps", sig(p.dram.bandwidth_mbps)},
         {"source", "fitted by " + by + ", " + residual + ": " +
                        describe({"dram.latency_ns", "dram.queue_ns", "dram.bandwidth_mbps"})}}},
+      {"mshr",
+       {{"per_core", sig(p.mshr.per_core)},
+        {"per_cluster", sig(p.mshr.per_cluster)},
+        {"source",
+         "not fitted by " + by + ": " + describe({"mshr.per_core", "mshr.per_cluster"})}}},
       {"core",
        {{"callback_ipc", 0.8},
         {"idle_loop_ipc", 1.0},

@@ -14,13 +14,14 @@
 //   fitted: per kernel ns_per_line_l2 (isolation within the L2), ns_per_line_l3 (isolation within
 //     the L3), mlp (runs beyond the L3, given the DRAM latency); l3.queue_ns and
 //     l3.bandwidth_mbps (co-runs within the L3); dram.latency_ns (the latency kernel beyond the
-//     L3); dram.queue_ns and dram.bandwidth_mbps (co-runs beyond the L3); l3.capacity_exponent
-//     when some run's resident footprints exceed the L3 while its own working set fits.
+//     L3); dram.queue_ns and dram.bandwidth_mbps (co-runs beyond the L3). Runs whose working sets
+//     together overflow the L3 are predicted by the shared-LRU model (no parameter).
 //   fixed or derived: kernels.latency.mlp = 1 (a pointer chase has one load in flight);
 //     l3.latency_ns = the fitted kernels.latency.ns_per_line_l3 (the model only uses latencies
 //     above it, so no time measurement can identify it; the pointer chase within the L3 is its
-//     load-to-use latency); l3.capacity_exponent = FitOptions::capacity_exponent without such
-//     runs; anything named in FitOptions::fixed.
+//     load-to-use latency); mshr.per_core and mshr.per_cluster = FitOptions::mshr_per_core and
+//     mshr_per_cluster (the runs cannot tell a kernel's mlp from the buffers' bound: held where
+//     they do not bind); anything named in FitOptions::fixed.
 //
 // Contract: pure C++ (no SystemC, no OS calls). fit() throws RunError naming what is missing
 // when the data cannot identify a parameter it must fit, and RunError with the LM status when
@@ -46,7 +47,10 @@ struct FitOptions {
   // Refuse a fitted parameter whose logarithm has a larger standard error (1: the data leave it
   // free within a factor e either way): the data do not identify it.
   double max_log_std_error = 1.0;
-  double capacity_exponent = 0.35;  // when no run identifies it (as orin-agx)
+  // The misses-in-flight bounds, held where they do not bind (the platform schema's largest
+  // values): a kernel's fitted mlp stays below the core's, and no co-run reaches the cluster's.
+  double mshr_per_core = 1024.0;
+  double mshr_per_cluster = 4096.0;
   // Parameters held at a given value instead of fitted, by their report name
   // ("l3.queue_ns", "kernels.bandwidth_read.mlp", ...): for what this host's data cannot
   // identify. Reported as fixed.
@@ -55,8 +59,7 @@ struct FitOptions {
   // contention to fit it to — is held at the lower end of its one-standard-error profile
   // interval (the smallest bandwidth, the others refitted, whose objective exceeds the best by
   // at most the residual variance: the most contention the measurements allow), with a note,
-  // instead of refusing the fit; l3.capacity_exponent, left free, is held at
-  // `capacity_exponent`. `rosguard calibrate` sets it (--strict clears it).
+  // instead of refusing the fit. `rosguard calibrate` sets it (--strict clears it).
   bool hold_unidentified = false;
 };
 

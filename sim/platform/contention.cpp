@@ -57,18 +57,21 @@ MemoryState ContentionModel::unloaded(std::size_t demands) const {
   const auto n = static_cast<std::size_t>(p_.clusters);
   s.l3_ns.assign(n, p_.l3.latency_ns);
   s.l3_util.assign(n, 0.0);
-  s.capacity_factor.assign(demands, 1.0);
+  s.mlp_scale.assign(n, 1.0);
+  s.l3_hit.assign(demands, 1.0);
   s.dram_ns = p_.dram.latency_ns;
   return s;
 }
 
-CoreRates ContentionModel::rates(const Phase& ph, double l3_hit, int cluster, double capf,
+CoreRates ContentionModel::rates(const Phase& ph, double hit, int cluster,
                                  const MemoryState& st) const {
   const auto k = static_cast<std::size_t>(cluster);
-  const double h = l3_hit * capf;
+  const double h = std::clamp(hit, 0.0, 1.0);
   const double latency = st.l3_ns[k] + (1.0 - h) * st.dram_ns;
+  const double scale = k < st.mlp_scale.size() ? st.mlp_scale[k] : 1.0;
+  const double inflight = std::min(ph.mlp, p_.mshr.per_core) * scale;
   const double stall =
-      ph.refill_pki / 1000.0 * f_ghz_ * std::max(0.0, latency - p_.l3.latency_ns) / ph.mlp;
+      ph.refill_pki / 1000.0 * f_ghz_ * std::max(0.0, latency - p_.l3.latency_ns) / inflight;
   const double cpi = 1.0 / ph.base_ipc + stall;
   CoreRates r;
   r.inst_per_ns = f_ghz_ / cpi;
@@ -79,110 +82,141 @@ CoreRates ContentionModel::rates(const Phase& ph, double l3_hit, int cluster, do
   return r;
 }
 
-std::vector<double> ContentionModel::shares(std::span<const CoreDemand> demands) const {
-  std::vector<double> share(demands.size(), 0.0);
+std::vector<double> ContentionModel::occupancies(std::span<const CoreDemand> demands) const {
+  std::vector<double> occ(demands.size(), 0.0);
+  const MemoryState idle = unloaded(0);
+  const double cap = p_.l3.capacity_kb;
+  std::vector<std::size_t> members;
+  std::vector<cache::Tenant> tenants;
   for (int c = 0; c < p_.clusters; ++c) {
-    std::vector<std::size_t> members;
-    double footprint = 0.0;
-    for (std::size_t i = 0; i < demands.size(); ++i)
-      if (demands[i].cluster == c && demands[i].resident && demands[i].footprint_kb > 0) {
-        members.push_back(i);
-        footprint += demands[i].footprint_kb;
-      }
-    if (footprint <= p_.l3.capacity_kb) {
-      for (std::size_t i : members)
-        share[i] = demands[i].footprint_kb;
-      continue;
+    members.clear();
+    for (std::size_t i = 0; i < demands.size(); ++i) {
+      const CoreDemand& d = demands[i];
+      if (d.cluster == c && d.resident && (d.resident_phase || d.phase)) members.push_back(i);
     }
-    // Pressure: L3 lines inserted per ns at the unloaded latency (a resident core with no phase
-    // known keeps a minimal pressure).
-    std::vector<double> pressure(demands.size(), 0.0);
-    const MemoryState idle = unloaded(0);
-    for (std::size_t i : members) {
-      const Phase* ph = demands[i].resident_phase ? demands[i].resident_phase : demands[i].phase;
-      if (ph) {
-        const CoreRates r = rates(*ph, demands[i].l3_hit, c, 1.0, idle);
-        pressure[i] = r.refill_per_ns + r.wb_per_ns;
+    if (members.empty()) continue;
+    const auto phase_of = [&](std::size_t i) {
+      return demands[i].resident_phase ? demands[i].resident_phase : demands[i].phase;
+    };
+    // The access rates depend on the hit ratios, which depend on the partition: iterate from an
+    // equal split (a contraction in practice: more cache, more hits, a little faster; the
+    // relaxation after 20 rounds only guards against a cycle).
+    for (std::size_t i : members)
+      occ[i] = cap / static_cast<double>(members.size());
+    tenants.assign(members.size(), {});
+    for (int round = 0; round < 100; ++round) {
+      for (std::size_t j = 0; j < members.size(); ++j) {
+        const Phase& ph = *phase_of(members[j]);
+        const double hit = 1.0 - ph.mrc.miss_ratio(occ[members[j]]);
+        tenants[j] = {&ph.mrc, rates(ph, hit, c, idle).refill_per_ns};
       }
-      pressure[i] = std::max(pressure[i], 1e-9);
-    }
-    // Water-filling: shares in proportion to pressure, capped at the footprint.
-    std::vector<bool> capped(demands.size(), false);
-    double left = p_.l3.capacity_kb;
-    for (std::size_t round = 0; round < members.size(); ++round) {
-      double total = 0.0;
-      for (std::size_t i : members)
-        if (!capped[i]) total += pressure[i];
-      bool any = false;
-      for (std::size_t i : members)
-        if (!capped[i] && left * pressure[i] / total >= demands[i].footprint_kb) {
-          capped[i] = true;
-          share[i] = demands[i].footprint_kb;
-          any = true;
-        }
-      if (!any) {
-        for (std::size_t i : members)
-          if (!capped[i]) share[i] = left * pressure[i] / total;
-        break;
+      const std::vector<double> next = cache::natural_partition(tenants, cap, line_kb());
+      double moved = 0.0;
+      const double w = round < 20 ? 1.0 : 0.5;
+      for (std::size_t j = 0; j < members.size(); ++j) {
+        double& o = occ[members[j]];
+        moved = std::max(moved, std::abs(next[j] - o));
+        o = w * next[j] + (1.0 - w) * o;
       }
-      left = p_.l3.capacity_kb;
-      for (std::size_t i : members)
-        if (capped[i]) left -= share[i];
+      if (moved <= 1e-9 * cap) break;
     }
   }
-  return share;
+  return occ;
 }
 
-std::vector<double> ContentionModel::capacity_factors(std::span<const CoreDemand> demands) const {
-  const std::vector<double> share = shares(demands);
-  std::vector<double> factor(demands.size(), 1.0);
-  for (std::size_t i = 0; i < demands.size(); ++i)
-    if (demands[i].resident && demands[i].footprint_kb > 0)
-      factor[i] =
-          std::pow(std::min(1.0, share[i] / demands[i].footprint_kb), p_.l3.capacity_exponent);
-  return factor;
+std::vector<double> ContentionModel::steady_hits(std::span<const CoreDemand> demands) const {
+  const std::vector<double> occ = occupancies(demands);
+  std::vector<double> hits(demands.size(), 1.0);
+  for (std::size_t i = 0; i < demands.size(); ++i) {
+    const Phase* ph = demands[i].phase ? demands[i].phase : demands[i].resident_phase;
+    if (ph) hits[i] = 1.0 - ph->mrc.miss_ratio(occ[i]);
+  }
+  return hits;
 }
 
-double ContentionModel::l3_traffic(std::span<const CoreDemand> demands,
-                                   const std::vector<double>& capf, int cluster, double l3_ns,
-                                   double dram_ns, double* dram_bytes) const {
+double ContentionModel::cluster_scale(std::span<const CoreDemand> demands,
+                                      std::span<const double> hits, int cluster, double l3_ns,
+                                      double dram_ns) const {
   MemoryState st;
   const auto k = static_cast<std::size_t>(cluster);
   st.l3_ns.assign(k + 1, l3_ns);
+  st.mlp_scale.assign(k + 1, 1.0);
   st.dram_ns = dram_ns;
+  // L3 misses in flight (Little's law) at scale s.
+  const auto inflight = [&](double s) {
+    st.mlp_scale[k] = s;
+    double sum = 0.0;
+    for (std::size_t i = 0; i < demands.size(); ++i) {
+      const CoreDemand& d = demands[i];
+      if (d.cluster != cluster || d.phase == nullptr) continue;
+      sum += rates(*d.phase, hits[i], cluster, st).l3_refill_per_ns * dram_ns;
+    }
+    return sum;
+  };
+  const double bound = p_.mshr.per_cluster;
+  if (inflight(1.0) <= bound) return 1.0;
+  // Increasing in s, 0 at s = 0: the root of inflight(s) = bound in (0, 1).
+  double a = 0.0, fa = -bound, b = 1.0, fb = inflight(1.0) - bound;
+  int side = 0;
+  for (int i = 0; i < 200 && b - a > 1e-13; ++i) {
+    const double c = (a * fb - b * fa) / (fb - fa);
+    const double fc = inflight(c) - bound;
+    if (fc == 0.0) return c;
+    if (fc < 0.0) {
+      a = c;
+      fa = fc;
+      if (side == -1) fb *= 0.5;
+      side = -1;
+    } else {
+      b = c;
+      fb = fc;
+      if (side == 1) fa *= 0.5;
+      side = 1;
+    }
+  }
+  return a;  // the side where the bound holds
+}
+
+double ContentionModel::l3_traffic(std::span<const CoreDemand> demands,
+                                   std::span<const double> hits, int cluster, double l3_ns,
+                                   double dram_ns, double* dram_bytes, double* scale) const {
+  MemoryState st;
+  const auto k = static_cast<std::size_t>(cluster);
+  st.l3_ns.assign(k + 1, l3_ns);
+  st.mlp_scale.assign(k + 1, cluster_scale(demands, hits, cluster, l3_ns, dram_ns));
+  st.dram_ns = dram_ns;
+  if (scale) *scale = st.mlp_scale[k];
   double bytes = 0.0;
   for (std::size_t i = 0; i < demands.size(); ++i) {
     const CoreDemand& d = demands[i];
     if (d.cluster != cluster || d.phase == nullptr) continue;
-    const CoreRates r = rates(*d.phase, d.l3_hit, cluster, capf[i], st);
+    const CoreRates r = rates(*d.phase, hits[i], cluster, st);
     bytes += (r.refill_per_ns + r.wb_per_ns) * line_;
     if (dram_bytes) *dram_bytes += r.dram_lines_per_ns * line_;
   }
   return bytes;
 }
 
-double ContentionModel::alone_inst_per_ns(const Phase& phase, double l3_hit, double footprint_kb,
-                                          int cluster) const {
+double ContentionModel::alone_inst_per_ns(const Phase& phase, int cluster) const {
   CoreDemand d;
   d.cluster = cluster;
   d.phase = &phase;
-  d.l3_hit = l3_hit;
-  d.footprint_kb = footprint_kb;
+  d.workload = &phase;
   d.resident = true;
   d.resident_phase = &phase;
   const MemoryState state = solve(std::span(&d, 1));
-  return rates(phase, l3_hit, cluster, state.capacity_factor.at(0), state).inst_per_ns;
+  return rates(phase, state.l3_hit.at(0), cluster, state).inst_per_ns;
 }
 
 MemoryState ContentionModel::solve(std::span<const CoreDemand> demands) const {
-  const std::vector<double> capf = capacity_factors(demands);
-  return solve(demands, capf);
+  const std::vector<double> hits = steady_hits(demands);
+  return solve(demands, hits);
 }
 
 MemoryState ContentionModel::solve(std::span<const CoreDemand> demands,
-                                   std::span<const double> capf) const {
+                                   std::span<const double> hits) const {
   MemoryState s = unloaded(demands.size());
-  s.capacity_factor.assign(capf.begin(), capf.end());
+  s.l3_hit.assign(hits.begin(), hits.end());
   std::vector<bool> busy(s.l3_ns.size(), false);
   for (const auto& d : demands)
     if (d.phase) busy[static_cast<std::size_t>(d.cluster)] = true;
@@ -196,12 +230,11 @@ MemoryState ContentionModel::solve(std::span<const CoreDemand> demands,
       if (!busy[k]) continue;
       const int c = static_cast<int>(k);
       const double u = increasing_root([&](double x) {
-        return x -
-               l3_traffic(demands, s.capacity_factor, c, l3_latency(x), dram_ns, nullptr) / l3_bw;
+        return x - l3_traffic(demands, hits, c, l3_latency(x), dram_ns, nullptr, nullptr) / l3_bw;
       });
       out.l3_util[k] = u;
       out.l3_ns[k] = l3_latency(u);
-      l3_traffic(demands, s.capacity_factor, c, out.l3_ns[k], dram_ns, &dram_bytes);
+      l3_traffic(demands, hits, c, out.l3_ns[k], dram_ns, &dram_bytes, &out.mlp_scale[k]);
     }
     return dram_bytes;
   };

@@ -2,21 +2,30 @@
 //
 // Per cluster a shared L3, and one DRAM behind all clusters. A resource at utilisation u (its
 // traffic over its bandwidth) answers with latency(u) = latency_ns + queue_ns * u / (1 - u).
-// A core running phase P retires instructions at
-//     CPI = 1 / base_ipc + refill_pki / 1000 * f * max(0, L - L3_unloaded) / mlp
-//     L   = l3_latency(cluster) + (1 - h) * dram_latency,   h = l3_hit * capacity_factor(cluster)
+// A core running phase P with L3 hit ratio h retires instructions at
+//     CPI = 1 / base_ipc + refill_pki / 1000 * f * max(0, L - L3_unloaded) / n
+//     L   = l3_latency(cluster) + (1 - h) * dram_latency,   n = min(mlp, mshr.per_core) * s
 // (f in cycles per ns), and moves (refill_pki + wb_pki) / 1000 L3 lines per instruction, of which
 // the fraction (1 - h) also goes to DRAM.
 //
-// Capacity contention: when the footprints resident in a cluster do not fit in its L3 (C), the
-// cores share it as an LRU cache does, in proportion to how fast they insert lines: each resident
-// core gets a share of C proportional to its pressure (its L3 access rate at the unloaded
-// latency), capped at its footprint, the rest going to the others (water-filling). A core holding
-// share S of its footprint F sees capacity_factor = min(1, S / F)^capacity_exponent. So a
-// streaming co-runner evicts a light one, while a light co-runner barely disturbs a stream.
-// These shares are the steady state; the simulator moves each core's residency towards its
-// share over time (residency.h: refill after throttling) and solves with the capacity factors
-// of the residencies (solve(demands, capf)).
+// Memory-level parallelism as a limit: a core has at most n L2 refills in flight (its phase's
+// mlp, cut at the platform's mshr.per_core); the cores of a cluster together at most
+// mshr.per_cluster L3 misses in flight to the DRAM. By Little's law a core with X L2 refills per
+// ns, (1 - h) of them L3 misses taking dram_latency, keeps X (1 - h) dram_latency of them in
+// flight; where the cluster's sum exceeds its bound, every core's n is scaled by one s < 1 so that
+// it fits (s = 1 otherwise), which lowers X until it does. With the latencies' queueing this is a
+// closed loop: more traffic, longer latencies, fewer misses completed per ns.
+//
+// The shared L3 (model/cache/shared_lru.h): every phase has a miss-ratio curve m(c) of its L2
+// refills vs the L3 share c it holds (workload/profile.h). The resident cores of a cluster
+// share it as LRU does, by the natural partition (equal eviction age, the footprint / HOTL
+// model): each holds its footprint at the common age, growing at its insertion rate, so a
+// streaming co-runner takes most of the cache and a light one keeps what its reuse earns. The
+// access rates of the partition are the cores' L2 refills per ns at the unloaded latencies
+// with the hit ratios of the partition (a fixed point, iterated); h = 1 - m(c). These
+// occupancies are the steady state; the simulator moves each core's occupancy towards it over
+// time (residency.h: refill after throttling) and solves with the hit ratios of the
+// occupancies (solve(demands, hits)).
 //
 // The latencies are the fixed point of "latency -> rates -> traffic -> utilisation -> latency"
 // (utilisation is monotone in it, so the root is unique): solved by nested bracketed root finding
@@ -37,19 +46,19 @@ namespace rosguard::sim {
 // What one core asks of the memory system now.
 struct CoreDemand {
   int cluster = 0;
-  const Phase* phase = nullptr;  // the phase it is running; null: no traffic (idle, callback)
-  double l3_hit = 1.0;
-  double footprint_kb = 0.0;
+  const Phase* phase = nullptr;    // the phase it is running; null: no traffic (idle, callback)
+  const void* workload = nullptr;  // whose lines it holds in the L3 (its profile); null: none
   bool resident = false;  // it claims its L3 share (running, or briefly preempted); else its
-                          // lines (footprint_kb, when known) age out of the L3
-  const Phase* resident_phase = nullptr;  // the phase it runs or will resume (its L3 pressure)
+                          // lines age out of the L3
+  const Phase* resident_phase = nullptr;  // the phase it runs or will resume (its curve, rate)
 };
 
-// The memory system's answer: latencies, utilisations and capacity factors.
+// The memory system's answer: latencies, utilisations, hit ratios and miss-in-flight scales.
 struct MemoryState {
-  std::vector<double> l3_ns;            // per cluster
-  std::vector<double> l3_util;          // per cluster
-  std::vector<double> capacity_factor;  // per demand (in the order solve() got them), in (0, 1]
+  std::vector<double> l3_ns;      // per cluster
+  std::vector<double> l3_util;    // per cluster
+  std::vector<double> mlp_scale;  // per cluster: s in (0, 1], 1 unless mshr.per_cluster binds
+  std::vector<double> l3_hit;     // per demand (in the order solve() got them), in [0, 1]
   double dram_ns = 0.0;
   double dram_util = 0.0;
   bool operator==(const MemoryState&) const = default;
@@ -68,35 +77,38 @@ class ContentionModel {
  public:
   explicit ContentionModel(const SimPlatform& platform);
 
-  // The unloaded state for `demands` cores (every capacity factor 1).
+  // The unloaded state for `demands` cores (every hit ratio 1, no scale).
   MemoryState unloaded(std::size_t demands = 0) const;
+  // With the steady-state hit ratios (steady_hits()).
   MemoryState solve(std::span<const CoreDemand> demands) const;
-  // The same with each demand's capacity factor given (residency.h: refill after throttling).
-  MemoryState solve(std::span<const CoreDemand> demands, std::span<const double> capf) const;
-  // Rates of a core running `phase` with its L3 hit ratio scaled by `capacity_factor`.
-  CoreRates rates(const Phase& phase, double l3_hit, int cluster, double capacity_factor,
-                  const MemoryState& state) const;
-  // Instructions per ns of a core running `phase` of a workload (l3_hit, footprint_kb) on
-  // `cluster` with every other core idle: its progress in isolation.
-  double alone_inst_per_ns(const Phase& phase, double l3_hit, double footprint_kb,
-                           int cluster) const;
-  // L3 shares in KB: the footprint where the resident footprints of a cluster fit, else the
-  // water-filling share; 0 for a demand that is not resident.
-  std::vector<double> shares(std::span<const CoreDemand> demands) const;
-  // L3 shares as capacity factors: min(1, share / footprint)^capacity_exponent (1 where the
-  // resident footprints fit, and for demands that are not resident).
-  std::vector<double> capacity_factors(std::span<const CoreDemand> demands) const;
+  // With each demand's L3 hit ratio given (residency.h: refill after throttling).
+  MemoryState solve(std::span<const CoreDemand> demands, std::span<const double> hits) const;
+  // Rates of a core running `phase` on `cluster` with L3 hit ratio `hit`.
+  CoreRates rates(const Phase& phase, double hit, int cluster, const MemoryState& state) const;
+  // Instructions per ns of a core running `phase` on `cluster` with every other core idle: its
+  // progress in isolation (it holds the whole L3, or all it reuses).
+  double alone_inst_per_ns(const Phase& phase, int cluster) const;
+  // The steady-state L3 occupancy (KB) of each demand: the natural partition of each cluster's
+  // L3 among its resident demands; 0 for a demand that is not resident.
+  std::vector<double> occupancies(std::span<const CoreDemand> demands) const;
+  // The hit ratio of each demand's phase (running, else resident) at its steady occupancy;
+  // 1 for a demand with neither.
+  std::vector<double> steady_hits(std::span<const CoreDemand> demands) const;
 
   // latency(u) of the L3 or the DRAM; u is clamped below 1.
   double l3_latency(double u) const;
   double dram_latency(double u) const;
+  double line_kb() const { return line_ / 1024.0; }
 
   // Bytes per ns of a bandwidth in MB/s (MiB/s, Eq. 1).
   static double bytes_per_ns(double mbps) { return mbps * 1048576.0 / 1e9; }
 
  private:
-  double l3_traffic(std::span<const CoreDemand> demands, const std::vector<double>& capf,
-                    int cluster, double l3_ns, double dram_ns, double* dram_bytes) const;
+  // The cluster's scale s of misses in flight at these latencies (1 when mshr.per_cluster holds).
+  double cluster_scale(std::span<const CoreDemand> demands, std::span<const double> hits,
+                       int cluster, double l3_ns, double dram_ns) const;
+  double l3_traffic(std::span<const CoreDemand> demands, std::span<const double> hits, int cluster,
+                    double l3_ns, double dram_ns, double* dram_bytes, double* scale) const;
 
   SimPlatform p_;
   double f_ghz_;

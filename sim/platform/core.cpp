@@ -18,7 +18,7 @@ constexpr TimeNs kWakeHorizonNs = 5 * kNsPerMs;
 
 bool same_demand(const CoreDemand& a, const CoreDemand& b) {
   return a.cluster == b.cluster && a.phase == b.phase && a.resident_phase == b.resident_phase &&
-         a.l3_hit == b.l3_hit && a.footprint_kb == b.footprint_kb && a.resident == b.resident;
+         a.workload == b.workload && a.resident == b.resident;
 }
 
 }  // namespace
@@ -45,10 +45,7 @@ void Core::start_work(WorkloadRun* run, Done on_end) {
   sync(now);
   run_ = run;
   on_end_ = std::move(on_end);
-  if (run_) {
-    held_footprint_kb_ = run_->profile().footprint_kb;
-    held_l3_hit_ = run_->profile().l3_hit;
-  }
+  if (run_) held_workload_ = &run_->profile();
   dispatch(now);
 }
 
@@ -88,14 +85,12 @@ CoreDemand Core::demand() const {
   CoreDemand d;
   d.cluster = cluster_;
   if (run_ && !run_->finished()) {
-    d.footprint_kb = run_->profile().footprint_kb;
-    d.l3_hit = run_->profile().l3_hit;
+    d.workload = &run_->profile();
     d.resident = !thr_;
     d.resident_phase = &run_->phase();
     if (running_ == Running::Work) d.phase = &run_->phase();
-  } else if (held_footprint_kb_ > 0.0) {  // idle or finished: its lines age out
-    d.footprint_kb = held_footprint_kb_;
-    d.l3_hit = held_l3_hit_;
+  } else {  // idle or finished: its lines (if any) age out
+    d.workload = held_workload_;
   }
   return d;
 }
@@ -174,7 +169,7 @@ void Core::dispatch(TimeNs now) {
     if (p.started < 0) p.started = now;
     at = now + std::max<TimeNs>(0, p.remaining);
   } else if (next == Running::Work) {
-    rates_ = memory_.rates(mem_index_, run_->phase(), run_->profile().l3_hit, cluster_);
+    rates_ = memory_.rates(mem_index_, run_->phase(), cluster_);
     const double left = run_->remaining_in_segment();
     const double ns = std::ceil(left / rates_.inst_per_ns);
     at = now + std::max<TimeNs>(1, static_cast<TimeNs>(ns));

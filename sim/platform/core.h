@@ -93,8 +93,7 @@ class Core : public sc_core::sc_module {
   WorkloadRun* run_ = nullptr;
   // The footprint of the last workload run here: its lines stay in the L3 (not resident: aging
   // out) while the core does something else.
-  double held_footprint_kb_ = 0.0;
-  double held_l3_hit_ = 1.0;
+  const void* held_workload_ = nullptr;
   Done on_end_;
 
   Running running_ = Running::Idle;

@@ -55,23 +55,22 @@ void MemorySystem::resolve() {
       key.push_back(reinterpret_cast<std::uintptr_t>(d.phase));
       key.push_back(reinterpret_cast<std::uintptr_t>(d.resident_phase));
       key.push_back(d.resident ? 1 : 0);
-      key.push_back(static_cast<std::uintptr_t>(std::bit_cast<std::uint64_t>(d.footprint_kb)));
-      key.push_back(static_cast<std::uintptr_t>(std::bit_cast<std::uint64_t>(d.l3_hit)));
+      key.push_back(reinterpret_cast<std::uintptr_t>(d.workload));
     }
-    // Residencies up to now; the capacity factors of the running cores are part of the key (the
+    // Occupancies up to now; the hit ratios of the running cores are part of the key (the
     // others' do not enter the solution).
     residency_.advance(static_cast<double>(now), demands);
-    const std::vector<double>& capf = residency_.capacity_factors();
+    const std::vector<double>& hits = residency_.hits();
     for (std::size_t i = 0; i < demands.size(); ++i)
-      key.push_back(demands[i].phase ? std::bit_cast<std::uint64_t>(capf[i]) : 0);
+      key.push_back(demands[i].phase ? std::bit_cast<std::uint64_t>(hits[i]) : 0);
     auto it = memo_.find(key);
     if (it == memo_.end()) {
       ++solves_;
       if (memo_.size() > 4096) memo_.clear();
-      it = memo_.emplace(key, model_.solve(demands, capf)).first;
+      it = memo_.emplace(key, model_.solve(demands, hits)).first;
     }
     MemoryState next = it->second;
-    next.capacity_factor = capf;
+    next.l3_hit = hits;
     const double moves = residency_.set_rates(demands, next);
     if (moves >= 0.0) {
       const TimeNs at = now + std::max<TimeNs>(1, static_cast<TimeNs>(std::ceil(moves)));

@@ -10,10 +10,10 @@
 // (PMU reads, throttles, callbacks) keeps its exact time. Nothing is evaluated per cache line, and
 // nothing runs at boundaries where no demand changed.
 //
-// The capacity factors come from each core's residency in its L3 (residency.h): a core that
-// stops running loses its lines to its co-runners' insertions and refills them when it runs
-// again. While some residency moves, the memory system also re-solves when one crosses a level
-// of its capacity factor or reaches its target (at the quantum boundary after that time).
+// The hit ratios come from each core's occupancy of its L3 (residency.h): a core that stops
+// running loses its lines to its co-runners' insertions and refills them when it runs again.
+// While some occupancy moves, the memory system also re-solves when one crosses a level of the
+// capacity or reaches its target (at the quantum boundary after that time).
 //
 // Contract: created during elaboration; attach() every core before the simulation starts. Cores
 // call mark_dirty() when their demand changes; resolve() calls Core::memory_changed() on each.
@@ -38,16 +38,17 @@ class MemorySystem : public sc_core::sc_module {
   MemorySystem(const sc_core::sc_module_name& name, const SimPlatform& platform, TimeNs quantum_ns,
                Runtime& rt);
 
-  // Returns the core's index in the memory state (its capacity factor).
+  // Returns the core's index in the memory state (its hit ratio).
   std::size_t attach(Core* core);
   // A core's demand changed: re-solve at the next quantum boundary (now, if on one).
   void mark_dirty();
 
   const MemoryState& state() const { return state_; }
   const ContentionModel& model() const { return model_; }
-  CoreRates rates(std::size_t index, const Phase& phase, double l3_hit, int cluster) const {
-    const double capf = index < state_.capacity_factor.size() ? state_.capacity_factor[index] : 1.0;
-    return model_.rates(phase, l3_hit, cluster, capf, state_);
+  CoreRates rates(std::size_t index, const Phase& phase, int cluster) const {
+    const double hit =
+        index < state_.l3_hit.size() ? state_.l3_hit[index] : 1.0 - phase.mrc.miss_ratio(0.0);
+    return model_.rates(phase, hit, cluster, state_);
   }
   std::uint64_t solves() const { return solves_; }
   const L3Residency& residency() const { return residency_; }

@@ -119,11 +119,16 @@ SimPlatform parse_sim_platform(const PlatformInfo& p) {
   s.l3.latency_ns = l3.at("latency_ns").get<double>();
   s.l3.queue_ns = l3.at("queue_ns").get<double>();
   s.l3.bandwidth_mbps = l3.at("bandwidth_mbps").get<double>();
-  s.l3.capacity_exponent = l3.at("capacity_exponent").get<double>();
+  s.l3.exclusive_of_l2 = l3.value("exclusive_of_l2", false);
   const auto& dram = mem.at("dram");
   s.dram.latency_ns = dram.at("latency_ns").get<double>();
   s.dram.queue_ns = dram.at("queue_ns").get<double>();
   s.dram.bandwidth_mbps = dram.at("bandwidth_mbps").get<double>();
+  s.mshr.per_core = mem.at("mshr").at("per_core").get<double>();
+  s.mshr.per_cluster = mem.at("mshr").at("per_cluster").get<double>();
+  if (s.mshr.per_cluster < s.mshr.per_core)
+    throw InputError(file, "/memory/mshr/per_cluster",
+                     "a cluster cannot have fewer refills in flight than one of its cores");
   s.core.callback_ipc = mem.at("core").at("callback_ipc").get<double>();
   s.core.idle_loop_ipc = mem.at("core").at("idle_loop_ipc").get<double>();
 

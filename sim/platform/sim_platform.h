@@ -36,13 +36,19 @@ struct L3Params {
   double latency_ns = 20.0;
   double queue_ns = 8.0;
   double bandwidth_mbps = 60000.0;
-  double capacity_exponent = 0.35;
+  bool exclusive_of_l2 = false;  // filled by the L2s' victims (platform "exclusive_of_l2")
 };
 
 struct DramParams {
   double latency_ns = 95.0;
   double queue_ns = 25.0;
   double bandwidth_mbps = 90000.0;
+};
+
+// Memory-level parallelism as a limit (the platform's "memory.mshr"): L2 refills in flight.
+struct MshrParams {  // defaults: the schema's largest, which no workload reaches
+  double per_core = 1024.0;
+  double per_cluster = 4096.0;
 };
 
 struct CoreParams {
@@ -85,6 +91,7 @@ struct SimPlatform {
   std::vector<std::string> pmu_events;
   L3Params l3;
   DramParams dram;
+  MshrParams mshr;
   CoreParams core;
   CostParams costs;
   double l2_kb = 0.0;                          // private L2 per core (kernel models)

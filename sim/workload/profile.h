@@ -3,10 +3,22 @@
 //
 // A run retires `instructions` instructions. The phases, each a share of them, follow one another
 // `repeat` times (segment s runs phase s % phases.size() for fraction / repeat of the run). A
-// phase's L2 misses (refills, write-backs per kilo-instruction) go to the cluster's L3; the
-// profile's l3_hit of them hit there in isolation. base_ipc is the IPC the phase would reach if
-// every L2 refill were served at the unloaded L3 latency; the memory model slows it down as the
-// miss latency grows (sim/platform/contention.h).
+// phase's L2 misses (refills, write-backs per kilo-instruction) go to the cluster's L3; its
+// miss-ratio curve (mrc) says which fraction of the refills miss there for each share of the L3
+// it holds (the shared-LRU model, model/cache/shared_lru.h). base_ipc is the IPC the phase would
+// reach if every L2 refill were served at the unloaded L3 latency; the memory model slows it
+// down as the miss latency grows (sim/platform/contention.h).
+//
+// Every phase has a curve, one mechanism for all (derived_mrc()):
+//   - measured: the phase's "mrc" (rosguard profile: Mattson stack distances of its L2 misses);
+//   - a built-in kernel (hw.kernel bandwidth_read / bandwidth_write / latency: one access per
+//     line, cyclically over working_set_kb W, so every reuse has LRU stack distance W): a step at
+//     kernel_reuse_kb(W) (W, or W - l2_kb where the L3 is exclusive of the L2, which then holds
+//     the most recent l2_kb of the stream); the level on the L3 capacity's side of the step is the
+//     profile's isolation miss ratio 1 - l3_hit, the other side LRU's (1 below, 0 from it on);
+//   - otherwise (footprint_kb F, l3_hit h): MissRatioCurve::uniform_reuse(F, h, L3 capacity),
+//     reuse distances spread uniformly up to the footprint.
+// The derived curves keep the isolation hit ratio at the L3's capacity: l3_hit, as before.
 //
 // Contract: pure C++. parse_profile() reads a document that passed the workload schema (defaults
 // applied) and throws InputError(file, path, message) for what the schema cannot check.
@@ -17,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "cache/shared_lru.h"
 #include "platform/sim_platform.h"
 #include "scenario/scenario.h"
 
@@ -28,6 +41,7 @@ struct Phase {
   double refill_pki = 0.0;
   double wb_pki = 0.0;
   double mlp = 1.0;
+  cache::MissRatioCurve mrc;  // of its L2 refills vs the L3 share it holds
 };
 
 struct WorkloadProfile {
@@ -46,9 +60,20 @@ struct WorkloadProfile {
 };
 
 // `file` and `base` name the document in errors: a workload file and "/sim", or a scenario file
-// and "/nodes/rt/0/workload/sim" for an inline workload.
-WorkloadProfile parse_profile(const WorkloadInfo& workload, const std::string& file,
-                              const std::string& base);
+// and "/nodes/rt/0/workload/sim" for an inline workload. The platform gives the L3 capacity the
+// derived curves keep l3_hit at.
+WorkloadProfile parse_profile(const WorkloadInfo& workload, const SimPlatform& platform,
+                              const std::string& file, const std::string& base);
+
+// The L3 share a cyclic stream over `working_set_kb` needs to hit: the working set, less the
+// L2 where the L3 is exclusive of it (platform memory.l3.exclusive_of_l2).
+double kernel_reuse_kb(double working_set_kb, const SimPlatform& platform);
+
+// The curve of a phase without a measured one (see above): a step at
+// kernel_reuse_kb(kernel_working_set_kb) when the workload is a built-in cyclic kernel (> 0),
+// else uniform reuse up to the footprint.
+cache::MissRatioCurve derived_mrc(double kernel_working_set_kb, double footprint_kb, double l3_hit,
+                                  const SimPlatform& platform);
 
 // Bytes between two accesses of the built-in kernels (hw/workload/kernels.cpp): one 64-byte line.
 inline constexpr double kKernelLineBytes = 64.0;
@@ -60,9 +85,10 @@ inline constexpr double kKernelLineBytes = 64.0;
 //   - within the L2 (working set <= l2_kb): base_ipc = 1 / (ns_per_line_l2 x f), no L2 misses;
 //   - beyond it: base_ipc = 1 / (ns_per_line_l3 x f), one L2 refill per line (l2_refill_pki
 //     1000) and, for bandwidth_write, one write-back per line too (the line is dirty);
-//   - l3_hit = 1 when the working set fits the cluster's L3, else 0 (a cyclic stream through an
-//     LRU cache larger than the cache misses on every line); footprint = the working set;
-//     mlp from the model.
+//   - l3_hit = 1 when kernel_reuse_kb(working set) fits the cluster's L3, else 0 (a cyclic
+//     stream through an LRU cache larger than the cache misses on every line); footprint = the
+//     working set;
+//     mlp from the model; the curve derived_mrc(working set, ...): a step from 1 to 0 there.
 // The model's steady state then gives ns_per_line_l3 + (L3 queueing + DRAM latency) / mlp per
 // line beyond the L2 (platform/contention.h). sim/calibration/fit.h fits the models with this
 // function, so the fit predicts with exactly the profile the sim runs.

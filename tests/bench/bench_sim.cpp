@@ -49,7 +49,7 @@ sim::SimPlatform orin() {
 
 sim::WorkloadProfile profile(const std::string& name) {
   const std::string f = "scenarios/workloads/" + name + ".json";
-  return sim::parse_profile({name, f, read_json(f)}, f, "/sim");
+  return sim::parse_profile({name, f, read_json(f)}, orin(), f, "/sim");
 }
 
 // The minimal ROSGuard setup: controller on core 0, bandwidth_read RT on core 1 and nRT on
@@ -184,7 +184,7 @@ void BM_ContentionSolve(benchmark::State& state) {
   std::vector<sim::CoreDemand> d;
   for (int i = 0; i < state.range(0); ++i) {
     const sim::WorkloadProfile& w = i % 2 ? ms : br;
-    d.push_back({i / 4 % 3, &w.phases[0], w.l3_hit, w.footprint_kb, true, &w.phases[0]});
+    d.push_back({i / 4 % 3, &w.phases[0], &w, true, &w.phases[0]});
   }
   for (auto _ : state)
     benchmark::DoNotOptimize(m.solve(d));

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 
 #include "files.h"
 #include "profile.h"
@@ -65,6 +66,52 @@ TEST_CASE("profile of a sequential read: one L1 and one L2 refill per 8 loads, M
     if (caps[i] >= 2048) CHECK(missed < 0.02);
   }
 }
+
+#ifdef HW_KERNEL
+TEST_CASE("profile of the built-in bandwidth_read kernel: one L2 refill per line, no write-back") {
+  if (!have_valgrind()) {
+    WARN("SKIPPED: valgrind is not installed (Debian package valgrind)");
+    return;
+  }
+  // rosguard-hw-kernel bandwidth_read 512 KB: one 8-byte load per 64-byte line. 6 passes minus 2
+  // passes is 4 passes of the kernel's loop (start-up, the buffer's pre-fault and exit cancel).
+  const auto kernel = [](const char* passes) {
+    ProfileOptions o;
+    o.command = {HW_KERNEL, "bandwidth_read", "512", passes};
+    profile::Profiler profiler(profile_config(o));
+    trace_program(o, profiler, nullptr);
+    return std::make_pair(profiler.total(), profiler.capacities_kb());
+  };
+  const auto [a, caps] = kernel("2");
+  const auto [b, caps_b] = kernel("6");
+  const double lines = 4.0 * 512 * 1024 / 64;
+  const double instructions = static_cast<double>(b.instructions - a.instructions);
+  INFO("instructions per line " << instructions / lines);
+  // One load per line, plus the kernel's bookkeeping once per 64 lines (progress counters read
+  // and written, the stop flag read): a few loads and stores per 64 lines, all in the L1.
+  const double loads = static_cast<double>(b.loads - a.loads);
+  const double stores = static_cast<double>(b.stores - a.stores);
+  CHECK(loads >= lines);
+  CHECK(loads < lines * (1.0 + 8.0 / 64));
+  CHECK(stores < lines * 4.0 / 64);
+  // 512 KB is beyond the 64 KB L1 and the 256 KB L2: one refill of each per line, and the lines
+  // are never written, so nothing is written back.
+  CHECK(static_cast<double>(b.l1_refills - a.l1_refills) == Approx(lines).epsilon(0.01));
+  CHECK(static_cast<double>(b.l2_refills - a.l2_refills) == Approx(lines).epsilon(0.01));
+  CHECK(b.l2_writebacks - a.l2_writebacks < 10);
+  // A handful of instructions per line: the loop is a load, an add, the index step and branch.
+  CHECK(instructions / lines > 2.0);
+  CHECK(instructions / lines < 20.0);
+  // LRU behind the L2: the 512 KB cycle misses in 256 KB and hits from 1 MB on.
+  const double l2 = static_cast<double>(b.l2_refills - a.l2_refills);
+  for (std::size_t i = 0; i < caps.size(); ++i) {
+    const double missed = static_cast<double>(b.l3_misses[i] - a.l3_misses[i]) / l2;
+    INFO("capacity " << caps[i] << " KB: miss ratio " << missed);
+    if (caps[i] <= 256) CHECK(missed > 0.98);
+    if (caps[i] >= 1024) CHECK(missed < 0.02);
+  }
+}
+#endif
 
 TEST_CASE(
     "rosguard profile writes a valid workload, exits 1 when the program fails, 2 on bad "

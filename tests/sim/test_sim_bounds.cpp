@@ -56,13 +56,14 @@ TEST_CASE(
     const json rep = test::run_point_report(s);
     // Unregulated traffic: the nRT workload alone, in its most memory-hungry phase.
     const sim::SimPlatform plat = sim::parse_sim_platform(s.platform);
-    const sim::WorkloadProfile prof = sim::parse_profile(s.nodes.nrt[0].workload, "w", "/sim");
+    const sim::WorkloadProfile prof =
+        sim::parse_profile(s.nodes.nrt[0].workload, plat, "w", "/sim");
     const sim::ContentionModel model(plat);
     double rate = 0.0;  // bytes per ns
     for (const auto& ph : prof.phases) {
-      const sim::CoreDemand d{plat.cluster_of(2), &ph, prof.l3_hit, prof.footprint_kb, true, &ph};
+      const sim::CoreDemand d{plat.cluster_of(2), &ph, &prof, true, &ph};
       const auto st = model.solve({&d, 1});
-      const auto r = model.rates(ph, prof.l3_hit, d.cluster, st.capacity_factor[0], st);
+      const auto r = model.rates(ph, st.l3_hit[0], d.cluster, st);
       rate = std::max(rate, (r.refill_per_ns + r.wb_per_ns) * plat.line_bytes);
     }
     double max_delay_us = 0.0;

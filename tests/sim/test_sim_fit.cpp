@@ -34,7 +34,6 @@ sim::SimPlatform truth(const HostFacts& h) {
   p.l3.latency_ns = 14.0;
   p.l3.queue_ns = 6.0;
   p.l3.bandwidth_mbps = 150000.0;
-  p.l3.capacity_exponent = 0.5;
   p.dram.latency_ns = 85.0;
   p.dram.queue_ns = 30.0;
   p.dram.bandwidth_mbps = 30000.0;
@@ -84,7 +83,7 @@ const FittedParameter& param(const FitReport& r, const std::string& name) {
 
 // name -> (true value, relative tolerance). The tolerances: the worst error over seeds 1..20
 // with 2 % noise, rounded up with a margin (ns_per_line_l2: 3.8 %, ns_per_line_l3: 7.8 %, mlp:
-// 2.5 %, dram latency 4.8 %, bandwidths 14 %, queues 42 %, capacity exponent 9 %). The queues
+// 2.5 %, dram latency 4.8 %, bandwidths 14 %, queues 42 %). The queues
 // are the weakest: a 4-core cluster gives 3 loaded levels, and the latency curve bends little
 // before saturation. ns_per_line_l3 trades off against the L3 queue in isolation.
 std::vector<std::tuple<std::string, double, double>> targets(const sim::SimPlatform& t) {
@@ -102,7 +101,6 @@ std::vector<std::tuple<std::string, double, double>> targets(const sim::SimPlatf
       {"kernels.latency.ns_per_line_l3", lat.ns_per_line_l3, 0.05},
       {"l3.queue_ns", t.l3.queue_ns, 0.5},
       {"l3.bandwidth_mbps", t.l3.bandwidth_mbps, 0.2},
-      {"l3.capacity_exponent", t.l3.capacity_exponent, 0.15},
       {"dram.latency_ns", t.dram.latency_ns, 0.06},
       {"dram.queue_ns", t.dram.queue_ns, 0.5},
       {"dram.bandwidth_mbps", t.dram.bandwidth_mbps, 0.2},

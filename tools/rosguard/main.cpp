@@ -255,11 +255,16 @@ int main(int argc, char** argv) {
                           "L1,L2,L3 associativity (default 4,8,16: Cortex-A78AE L1D and L2, "
                           "DSU-AE L3)");
   profile_cmd->add_option("--name", prof.name, "Workload name (default: the program's file name)");
+  profile_cmd->add_option("--slices-csv", prof.slices_csv,
+                          "Also write each slice's counts (CSV: first instruction, loads, stores, "
+                          "refills, write-backs, L3 misses per MRC capacity) to this file");
   profile_cmd->add_flag("--quiet", prof.quiet, "No progress or summary");
   profile_cmd->add_option("command", prof.command, "-- PROGRAM ARGS...")->required();
   profile_cmd->footer(
-      "Needs valgrind (Debian package valgrind). lackey is slow (about 0.5 M instructions/s on a "
-      "shared 2-vCPU VM, far beyond 100x the program alone); --max-instructions bounds a long run. "
+      "Needs valgrind (Debian package valgrind). lackey is slow: it writes each trace line with "
+      "its own "
+      "system call (about 3 M instructions per CPU second here, some 1000x the program alone); "
+      "--max-instructions bounds a long run. "
       "base_ipc is written as a placeholder: fit "
       "it against measured IPC. Exit 1 when the program fails, with its status.");
 

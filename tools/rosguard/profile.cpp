@@ -2,10 +2,12 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -196,6 +198,14 @@ ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
   }
   ::close(fds[1]);
   Child child(pid, fds[0]);
+  // lackey writes every trace line with its own write(2). A reader blocked on the pipe is woken
+  // by each of them (two context switches per line: most of the run's time); a reader that lets
+  // the pipe fill between reads is woken by none. So: a large pipe (best effort: the default
+  // 64 KB when the kernel refuses), and a short sleep whenever a read found it less than a
+  // quarter full.
+  const int pipe_size = ::fcntl(child.fd(), F_SETPIPE_SZ, 1 << 20);
+  const std::size_t drained = pipe_size > 0 ? static_cast<std::size_t>(pipe_size) / 4 : 16384;
+  const timespec pause{0, 1'000'000};  // 1 ms: about 50 KB of trace at lackey's pace
 
   std::vector<char> buf(1 << 20);
   std::string carry;  // a line cut by the end of a read
@@ -241,6 +251,7 @@ ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
       throw RunError(std::string("reading the trace: ") + std::strerror(errno));
     }
     if (n == 0) break;
+    if (static_cast<std::size_t>(n) < drained) ::nanosleep(&pause, nullptr);
     std::string_view chunk(buf.data(), static_cast<std::size_t>(n));
     std::size_t begin = 0;
     if (!carry.empty()) {
@@ -282,6 +293,14 @@ ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
   run.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   run.bounded = stop;
+  const auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) / 1e6;
+  };
+  rusage usage{};
+  if (::getrusage(RUSAGE_SELF, &usage) == 0)
+    run.profiler_cpu_seconds = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+  if (::getrusage(RUSAGE_CHILDREN, &usage) == 0)
+    run.tracer_cpu_seconds = seconds(usage.ru_utime) + seconds(usage.ru_stime);
   profiler.finish();
   if (!stop) {
     if (WIFEXITED(status) && WEXITSTATUS(status) != 0)
@@ -391,19 +410,41 @@ int profile_command(const ProfileOptions& o, const SchemaSet& schemas) {
   const nlohmann::json doc = workload_document(o, profiler, run);
   schemas.validate(doc, SchemaKind::Workload, o.out);
   write_file_atomic(o.out, doc.dump(2) + "\n");
+  if (!o.slices_csv.empty()) {
+    std::ostringstream csv;
+    csv << "first_instruction,instructions,loads,stores,l1_refills,l1_writebacks,l2_refills,"
+           "l2_writebacks";
+    for (const std::uint64_t kb : profiler.capacities_kb())
+      csv << ",l3_misses_" << kb << "kb";
+    csv << "\n";
+    std::uint64_t first = 0;
+    for (const profile::SliceCounts& s : profiler.slices()) {
+      csv << first << ',' << s.instructions << ',' << s.loads << ',' << s.stores << ','
+          << s.l1_refills << ',' << s.l1_writebacks << ',' << s.l2_refills << ','
+          << s.l2_writebacks;
+      for (const std::uint64_t m : s.l3_misses)
+        csv << ',' << m;
+      csv << "\n";
+      first += s.instructions;
+    }
+    write_file_atomic(o.slices_csv, csv.str());
+  }
   if (!o.quiet) {
     const profile::SliceCounts t = profiler.total();
-    char line[512];
-    std::snprintf(line, sizeof line,
-                  "profile: %s: %llu instructions%s in %.1f s; loads %llu, stores %llu; "
-                  "L1 refills %.3f pki, L2 refills %.3f pki, L2 write-backs %.3f pki; "
-                  "footprint %.0f KB; %zu phases\n",
-                  o.out.c_str(), static_cast<unsigned long long>(profiler.instructions()),
-                  run.bounded ? " (bounded)" : "", run.wall_seconds,
-                  static_cast<unsigned long long>(t.loads),
-                  static_cast<unsigned long long>(t.stores), t.pki(t.l1_refills),
-                  t.pki(t.l2_refills), t.pki(t.l2_writebacks),
-                  doc["sim"]["footprint_kb"].get<double>(), doc["sim"]["phases"].size());
+    char line[640];
+    std::snprintf(
+        line, sizeof line,
+        "profile: %s: %llu instructions%s in %.1f s; loads %llu, stores %llu; "
+        "L1 refills %.3f pki, L2 refills %.3f pki, L2 write-backs %.3f pki; "
+        "footprint %.0f KB; %zu phases; CPU: valgrind %.1f s, profiler %.1f s "
+        "(%.2f M instructions traced, skipped ones included, per CPU second)\n",
+        o.out.c_str(), static_cast<unsigned long long>(profiler.instructions()),
+        run.bounded ? " (bounded)" : "", run.wall_seconds, static_cast<unsigned long long>(t.loads),
+        static_cast<unsigned long long>(t.stores), t.pki(t.l1_refills), t.pki(t.l2_refills),
+        t.pki(t.l2_writebacks), doc["sim"]["footprint_kb"].get<double>(),
+        doc["sim"]["phases"].size(), run.tracer_cpu_seconds, run.profiler_cpu_seconds,
+        static_cast<double>(o.skip_instructions + profiler.instructions()) / 1e6 /
+            std::max(1e-9, run.tracer_cpu_seconds + run.profiler_cpu_seconds));
     std::cerr << line;
   }
   return 0;

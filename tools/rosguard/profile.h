@@ -19,6 +19,7 @@ struct ProfileOptions {
   std::vector<std::string> command;  // program and its arguments
   std::string out;                   // the workload JSON to write
   std::string name;                  // default: the program's file name
+  std::string slices_csv;            // per-slice counts, when not empty
   std::uint64_t slice_instructions = 2'000'000;
   std::uint64_t max_instructions = 0;   // 0: the whole run
   std::uint64_t skip_instructions = 0;  // run through the caches uncounted first
@@ -35,6 +36,8 @@ struct ProfileRun {
   std::string valgrind_version;
   bool bounded = false;  // stopped at max_instructions
   double wall_seconds = 0;
+  // CPU time (user + system) of valgrind (with the program) and of this process.
+  double tracer_cpu_seconds = 0, profiler_cpu_seconds = 0;
   std::string date_utc;
 };
 

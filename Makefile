@@ -5,6 +5,7 @@
 #   make test-nosim   builds without the sim backend (no SystemC) in $(BUILD)-nosim, runs its tests
 #   make validate     runs scenarios/validation/ on hw and in sim, writes results/validation/report.md
 #   make fit-table1   refits the seven Table 1 workloads (base_ipc; measured profiles' rates scaled)
+#   make bench-middleware  the paper's experiments 1-3 on hw, transport inproc vs dds, as a table
 BUILD ?= build
 JOBS ?= $(shell nproc)
 PREFIX ?= /usr/local
@@ -17,9 +18,8 @@ CMAKE_ARGS ?=
 PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
-.PHONY: all deps configure build test test-nosim run install reproduce validate validate-readme \
-        bench-parallel \
-        bench format clean fit-table1
+.PHONY: all deps configure build test test-nosim run install reproduce sensitivity validate \
+        validate-readme bench-parallel bench-middleware bench format clean fit-table1
 
 all: build
 
@@ -62,6 +62,12 @@ fit-table1: build
 reproduce: build
 	@tools/reproduce.sh $(ROSGUARD)
 
+# Each guessed number of scenarios/platforms/orin-agx.json ("guess, plausible range LOW-HIGH" in
+# its source) at both ends of its range: the paper's scenarios in sim on each variant into
+# results/sensitivity/, the paper checks re-run, the README's sensitivity table regenerated.
+sensitivity: build
+	@$(PYTHON) tools/sensitivity.py --rosguard $(ROSGUARD) --jobs $(JOBS) --readme README.md
+
 # The sim-vs-hw validation suite (scenarios/validation/, held out from the calibration): hw and
 # sim runs into results/validation/{hw,sim}/, then report.md / report.json and the
 # predicted-vs-measured figure. validate-readme puts the last report into README.md.
@@ -79,6 +85,12 @@ bench: build
 # 2 x 5 whole sweeps): --jobs 1 against --jobs $(JOBS).
 bench-parallel: build
 	tests/bench/parallel_efficiency.sh $(BUILD) 5 $(JOBS)
+
+# The paper's experiments 1-3 on hw, transport inproc vs dds (scenarios/bench/hw-middleware.json),
+# and the README's middleware table from them.
+bench-middleware: build
+	$(ROSGUARD) run scenarios/bench/hw-middleware.json --backend hw --out results/hw-middleware --overwrite
+	$(PYTHON) tools/middleware_table.py results/hw-middleware
 
 format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i

@@ -13,7 +13,9 @@
 
 #include <algorithm>
 #include <iostream>
+#include <map>
 #include <optional>
+#include <tuple>
 
 #include "core/error.h"
 #include "hw/common/clock.h"
@@ -21,6 +23,7 @@
 #include "hw/isolation.h"
 #include "hw/point_rig.h"
 #include "hw/safety_net.h"
+#include "hw/topic/dds/dds.h"
 #include "policy/rules.h"
 #include "results/results.h"
 
@@ -32,6 +35,23 @@ std::string cpu_list(const std::vector<int>& cpus) {
   for (int c : cpus)
     s += (s.empty() ? "" : ", ") + std::to_string(c);
   return s.empty() ? "none" : s;
+}
+
+// The transport in the manifest; for DDS, where a ROS 2 user finds the traffic.
+void report_transport(const Scenario& s, RunContext& ctx) {
+  ctx.fact("transport", std::string(to_string(s.hw.transport)));
+  if (s.hw.transport != TransportKind::Dds) return;
+  std::uint32_t domain = 0;
+  try {
+    domain = s.hw.dds_domain_id ? *s.hw.dds_domain_id : dds::default_domain_id();
+  } catch (const dds::DdsError& e) {
+    throw RunError(e.what());
+  }
+  const std::string ns = s.hw.dds_namespace;
+  ctx.fact("dds", "Cyclone DDS " DDS_VERSION ", domain " + std::to_string(domain) +
+                      (s.hw.dds_domain_id ? "" : " (ROS_DOMAIN_ID or 0)") + ", topics " + ns +
+                      "/rosguard/<node>/{active,pmc,command} (DDS rt" + ns +
+                      "/rosguard/...), ROS 2 default QoS (reliable, keep last 10, volatile)");
 }
 
 class HwBackend : public Backend {
@@ -78,6 +98,9 @@ class HwBackend : public Backend {
     for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
       check_workload("/nodes/nrt/" + std::to_string(i), s.nodes.nrt[i].workload);
 
+    if (const auto why = throttle_unavailable(s.hw.throttle, commands_only(s)))
+      throw InputError(s.file, "/hw/throttle", *why);
+
     check_policy(s, policies_);
     plan_metric(s, sources_);  // throws InputError for a source that cannot serve the scenario
   }
@@ -110,6 +133,39 @@ class HwBackend : public Backend {
                          RunContext& ctx) override;
 
  private:
+  static bool commands_only(const Scenario& s) {
+    return std::all_of(s.nodes.nrt.begin(), s.nodes.nrt.end(),
+                       [](const NrtNodeSpec& n) { return n.workload.is_command(); });
+  }
+
+  // The throttle mechanism of the run's points, picked (and measured) once per distinct need.
+  const ThrottleChoice& throttle_for(const Scenario& s, RunContext& ctx) {
+    static const ThrottleChoice kNone{};
+    if (s.nodes.nrt.empty()) return kNone;
+    ThrottleNeeds needs;
+    needs.mode = s.hw.throttle;
+    needs.scenario_sched = sched_of(s);
+    needs.commands_only = commands_only(s);
+    needs.core = s.nodes.nrt.front().core;
+    const auto key =
+        std::make_tuple(needs.mode, needs.scenario_sched, needs.commands_only, needs.core);
+    auto it = throttles_.find(key);
+    if (it == throttles_.end()) it = throttles_.emplace(key, choose_throttle(needs)).first;
+    const ThrottleChoice& c = it->second;
+    ctx.fact("throttle", std::string(to_string(c.kind)));
+    ctx.fact("throttle_choice", c.why);
+    std::string holds;
+    for (const auto& m : c.measured)
+      holds += (holds.empty() ? "" : "; ") + describe_hold(m) +
+               (m.detail.empty() ? "" : " [" + m.detail + "]");
+    ctx.fact("throttle_hold",
+             "nRT progress while throttled / nominal, measured at run start on "
+             "CPU " +
+                 std::to_string(needs.core) + " (6 windows of 20 ms): " + holds);
+    if (!c.fallback.empty()) ctx.fallback("throttle", c.fallback);
+    return c;
+  }
+
   // The first second of busy work in a process runs slower on some hosts (frequency ramp-up,
   // host scheduling: bandwidth_read ran 14 % slower than later on the development VM), and
   // isolation runs come first: an unmeasured warm-up precedes the first of them.
@@ -132,6 +188,7 @@ class HwBackend : public Backend {
   HwOptions options_;
   PmcSourceRegistry sources_;
   bool warmed_up_ = false;
+  std::map<std::tuple<ThrottleMode, SchedClass, bool, int>, ThrottleChoice> throttles_;
 };
 
 PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines, int, std::uint64_t,
@@ -144,14 +201,16 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   ctx.fact("metric_basis", plan.basis);
   if (!plan.fallback.empty()) ctx.fallback("metric", plan.fallback);
   report_shared_core(s, ctx);
+  report_transport(s, ctx);
   const auto source = sources_.find(plan.source)->make();
+  const ThrottleChoice& throttle = throttle_for(s, ctx);
   // The engine's thread above every node thread while they run (restored before the safety
   // check below; declared before the rig so that unwinding tears the rig down at this priority):
   // it must not wait for a time slice behind SCHED_FIFO threads on every core.
   std::optional<ScopedSched> engine_sched(std::in_place,
                                           ThreadSpec{"", -1, sched_of(s), prio::kEngine});
   PointRig rig(s, plan, *source, make_point_regulator(s, plan, baselines, policies_), options_,
-               ctx.trace() != nullptr);
+               ctx.trace() != nullptr, throttle);
   report_sched(rig.start(), ctx);
   rig.drive(ctx);
   rig.teardown();

@@ -1,12 +1,14 @@
 #include "hw/point_rig.h"
 
 #include <algorithm>
+#include <limits>
 #include <optional>
 
 #include "core/error.h"
 #include "engine/outcome.h"
 #include "hw/common/clock.h"
 #include "hw/isolation.h"
+#include "hw/topic/dds_topic.h"
 
 namespace rosguard::hw {
 
@@ -82,12 +84,13 @@ std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricP
 }
 
 PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
-                   std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace)
-    : s_(s), plan_(plan), options_(options), trace_(trace), origin_(now_ns()) {
+                   std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace,
+                   const ThrottleChoice& throttle)
+    : s_(s), plan_(plan), options_(options), trace_(trace), throttle_(throttle), origin_(now_ns()) {
   // Wiring: every publisher and subscriber exists before the first thread starts.
-  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
-    controls_.push_back(std::make_unique<Topic<ControlMsg>>());
-  engine_pub_ = rt_topic_.add_publisher();
+  make_topics();
+  // The engine publishes the one activation of a point without RT node (publisher slot 0).
+  if (s.nodes.rt.empty()) engine_pub_ = rt_topic_->add_publisher();
   wire_nodes(source);
   // The driver's activation accounting reads the nRT nodes through this meter, on the
   // controller thread, at both ends of every activation.
@@ -102,6 +105,7 @@ PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& s
   cc.metric_events = plan.metric_events;
   cc.trace = trace;
   cc.fail_after_ns = options.controller_fail_after_ns;
+  cc.rt_count = std::max<std::size_t>(1, s.nodes.rt.size());
   std::vector<Topic<ControlMsg>*> control_ptrs;
   for (std::size_t i = 0; i < controls_.size(); ++i) {
     control_ptrs.push_back(controls_[i].get());
@@ -109,8 +113,43 @@ PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& s
     cc.group_sizes.push_back(plan.group_events.size());
   }
   controller_ =
-      std::make_unique<Controller>(cc, std::move(regulator), rt_topic_, samples_, control_ptrs,
+      std::make_unique<Controller>(cc, std::move(regulator), *rt_topic_, *samples_, control_ptrs,
                                    meter_.get(), engine_waker_, errors_.handler(), origin_);
+}
+
+// The topics of the point's transport. DDS publisher slots follow the add_publisher() order of
+// the wiring: the engine (no RT node) or the RT nodes run here, in scenario order, then the RT
+// nodes signalled from outside (read, never written here); each nRT node's samples; the
+// controller on each nRT node's control topic.
+void PointRig::make_topics() {
+  const std::size_t n_nrt = s_.nodes.nrt.size();
+  if (s_.hw.transport == TransportKind::Inproc) {
+    rt_topic_ = std::make_unique<InprocTopic<RtEventMsg>>();
+    samples_ = std::make_unique<InprocTopic<SampleMsg>>();
+    for (std::size_t i = 0; i < n_nrt; ++i)
+      controls_.push_back(std::make_unique<InprocTopic<ControlMsg>>());
+    return;
+  }
+  try {
+    participant_ = std::make_unique<dds::Participant>(s_.hw.dds_domain_id);
+    const std::string& ns = s_.hw.dds_namespace;
+    std::vector<DdsSlot> rt_slots;
+    if (s_.nodes.rt.empty()) rt_slots.push_back({"run", 0});
+    for (int pass = 0; pass < 2; ++pass)
+      for (std::size_t i = 0; i < s_.nodes.rt.size(); ++i)
+        if ((s_.nodes.rt[i].signal == RtSignal::Topic) == (pass == 1))
+          rt_slots.push_back({s_.nodes.rt[i].name, i});
+    rt_topic_ = std::make_unique<DdsTopic<RtEventMsg>>(*participant_, ns, rt_slots);
+    std::vector<DdsSlot> nrt_slots;
+    for (std::size_t i = 0; i < n_nrt; ++i)
+      nrt_slots.push_back({s_.nodes.nrt[i].name, i});
+    samples_ = std::make_unique<DdsTopic<SampleMsg>>(*participant_, ns, nrt_slots);
+    for (std::size_t i = 0; i < n_nrt; ++i)
+      controls_.push_back(
+          std::make_unique<DdsTopic<ControlMsg>>(*participant_, ns, std::vector{nrt_slots[i]}));
+  } catch (const dds::DdsError& e) {
+    throw RunError(std::string("DDS transport: ") + e.what());
+  }
 }
 
 void PointRig::wire_nodes(const PmcSource& source) {
@@ -126,15 +165,24 @@ void PointRig::wire_nodes(const PmcSource& source) {
     c.watchdog_ns = s_.hw.watchdog_ms * kNsPerMs;
     c.mode = n.mode;
     c.sched = sched_of(s_);
+    c.throttle = throttle_.kind;
+    c.freezer_root = throttle_.freezer_root.value_or("");
     c.group_events = plan_.group_events;
     c.metric_events = plan_.metric_events;
     c.trace = trace_;
-    nrts_.push_back(std::make_unique<NrtRunner>(c, n.workload, source, *controls_[i], samples_,
+    nrts_.push_back(std::make_unique<NrtRunner>(c, n.workload, source, *controls_[i], *samples_,
                                                 engine_waker_, errors_.handler(), origin_));
   }
-  for (std::size_t i = 0; i < s_.nodes.rt.size(); ++i)
-    rts_.push_back(std::make_unique<RtRunner>(s_.nodes.rt[i], i, sched_of(s_), rt_topic_,
+  for (std::size_t i = 0; i < s_.nodes.rt.size(); ++i) {
+    if (s_.nodes.rt[i].signal == RtSignal::Topic) {
+      external_rt_.push_back(i);
+      rt_of_.push_back(nullptr);
+      continue;
+    }
+    rts_.push_back(std::make_unique<RtRunner>(s_.nodes.rt[i], i, sched_of(s_), *rt_topic_,
                                               engine_waker_, errors_.handler(), origin_, trace_));
+    rt_of_.push_back(rts_.back().get());
+  }
 }
 
 PointRig::~PointRig() {
@@ -150,6 +198,13 @@ void PointRig::teardown() {
   for (auto& x : rts_)
     x->shutdown();
   if (controller_) controller_->shutdown();
+  // Every thread is joined: no publish or take can run any more.
+  for (auto& c : controls_)
+    dropped_commands_ += c->dropped();
+  controls_.clear();
+  samples_.reset();
+  rt_topic_.reset();
+  participant_.reset();
 }
 
 std::vector<SchedOutcome> PointRig::start() {
@@ -180,10 +235,10 @@ void PointRig::drive(RunContext& ctx) {
     return true;
   };
   bool ok = true;
-  if (rts_.empty()) {
+  if (s_.nodes.rt.empty()) {
     // No RT node: regulation covers the whole run. The activation starts (ON, baselines) before
     // the nRT nodes begin, so their runs lie entirely inside the regulation window.
-    rt_topic_.publish(engine_pub_, {0, true, now_ns()});
+    rt_topic_->publish(engine_pub_, {0, true, now_ns()});
     ok = wait_for(
         engine_waker_, [&] { return controller_->windows_opened() > 0; }, stopping);
   }
@@ -192,24 +247,41 @@ void PointRig::drive(RunContext& ctx) {
       n->begin();
   const bool any_loop = std::any_of(
       nrts_.begin(), nrts_.end(), [](const auto& n) { return n->config().mode == NrtMode::Loop; });
-  if (ok && !rts_.empty() && any_loop)
+  if (ok && !s_.nodes.rt.empty() && any_loop)
     ok = !wait_for(
              engine_waker_, [] { return false; }, stopping, options_.warmup_ns) &&
          !stopping();
-  if (ok && rts_.empty()) {
+  if (ok && s_.nodes.rt.empty()) {
     ok = wait_for(engine_waker_, nrt_once_done, stopping);
-    if (ok) rt_topic_.publish(engine_pub_, {0, false, now_ns()});
+    if (ok) rt_topic_->publish(engine_pub_, {0, false, now_ns()});
   } else if (ok) {
     for (auto& x : rts_)
       x->go();
-    ok = wait_for(
-        engine_waker_,
-        [&] {
-          for (auto& x : rts_)
-            if (!x->done()) return false;
-          return nrt_once_done();
-        },
-        stopping);
+    const auto rts_done = [&] {
+      for (auto& x : rts_)
+        if (!x->done()) return false;
+      return nrt_once_done();
+    };
+    if (external_rt_.empty()) {
+      ok = wait_for(engine_waker_, rts_done, stopping);
+    } else {
+      // Another process runs these jobs; it may never come.
+      const TimeNs limit = s_.hw.signal_timeout_ms * kNsPerMs;
+      ok = wait_for(
+          engine_waker_, [&] { return rts_done() && external_done(); }, stopping, limit);
+      if (!ok && !stopping()) {
+        std::string who;
+        for (std::size_t i : external_rt_)
+          if (controller_->rt_finished(i) < s_.nodes.rt[i].iterations)
+            who += (who.empty() ? "" : ", ") + s_.nodes.rt[i].name + " (" +
+                   std::to_string(controller_->rt_finished(i)) + " of " +
+                   std::to_string(s_.nodes.rt[i].iterations) + " jobs)";
+        signal_timeout_ = "RT node(s) signalled by topic did not finish their jobs within " +
+                          std::to_string(s_.hw.signal_timeout_ms) +
+                          " ms (hw.dds.signal_timeout_ms): " + who +
+                          "; is the RT program running, on the same DDS domain and namespace?";
+      }
+    }
   }
   if (ok) wait_for_signals(ctx);
   if (controller_->failed_on_purpose()) {
@@ -224,11 +296,19 @@ void PointRig::drive(RunContext& ctx) {
   }
 }
 
+bool PointRig::external_done() const {
+  for (std::size_t i : external_rt_)
+    if (controller_->rt_finished(i) < s_.nodes.rt[i].iterations) return false;
+  return true;
+}
+
 // Every enable / disable signal processed: the last OFF sent, the last activation accounted.
 bool PointRig::wait_for_signals(RunContext& ctx) {
-  int sent = rts_.empty() ? 2 : 0;
+  int sent = s_.nodes.rt.empty() ? 2 : 0;
   for (auto& x : rts_)
     sent += x->published();
+  for (std::size_t i : external_rt_)  // their ends are processed already (external_done())
+    sent += 2 * s_.nodes.rt[i].iterations;
   return wait_for(
       engine_waker_,
       [&] { return controller_->rt_events() >= sent || controller_->failed_on_purpose(); },
@@ -238,23 +318,40 @@ bool PointRig::wait_for_signals(RunContext& ctx) {
 
 void PointRig::check_errors() const {
   if (errors_.failed()) throw RunError(errors_.message());
-  for (auto& c : controls_)
-    if (c->dropped()) throw RunError("a control topic dropped a command");
+  if (!signal_timeout_.empty()) throw RunError(signal_timeout_);
+  if (dropped_commands_) throw RunError("a control topic dropped a command");
 }
 
 PointOutcome PointRig::outcome(RunContext& ctx) const {
   PointOutcome out;
-  for (auto& x : rts_) {
+  for (std::size_t i = 0; i < s_.nodes.rt.size(); ++i) {
+    const RtNodeSpec& spec = s_.nodes.rt[i];
     std::vector<double> job_ns, response_ns;
-    for (double j : x->job_times_us())
-      job_ns.push_back(j * 1e3);
-    for (double r : x->response_times_us())
-      response_ns.push_back(r * 1e3);
+    if (const RtRunner* x = rt_of_[i]) {
+      for (double j : x->job_times_us())
+        job_ns.push_back(j * 1e3);
+      for (double r : x->response_times_us())
+        response_ns.push_back(r * 1e3);
+      emit_trace(ctx.trace(), x->trace(), "rt");
+    } else {
+      // Jobs of another process: from its enable to its disable signal (publish stamps).
+      TimeNs start = -1;
+      for (const SignalRecord& r : controller_->signals()) {
+        if (r.rt != i) continue;
+        if (r.started) {
+          start = r.t_sent;
+        } else if (start >= 0) {
+          job_ns.push_back(static_cast<double>(r.t_sent - start));
+          start = -1;
+        }
+      }
+      response_ns = job_ns;
+    }
     std::optional<double> period_ns;
-    if (x->spec().period_us) period_ns = static_cast<double>(*x->spec().period_us * kNsPerUs);
-    out.rt.push_back(rt_outcome(x->spec().name, job_ns, response_ns, period_ns));
-    emit_trace(ctx.trace(), x->trace(), "rt");
+    if (spec.period_us) period_ns = static_cast<double>(*spec.period_us * kNsPerUs);
+    out.rt.push_back(rt_outcome(spec.name, job_ns, response_ns, period_ns));
   }
+  signal_samples(out);
   const ActivationTotals& totals = controller_->driver().totals();
   for (std::size_t i = 0; i < nrts_.size(); ++i) {
     const NrtRunner& n = *nrts_[i];
@@ -297,6 +394,30 @@ PointOutcome PointRig::outcome(RunContext& ctx) const {
   report_external_lag(ctx);
   emit_trace(ctx.trace(), controller_->trace(), "controller");
   return out;
+}
+
+// signal_latency: an enable / disable signal from its publish to the controller taking it.
+// signal_to_thr: an enable signal from its publish to the first THR entered on any nRT node
+// before that RT job's disable signal was taken (jobs that were never throttled give none).
+void PointRig::signal_samples(PointOutcome& out) const {
+  const auto& sig = controller_->signals();
+  std::vector<TimeNs> thr;
+  for (const auto& n : nrts_)
+    thr.insert(thr.end(), n->thr_entries().begin(), n->thr_entries().end());
+  std::sort(thr.begin(), thr.end());
+  for (std::size_t k = 0; k < sig.size(); ++k) {
+    out.samples.push_back({"signal_latency", ns_to_us(sig[k].t_received - sig[k].t_sent)});
+    if (!sig[k].started) continue;
+    TimeNs until = std::numeric_limits<TimeNs>::max();
+    for (std::size_t j = k + 1; j < sig.size(); ++j)
+      if (sig[j].rt == sig[k].rt && !sig[j].started) {
+        until = sig[j].t_received;
+        break;
+      }
+    const auto it = std::lower_bound(thr.begin(), thr.end(), sig[k].t_sent);
+    if (it != thr.end() && *it <= until)
+      out.samples.push_back({"signal_to_thr", ns_to_us(*it - sig[k].t_sent)});
+  }
 }
 
 // A round of reads longer than the sampling period leaves regulation late or inert.

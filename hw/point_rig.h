@@ -3,7 +3,13 @@
 //
 // Contract: built, run and destroyed on the engine's thread. The destructor (and teardown())
 // returns every nRT node to nominal first, then stops the RT nodes, then the controller, and joins
-// every thread, on every exit path. outcome() is valid after teardown().
+// every thread, on every exit path; then it closes the topics (a DDS reader's listener must not
+// outlive the node's Waker it notifies). outcome() is valid after teardown().
+//
+// Transport (hw.transport): inproc rings, or DDS topics with ROS 2 names under
+// <hw.dds.namespace>/rosguard/<node>/... on one participant of the point. An RT node with
+// signal "topic" has no thread here: another process publishes its enable / disable signal, and
+// the point waits (at most hw.dds.signal_timeout_ms) for its `iterations` jobs to end.
 #pragma once
 
 #include <memory>
@@ -14,6 +20,8 @@
 #include "hw/nodes/controller.h"
 #include "hw/nodes/nrt_node.h"
 #include "hw/nodes/rt_node.h"
+#include "hw/throttle/throttle.h"
+#include "hw/topic/dds/dds.h"
 #include "hw/wait.h"
 
 namespace rosguard::hw {
@@ -23,7 +31,8 @@ class NodeMeter;
 class PointRig {
  public:
   PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
-           std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace);
+           std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace,
+           const ThrottleChoice& throttle);
   ~PointRig();
   PointRig(const PointRig&) = delete;
   PointRig& operator=(const PointRig&) = delete;
@@ -45,17 +54,26 @@ class PointRig {
   void wire_nodes(const PmcSource& source);
   bool wait_for_signals(RunContext& ctx);
   void report_external_lag(RunContext& ctx) const;
+  void make_topics();
+  bool external_done() const;
+  void signal_samples(PointOutcome& out) const;
 
   const Scenario& s_;
   const MetricPlan& plan_;
   const HwOptions& options_;
   const bool trace_;
+  const ThrottleChoice& throttle_;
   const TimeNs origin_;
   Waker engine_waker_;
   ErrorBox errors_{engine_waker_};
-  Topic<RtEventMsg> rt_topic_;
-  Topic<SampleMsg> samples_;
+  std::unique_ptr<dds::Participant> participant_;  // DDS transport; outlives the topics
+  std::unique_ptr<Topic<RtEventMsg>> rt_topic_;
+  std::unique_ptr<Topic<SampleMsg>> samples_;
   std::vector<std::unique_ptr<Topic<ControlMsg>>> controls_;
+  std::uint64_t dropped_commands_ = 0;  // counted when the topics close
+  std::vector<RtRunner*> rt_of_;        // per scenario RT node: its runner, null if external
+  std::vector<std::size_t> external_rt_;
+  std::string signal_timeout_;  // set when an external RT node stayed silent too long
   std::size_t engine_pub_ = 0;  // the activation when there is no RT node
   std::vector<std::unique_ptr<NrtRunner>> nrts_;
   std::vector<std::unique_ptr<RtRunner>> rts_;

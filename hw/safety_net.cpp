@@ -35,9 +35,10 @@ void check_no_realtime_threads(const std::set<pid_t>& before) {
 
 // One stable message per kind of refusal (the runner keeps each distinct fallback once).
 void report_sched(const std::vector<SchedOutcome>& outcomes, RunContext& ctx) {
-  std::set<std::string> fifo, nice, pin;
+  std::set<std::string> fifo, nice, pin, idle;
   for (const auto& o : outcomes) {
     if (!o.fifo) fifo.insert(o.fifo_error);
+    if (!o.idle) idle.insert(o.idle_error);
     if (!o.nice_error.empty()) nice.insert(o.nice_error);
     if (!o.pinned) pin.insert(o.pin_error);
   }
@@ -55,6 +56,10 @@ void report_sched(const std::vector<SchedOutcome>& outcomes, RunContext& ctx) {
                      (nice.empty() ? std::string()
                                    : "; raising priorities with nice was refused too (" +
                                          join(nice) + "), so they share the CPU at nice 0"));
+  if (!idle.empty())
+    ctx.fallback("sched_idle", "SCHED_IDLE refused (" + join(idle) +
+                                   "): the nRT work runs under SCHED_OTHER and the idle throttle "
+                                   "holds it only as far as nice values do");
   if (!pin.empty())
     ctx.fallback("affinity",
                  "a thread could not be pinned to its core (" + join(pin) + "): it runs unpinned");

@@ -11,6 +11,7 @@ packages=(
   libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-pytest
   linux-perf stress-ng
+  cyclonedds-dev cyclonedds-tools
   valgrind
   help2man bash-completion
   slurm-wlm munge

@@ -12,7 +12,8 @@ from pathlib import Path
 
 SCHEMA_DIR = Path(__file__).resolve().parent.parent / "scenarios" / "schema"
 DOCS = {name: json.loads((SCHEMA_DIR / name).read_text())
-        for name in ("scenario.schema.json", "platform.schema.json", "workload.schema.json")}
+        for name in ("scenario.schema.json", "platform.schema.json", "workload.schema.json",
+                     "guard.schema.json")}
 
 
 def resolve(node, doc):
@@ -83,7 +84,7 @@ def table(title, schema_name, intro):
 
 def main():
     parts = [
-        "# Scenario, platform and workload files\n",
+        "# Scenario, platform, workload and guard files\n",
         "Generated from `scenarios/schema/*.schema.json` by `tools/schema_doc.py`; do not edit "
         "by hand. Unknown keys are errors; absent keys take the default shown. Add "
         "`\"$schema\": \"../schema/scenario.schema.json\"` to a scenario so that an editor "
@@ -98,6 +99,9 @@ def main():
               DOCS["workload.schema.json"]["description"]),
         table("Platform (`scenarios/platforms/*.json`)", "platform.schema.json",
               DOCS["platform.schema.json"]["description"]),
+        table("Guard configuration (`rosguard guard CONFIG.json`; example: "
+              "`docs/guard/example.json`)", "guard.schema.json",
+              DOCS["guard.schema.json"]["description"]),
     ]
     sys.stdout.write("\n".join(parts))
 

@@ -24,6 +24,7 @@
 #include "hw/metric_plan.h"
 #include "hw/nodes/messages.h"
 #include "hw/pmc_source/pmc_source.h"
+#include "hw/topic/dds_topic.h"
 #include "hw/topic/topic.h"
 #include "hw/workload/workload.h"
 #include "policy/policy.h"
@@ -328,13 +329,31 @@ void Suite::measure_costs() {
     rethrow_if_failed(t);
   };
 
+  std::unique_ptr<dds::Participant> dds_participant;
+  if (opt_.transport == "dds") {
+    dds_participant = std::make_unique<dds::Participant>();
+    notes_.add(
+        "message costs (publish, message_latency, local_message_latency) over Cyclone DDS "
+        "(hw.transport dds), domain " +
+        std::to_string(dds_participant->domain_id()));
+  } else if (opt_.transport != "inproc") {
+    throw RunError("calibration suite: unknown transport '" + opt_.transport + "'");
+  }
+
   // Paced messages published from the nRT core (`publish_one`, at the PMC thread's priority) on a
   // topic whose one subscriber (the controller's priority, threads named `pub_name` and
   // `sub_name`) sleeps on `sub_core`: each message's publish -> subscriber awake, in us.
   const auto timed_topic =
       [&](int sub_core, const std::string& pub_name, const std::string& sub_name,
           const std::function<void(Topic<SampleMsg>&, std::size_t)>& publish_one) {
-        Topic<SampleMsg> topic;
+        std::unique_ptr<Topic<SampleMsg>> owned;
+        if (dds_participant)
+          owned = std::make_unique<DdsTopic<SampleMsg>>(
+              *dds_participant, "/rosguard_calibrate_" + std::to_string(::getpid()),
+              std::vector<DdsSlot>{{"cal", 0}});
+        else
+          owned = std::make_unique<InprocTopic<SampleMsg>>();
+        Topic<SampleMsg>& topic = *owned;
         Waker sub_waker;
         const std::size_t pub = topic.add_publisher();
         const std::size_t sub = topic.subscribe(sub_waker);
@@ -406,7 +425,7 @@ void Suite::measure_costs() {
   // THR entered (CFB > THR > NCT, as in an nRT node).
   if (!stopping()) {
     step("costs: throttle_activation");
-    Topic<ControlMsg> control;
+    InprocTopic<ControlMsg> control;
     Waker cfb_waker, thr_waker;
     const std::size_t pub = control.add_publisher();
     const std::size_t sub = control.subscribe(cfb_waker);
@@ -514,7 +533,7 @@ void Suite::measure_costs() {
     dc.sampling_period_ns = kNsPerMs;
     ControllerDriver driver(dc, std::make_unique<Regulator>(rc, policies.make("interval", params)),
                             &meter);
-    Topic<ControlMsg> control;
+    InprocTopic<ControlMsg> control;
     Waker nrt_waker;  // nobody sleeps on it: the controller drains the ring itself
     const std::size_t pub = control.add_publisher();
     const std::size_t sub = control.subscribe(nrt_waker);
@@ -528,7 +547,7 @@ void Suite::measure_costs() {
     // controller's) sees the whole cost as a gap in its own progress: switch in, the engine
     // step, publishing the commands, switch out. That gap is what the sim charges per callback
     // on the controller's core (it preempts whatever runs there).
-    Topic<SampleMsg> samples;
+    InprocTopic<SampleMsg> samples;
     Waker ctl_waker;
     const std::size_t sample_pub = samples.add_publisher();
     const std::size_t sample_sub = samples.subscribe(ctl_waker);

@@ -52,6 +52,10 @@ struct SuiteOptions {
   std::function<void(int step, int steps, const std::string& what)> progress;
   const std::atomic<bool>* stop = nullptr;  // SIGINT: stop between windows
   const SuiteShape* shape = nullptr;        // tests: instead of shape_for(host, quick)
+  // The topic transport of the message costs (publish, message_latency, local_message_latency):
+  // "inproc" (the futex rings) or "dds" (Cyclone DDS as hw.transport dds uses it, on the default
+  // domain in a namespace of this process).
+  std::string transport = "inproc";
 };
 
 struct SuiteResult {

@@ -67,6 +67,14 @@ SchedOutcome apply_to_current_thread(const ThreadSpec& spec, const SchedOps& ops
       fall_back_to_nice("SCHED_FIFO priority " + std::to_string(spec.priority) + " refused (" +
                         errno_text(err) + ")");
     }
+  } else if (spec.sched == SchedClass::Idle) {
+    sched_param p{};
+    if (const int err = ops.set_scheduler(self, SCHED_IDLE, &p); err != 0) {
+      out.idle = false;
+      out.idle_error = errno_text(err);
+      out.detail += (out.detail.empty() ? "" : "; ") + std::string("thread ") + spec.name +
+                    ": SCHED_IDLE refused (" + out.idle_error + "); it runs under SCHED_OTHER";
+    }
   } else {
     out.fifo = true;  // not requested: nothing to report
     ops.set_nice(current_tid(), prio::nice_for(spec.priority));

@@ -25,7 +25,8 @@
 
 namespace rosguard::hw {
 
-enum class SchedClass { Fifo, Other };
+// Idle: SCHED_IDLE (the work under the idle throttle, hw/throttle/throttle.h); never falls back.
+enum class SchedClass { Fifo, Other, Idle };
 
 // SCHED_FIFO priorities. On an nRT core: CFB > THR > PMC > NCT (the paper's order); the controller
 // is above everything so it may share a core on small machines; an RT node sits between THR and
@@ -59,7 +60,7 @@ struct ThreadSpec {
   std::string name;  // at most 15 characters are kept (pthread_setname_np); empty: unchanged
   int core = -1;     // -1: not pinned
   SchedClass sched = SchedClass::Fifo;
-  int priority = prio::kNct;  // SCHED_FIFO priority (nice_for() under SCHED_OTHER)
+  int priority = prio::kNct;  // SCHED_FIFO priority (nice_for() under SCHED_OTHER; unused: Idle)
 };
 
 struct SchedOps {
@@ -72,8 +73,9 @@ const SchedOps& system_sched_ops();
 struct SchedOutcome {
   bool pinned = true;  // on the requested core (or none requested)
   bool fifo = true;    // under SCHED_FIFO (or not requested)
+  bool idle = true;    // under SCHED_IDLE (or not requested)
   std::string detail;  // why a fallback was taken, naming the thread; empty when none
-  std::string fifo_error, nice_error, pin_error;  // errno texts of what was refused
+  std::string fifo_error, nice_error, pin_error, idle_error;  // errno texts of what was refused
 };
 
 // Applies `spec` to the calling thread. Never throws: failures become fallbacks.

@@ -29,10 +29,22 @@ Controller::Controller(ControllerConfig config, std::unique_ptr<Regulator> regul
   for (std::size_t e = 0; e < controls_.size(); ++e)
     counter_names_.push_back("nrt" + std::to_string(e) + " MB/s");
   last_sample_t_.assign(controls_.size(), 0);
+  finished_ = std::make_unique<std::atomic<int>[]>(cfg_.rt_count);
+  signals_.reserve(1024);
 }
 
 Controller::~Controller() {
   shutdown();
+  delete pending_policy_.exchange(nullptr);
+}
+
+void Controller::post_policy(std::unique_ptr<Policy> policy) {
+  delete pending_policy_.exchange(policy.release(), std::memory_order_acq_rel);
+  waker_.notify();
+}
+
+void Controller::note(const ControllerNote& n) {
+  if (cfg_.notes && !cfg_.notes->push(n)) ++notes_dropped_;
 }
 
 void Controller::start() {
@@ -62,6 +74,13 @@ void Controller::send(const DriverCommand& c) {
     throw RunError("control topic of nRT entity " + std::to_string(c.entity) +
                    " is full: a command was lost");
   trace_.instant(now - origin_, cfg_.entity_cores[c.entity], nullptr, to_string(c.command).data());
+  ControllerNote n;
+  n.kind = ControllerNote::Kind::Command;
+  n.t = now;
+  n.entity = c.entity;
+  n.command = c.command;
+  n.cause = c.cause;
+  note(n);
 }
 
 // Publishes what the driver decided, and reads the counters it asked for (each read is a
@@ -71,6 +90,26 @@ void Controller::handle() {
     for (const DriverCommand& c : out_.commands)
       send(c);
     for (const EngineEvent& ev : out_.events) {
+      if (cfg_.notes) {
+        ControllerNote n;
+        n.t = ev.t;
+        n.entity = ev.entity;
+        n.value = ev.value;
+        switch (ev.kind) {
+          case EngineEvent::Kind::ActivationBegin:
+          case EngineEvent::Kind::ActivationEnd:
+            n.kind = ControllerNote::Kind::Activation;
+            n.active = ev.kind == EngineEvent::Kind::ActivationBegin;
+            break;
+          case EngineEvent::Kind::WindowClosed:
+            n.kind = ControllerNote::Kind::WindowClosed;
+            break;
+          case EngineEvent::Kind::BudgetUsed:
+            n.kind = ControllerNote::Kind::Budget;
+            break;
+        }
+        note(n);
+      }
       if (ev.kind == EngineEvent::Kind::ActivationBegin) {
         if (first_activation_ < 0) first_activation_ = ev.t;
         trace_.instant(ev.t - origin_, cfg_.core, nullptr, "activation");
@@ -96,10 +135,24 @@ void Controller::read_entities(const std::vector<std::size_t>& entities) {
     const TimeNs t0 = cfg_.clock();
     groups_[e]->read(std::span(v.data(), cfg_.group_sizes[e]));
     const TimeNs t1 = now();
-    reads_us_.push_back(ns_to_us(t1 - t0));
+    if (cfg_.keep_measurements) reads_us_.push_back(ns_to_us(t1 - t0));
     const double before = driver_.regulator().entity(e).bytes_active;
     driver_.sample(t1, e, std::span(v.data(), cfg_.metric_events), t1, out_);
-    trace_bandwidth(e, t1, driver_.regulator().entity(e).bytes_active - before);
+    const double bytes = driver_.regulator().entity(e).bytes_active - before;
+    trace_bandwidth(e, t1, bytes);
+    if (cfg_.notes) {
+      ControllerNote n;
+      n.kind = ControllerNote::Kind::Sample;
+      n.t = t1;
+      n.entity = e;
+      n.value = bytes;
+      n.value2 = static_cast<double>(v[0].value);
+      const auto& r = driver_.regulator();
+      const auto& acc = r.accounts()[r.entity(e).account];
+      n.used = acc.used_bytes;
+      n.budget = acc.budget_bytes;
+      note(n);
+    }
   }
 }
 
@@ -113,12 +166,25 @@ void Controller::trace_bandwidth(std::size_t e, TimeNs measured, double bytes) {
 
 bool Controller::serve() {
   bool busy = false;
+  if (Policy* p = pending_policy_.exchange(nullptr, std::memory_order_acq_rel)) {
+    driver_.set_policy(std::unique_ptr<Policy>(p));
+    ControllerNote n;
+    n.kind = ControllerNote::Kind::Policy;
+    n.t = now();
+    note(n);
+    busy = true;
+  }
   RtEventMsg ev;
   while (rt_topic_.take(rt_sub_, ev)) {
     busy = true;
     const TimeNs t = now();
+    if (ev.rt >= cfg_.rt_count)
+      throw RunError("an enable / disable signal names RT node " + std::to_string(ev.rt) + " of " +
+                     std::to_string(cfg_.rt_count));
+    signals_.push_back({ev.rt, ev.started, ev.t, t});
     driver_.rt_signal(t, ev.rt, ev.started, out_);
     handle();
+    if (!ev.started) finished_[ev.rt].fetch_add(1, std::memory_order_acq_rel);
     rt_events_.fetch_add(1, std::memory_order_acq_rel);
     engine_waker_.notify();
   }
@@ -153,7 +219,9 @@ void Controller::main() {
       engine_waker_.notify();
       return;  // silent from now on: no OFF, no keepalive
     }
-    if (serve()) continue;
+    const bool busy = serve();
+    if (cfg_.notes_waker) cfg_.notes_waker->notify();
+    if (busy) continue;
     TimeNs deadline = driver_.next_wakeup().value_or(-1);
     if (cfg_.fail_after_ns >= 0 && first_activation_ >= 0) {
       const TimeNs fail = first_activation_ + cfg_.fail_after_ns;

@@ -28,6 +28,30 @@
 
 namespace rosguard::hw {
 
+// What the controller did, for a host that shows it (rosguard guard publishes and logs these).
+// Pushed on the controller thread into a lock-free ring (ControllerConfig::notes); a full ring
+// drops the note, never blocks the controller.
+struct ControllerNote {
+  enum class Kind : std::uint8_t {
+    Sample,        // entity's counters read: value = bytes accounted, value2 = first metric counter
+                   // (cumulative); used / budget: its account's window so far, in bytes
+    Budget,        // percent of the entity's window budget used after a sample (value)
+    WindowClosed,  // a window closed: value = bytes used in it
+    Command,       // command sent to entity
+    Activation,    // regulation active (active = true) or not
+    Policy,        // a new policy took over (post_policy)
+  };
+  Kind kind = Kind::Sample;
+  TimeNs t = 0;
+  std::size_t entity = 0;
+  double value = 0.0, value2 = 0.0;
+  double used = 0.0, budget = 0.0;
+  Command command = Command::Off;
+  TimeNs cause = 0;  // Command: the read that caused it
+  bool active = false;
+};
+using NoteRing = SpscRing<ControllerNote, 8192>;
+
 struct ControllerConfig {
   int core = 0;
   SchedClass sched = SchedClass::Fifo;
@@ -39,7 +63,21 @@ struct ControllerConfig {
   std::size_t metric_events = 1;
   bool trace = false;
   TimeNs fail_after_ns = -1;
+  std::size_t rt_count = 1;                // RT indices the enable / disable signals may carry
   std::function<TimeNs()> clock = now_ns;  // CLOCK_MONOTONIC; tests inject their own
+  bool keep_measurements = true;  // false: no per-read timing kept (a daemon: bounded memory)
+  NoteRing* notes = nullptr;      // optional: what the controller did, for its host
+  Waker* notes_waker = nullptr;   // notified after each batch of notes
+};
+
+// One enable / disable signal as the controller saw it: sent (the publisher's stamp: its
+// CLOCK_MONOTONIC, or a DDS source timestamp mapped onto it) and received (taken by the
+// controller thread).
+struct SignalRecord {
+  std::size_t rt = 0;
+  bool started = false;
+  TimeNs t_sent = 0;
+  TimeNs t_received = 0;
 };
 
 class Controller {
@@ -56,6 +94,9 @@ class Controller {
   void set_groups(std::vector<CounterGroup*> groups) { groups_ = std::move(groups); }
   void start();
   void shutdown();
+  // Any thread: a new policy for the next windows (Regulator::set_policy), taken over by the
+  // controller thread at its next pass; one pending at a time (a later post replaces it).
+  void post_policy(std::unique_ptr<Policy> policy);
   // One pass: every pending input, then every wake-up due now. Returns whether it did anything.
   // The controller thread loops over it; tests call it directly (thread not started).
   bool serve();
@@ -64,11 +105,17 @@ class Controller {
   int windows_opened() const { return opened_.load(std::memory_order_acquire); }
   // Enable / disable signals processed so far (the engine waits for all it knows were sent).
   int rt_events() const { return rt_events_.load(std::memory_order_acquire); }
+  // Disable signals (ends of jobs) of RT node `rt` processed so far.
+  int rt_finished(std::size_t rt) const {
+    return rt < cfg_.rt_count ? finished_[rt].load(std::memory_order_acquire) : 0;
+  }
   bool failed_on_purpose() const { return faulted_.load(std::memory_order_acquire); }
   // After shutdown() (or from the serve() caller):
   const ControllerDriver& driver() const { return driver_; }
   const std::vector<double>& external_reads_us() const { return reads_us_; }
+  const std::vector<SignalRecord>& signals() const { return signals_; }
   const TraceLog& trace() const { return trace_; }
+  std::uint64_t notes_dropped() const { return notes_dropped_; }
 
  private:
   void main();
@@ -77,6 +124,7 @@ class Controller {
   void read_entities(const std::vector<std::size_t>& entities);
   void trace_bandwidth(std::size_t e, TimeNs measured, double bytes);
   TimeNs now();
+  void note(const ControllerNote& n);
 
   ControllerConfig cfg_;
   ControllerDriver driver_;
@@ -94,6 +142,8 @@ class Controller {
   std::atomic<bool> stop_{false};
   std::atomic<int> opened_{0};
   std::atomic<int> rt_events_{0};
+  std::unique_ptr<std::atomic<int>[]> finished_;
+  std::vector<SignalRecord> signals_;
   std::atomic<bool> faulted_{false};
   TimeNs first_activation_ = -1;
   TimeNs last_t_ = 0;
@@ -102,6 +152,8 @@ class Controller {
   std::vector<std::string> counter_names_;
   std::vector<TimeNs> last_sample_t_;
   TraceLog trace_;
+  std::atomic<Policy*> pending_policy_{nullptr};
+  std::uint64_t notes_dropped_ = 0;
   std::unique_ptr<RtThread> thread_;
   bool shut_ = false;
 };

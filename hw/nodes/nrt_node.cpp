@@ -61,7 +61,19 @@ NrtRunner::NrtRunner(NrtConfig config, const WorkloadInfo& workload, const PmcSo
       pmc_trace_(cfg_.trace) {
   if (cfg_.group_events.size() > kMaxGroupEvents)
     throw RunError("nRT node " + cfg_.name + ": more than 8 events in one group");
-  if (!workload_.is_command()) builtin_ = make_builtin_workload(workload_);
+  if (cfg_.foreign && cfg_.sampling != Sampling::External)
+    throw ContractError("nRT node " + cfg_.name + ": a foreign node is sampled externally");
+  if (!cfg_.foreign && !workload_.is_command()) builtin_ = make_builtin_workload(workload_);
+  sched_ = throttle_sched(cfg_.throttle, cfg_.sched);
+  if (cfg_.throttle == ThrottleKind::Freezer) {
+    if (builtin_)
+      throw RunError("nRT node " + cfg_.name +
+                     ": the freezer throttle needs an external command (a built-in workload is a "
+                     "thread of rosguard)");
+    cgroup_ = std::make_unique<FreezerCgroup>(
+        cfg_.freezer_root, "rosguard-" + std::to_string(::getpid()) + "-" + cfg_.name);
+  }
+  throttler_ = make_throttler(cfg_.throttle, cgroup_.get());
   stop_fd_ = Fd(::eventfd(0, EFD_CLOEXEC));
   if (!stop_fd_.valid()) throw RunError("eventfd: " + errno_text(errno));
   control_sub_ = control_.subscribe(cfb_waker_);
@@ -70,6 +82,7 @@ NrtRunner::NrtRunner(NrtConfig config, const WorkloadInfo& workload, const PmcSo
   pmc_us_.reserve(1 << 16);
   read_us_.reserve(1 << 16);
   overhead_us_.reserve(1 << 16);
+  thr_entries_.reserve(1 << 14);
 }
 
 NrtRunner::~NrtRunner() {
@@ -78,12 +91,19 @@ NrtRunner::~NrtRunner() {
 
 void NrtRunner::start() {
   const auto spec = [&](const char* suffix, int priority) {
-    return ThreadSpec{cfg_.name + suffix, cfg_.core, cfg_.sched, priority};
+    return ThreadSpec{cfg_.name + suffix, cfg_.core, sched_.control, priority};
   };
-  // NCT first: its thread id is the counting target of a built-in workload.
-  nct_ = std::make_unique<RtThread>(
-      spec("-nct", prio::kNct), [this] { nct_main(); }, on_error_);
-  if (builtin_) {
+  // NCT first: its thread id is the counting target of a built-in workload. A built-in workload
+  // runs on it (the work's class); for a command it only waits (the command gets the work's class).
+  ThreadSpec nct_spec = spec("-nct", prio::kNct);
+  if (builtin_) nct_spec.sched = sched_.work;
+  if (!cfg_.foreign)
+    nct_ = std::make_unique<RtThread>(
+        nct_spec, [this] { nct_main(); }, on_error_);
+  if (cfg_.foreign) {
+    if (!group_)
+      throw ContractError("nRT node " + cfg_.name + ": a foreign node needs set_group()");
+  } else if (builtin_) {
     PmcTarget target;
     target.kind = PmcTarget::Kind::Thread;
     target.pid = nct_->tid();
@@ -137,14 +157,16 @@ std::vector<SchedOutcome> NrtRunner::outcomes() const {
 }
 
 void NrtRunner::apply_effects(const NrtEffects& fx, TimeNs now, TimeNs& state_since) {
-  if (fx.activation_delay_ns) activation_us_.push_back(ns_to_us(*fx.activation_delay_ns));
+  if (fx.activation_delay_ns && cfg_.keep_measurements)
+    activation_us_.push_back(ns_to_us(*fx.activation_delay_ns));
   if (fx.transition.changed()) {
     cfb_trace_.span(state_since - origin_, now - origin_, cfg_.core, &track_state_,
                     state_name(fx.transition.from));
     state_since = now;
     state_.store(fx.transition.to, std::memory_order_release);
   }
-  if (fx.throttle) thr_waker_.notify();  // the zero-time timer
+  // The zero-time timer; leaving THR wakes a freezer throttle, which sleeps while it holds.
+  if (fx.throttle || fx.transition.from == NodeState::Thr) thr_waker_.notify();
   if (fx.baseline) {
     sample_now_.store(true, std::memory_order_release);  // a new activation: new baseline
     pmc_waker_.notify();
@@ -187,16 +209,20 @@ void NrtRunner::cfb_main() {
   state_.store(NodeState::Off, std::memory_order_release);
 }
 
-// THR: entered through CFB's wake-up; spins (the idle loop that keeps the core off the memory
-// system) until the state leaves THR. Never spins after stop.
+// THR: entered through CFB's wake-up; holds the core (the idle loop that keeps it off the memory
+// system, or the freezer) until the state leaves THR. Never holds after stop.
 void NrtRunner::thr_main() {
   while (!stop_.load(std::memory_order_acquire)) {
     const auto epoch = thr_waker_.epoch();
     if (state_.load(std::memory_order_acquire) == NodeState::Thr) {
       const TimeNs enter = now_ns();
-      while (state_.load(std::memory_order_relaxed) == NodeState::Thr &&
-             !stop_.load(std::memory_order_relaxed))
-        cpu_relax();
+      thr_entries_.push_back(enter);
+      throttler_->hold(
+          [this] {
+            return state_.load(std::memory_order_relaxed) == NodeState::Thr &&
+                   !stop_.load(std::memory_order_relaxed);
+          },
+          thr_waker_);
       thr_trace_.span(enter - origin_, now_ns() - origin_, cfg_.core, &track_thr_, "THR");
       continue;
     }
@@ -288,9 +314,11 @@ void NrtRunner::nct_command() {
   std::vector<std::string> argv;
   for (const auto& a : argv_json)
     argv.push_back(a.get<std::string>());
-  const ThreadSpec spec{cfg_.name + "-cmd", cfg_.core, cfg_.sched, prio::kNct};
+  const ThreadSpec spec{cfg_.name + "-cmd", cfg_.core, sched_.work, prio::kNct};
   while (!nct_stop_.load(std::memory_order_acquire)) {
     CommandProcess proc(argv, spec);
+    // Before exec: everything it starts is born in the cgroup (a frozen one while throttled).
+    if (cgroup_) cgroup_->add(proc.pid());
     PmcTarget target;
     target.kind = PmcTarget::Kind::Process;
     target.pid = proc.pid();

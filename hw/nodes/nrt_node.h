@@ -27,6 +27,7 @@
 #include "hw/executor/executor.h"
 #include "hw/nodes/messages.h"
 #include "hw/pmc_source/pmc_source.h"
+#include "hw/throttle/throttle.h"
 #include "hw/topic/topic.h"
 #include "hw/workload/workload.h"
 #include "scenario/scenario.h"
@@ -42,6 +43,13 @@ struct NrtConfig {
   TimeNs watchdog_ns = 100 * kNsPerMs;
   NrtMode mode = NrtMode::Loop;
   SchedClass sched = SchedClass::Fifo;
+  // How THR holds the core (hw/throttle/throttle.h); Freezer needs freezer_root (commands only).
+  ThrottleKind throttle = ThrottleKind::Fifo;
+  std::string freezer_root;
+  // No workload of its own: the node regulates whatever else runs on its core (rosguard guard).
+  // No NCT thread; external sampling only; the counter group comes from set_group().
+  bool foreign = false;
+  bool keep_measurements = true;  // false: no activation delays kept (a daemon: bounded memory)
   std::vector<std::string> group_events;  // opened on the workload; the metric's come first
   std::size_t metric_events = 1;          // how many of them the regulator gets
   bool trace = false;
@@ -78,6 +86,10 @@ class NrtRunner {
   NrtRunner(const NrtRunner&) = delete;
   NrtRunner& operator=(const NrtRunner&) = delete;
 
+  // Foreign nodes, before start(): the core's counters.
+  void set_group(std::unique_ptr<CounterGroup> group) { group_ = std::move(group); }
+  // The freezer's cgroup (throttle Freezer), where a foreign node's host puts the core's processes.
+  FreezerCgroup* cgroup() { return cgroup_.get(); }
   void start();
   void begin();
   void end_loop();
@@ -106,6 +118,8 @@ class NrtRunner {
   const std::vector<double>& pmc_callbacks_us() const { return pmc_us_; }
   const std::vector<double>& pmc_reads_us() const { return read_us_; }
   const std::vector<double>& sampling_overheads_us() const { return overhead_us_; }
+  // When the THR callback started spinning, each time (CLOCK_MONOTONIC ns).
+  const std::vector<TimeNs>& thr_entries() const { return thr_entries_; }
   std::vector<const TraceLog*> traces() const { return {&cfb_trace_, &thr_trace_, &pmc_trace_}; }
 
  private:
@@ -127,6 +141,9 @@ class NrtRunner {
   TimeNs origin_;
   std::string track_state_, track_thr_;
 
+  ThrottleSched sched_;
+  std::unique_ptr<FreezerCgroup> cgroup_;  // the command's processes (freezer); outlives threads
+  std::unique_ptr<Throttler> throttler_;
   std::unique_ptr<BuiltinWorkload> builtin_;
   WorkCounters work_;
   std::unique_ptr<CounterGroup> group_;
@@ -151,6 +168,7 @@ class NrtRunner {
   static constexpr int kOverheadPeriods = 10;
   int overhead_periods_ = 0;  // PMC thread only
   std::vector<double> activation_us_, pmc_us_, read_us_, overhead_us_;
+  std::vector<TimeNs> thr_entries_;  // THR thread
   TraceLog cfb_trace_, thr_trace_, pmc_trace_;
 
   std::unique_ptr<RtThread> cfb_, thr_, pmc_, nct_;

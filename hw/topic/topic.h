@@ -1,16 +1,21 @@
-// Publish-subscribe topics for the in-process transport between nodes.
+// Publish-subscribe topics between nodes: the interface (Topic<T>) and the in-process transport
+// (InprocTopic<T>); the DDS transport (DdsTopic<T>, hw/topic/dds_topic.h) implements the same
+// interface over Cyclone DDS with ROS 2 naming.
 //
-// Contract:
+// Contract (every transport):
 // - Wiring first: add_publisher() and subscribe() are called on the engine's thread before any
 //   node thread starts; the set of publishers and subscribers is then fixed.
 // - publish(p, msg) may be called only by publisher p's thread; take(s, msg) only by subscriber
-//   s's thread. Each (publisher, subscriber) pair has its own single-producer single-consumer
-//   ring, so a publisher preempted mid-publish (e.g. by the THR spinner of its own core) never
-//   blocks another publisher's messages, and no lock can cause priority inversion.
+//   s's thread.
 // - Delivery wakes the subscriber through its Waker (futex); a subscriber may share one Waker
-//   between several topics and sleep on all of them at once.
-// - A full ring drops the message and counts it (dropped()); rings are sized so that this does
-//   not happen in a run (the engine fails a point whose control topic dropped anything).
+//   between several topics and sleep on all of them at once. No transport sleep-polls.
+// - A message that cannot be delivered (full ring, failed DDS write) is counted (dropped()) and
+//   publish() returns false (the engine fails a point whose control topic dropped anything).
+//
+// InprocTopic: each (publisher, subscriber) pair has its own single-producer single-consumer
+// ring, so a publisher preempted mid-publish (e.g. by the THR spinner of its own core) never
+// blocks another publisher's messages, and no lock can cause priority inversion. Rings are sized
+// so that a full one does not happen in a run.
 #pragma once
 
 #include <array>
@@ -53,19 +58,32 @@ class SpscRing {
 template <class T>
 class Topic {
  public:
-  std::size_t add_publisher() {
+  virtual ~Topic() = default;
+  // Returns the publisher's slot (0, 1, ... in call order).
+  virtual std::size_t add_publisher() = 0;
+  virtual std::size_t subscribe(Waker& waker) = 0;
+  virtual bool publish(std::size_t publisher, const T& msg) = 0;
+  // Takes one message for `subscriber`; false when none is pending.
+  virtual bool take(std::size_t subscriber, T& msg) = 0;
+  virtual std::uint64_t dropped() const = 0;
+};
+
+template <class T>
+class InprocTopic final : public Topic<T> {
+ public:
+  std::size_t add_publisher() override {
     ++publishers_;
     rebuild();
     return publishers_ - 1;
   }
-  std::size_t subscribe(Waker& waker) {
+  std::size_t subscribe(Waker& waker) override {
     wakers_.push_back(&waker);
     next_.push_back(0);
     rebuild();
     return wakers_.size() - 1;
   }
 
-  bool publish(std::size_t publisher, const T& msg) {
+  bool publish(std::size_t publisher, const T& msg) override {
     bool ok = true;
     for (std::size_t s = 0; s < wakers_.size(); ++s) {
       if (!ring(publisher, s).push(msg)) {
@@ -78,7 +96,7 @@ class Topic {
   }
 
   // Takes one message for `subscriber`, visiting publishers round robin.
-  bool take(std::size_t subscriber, T& msg) {
+  bool take(std::size_t subscriber, T& msg) override {
     for (std::size_t i = 0; i < publishers_; ++i) {
       const std::size_t p = (next_[subscriber] + i) % publishers_;
       if (ring(p, subscriber).pop(msg)) {
@@ -89,7 +107,7 @@ class Topic {
     return false;
   }
 
-  std::uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
+  std::uint64_t dropped() const override { return dropped_.load(std::memory_order_relaxed); }
 
  private:
   SpscRing<T>& ring(std::size_t p, std::size_t s) { return *rings_[p * wakers_.size() + s]; }

@@ -60,6 +60,7 @@ CommandProcess::CommandProcess(const std::vector<std::string>& argv, const Threa
   setup.argv = cargv.data();
   setup.cpus = spec.core >= 0 ? &set : nullptr;
   setup.nice = prio::nice_for(spec.priority);
+  setup.idle = spec.sched == SchedClass::Idle;
   setup.go_fd = go[0];
   setup.report_fd = rep[1];
   setup.rosguard = ::getpid();

@@ -233,8 +233,12 @@ void run_supervisor(const SupervisorSetup& s) {
   // policy. SCHED_OTHER is below every SCHED_FIFO thread of the node, so the THR callback still
   // preempts the whole program. The command inherits all of this.
   const sched_param zero{};
-  ::sched_setscheduler(0, SCHED_OTHER, &zero);
-  ::setpriority(PRIO_PROCESS, 0, s.nice);
+  if (s.idle) {
+    ::sched_setscheduler(0, SCHED_IDLE, &zero);
+  } else {
+    ::sched_setscheduler(0, SCHED_OTHER, &zero);
+    ::setpriority(PRIO_PROCESS, 0, s.nice);
+  }
   if (::prctl(PR_SET_CHILD_SUBREAPER, 1) != 0) {
     report(s.report_fd, SupervisorReport::kSubreaperFailed, errno);
     ::_exit(126);

@@ -57,9 +57,10 @@ ProxyCalibration calibrate_proxy(double target_mbps, std::uint32_t working_set_k
 class CommandProcess {
  public:
   // Forks the supervisor, which forks the command in its own process group, pinned to
-  // spec.core, under SCHED_OTHER with the nice value of spec.priority whatever spec.sched says:
-  // below every SCHED_FIFO callback of the node, so THR preempts it, and nothing it forks can
-  // spin under a real-time policy. The command waits for start(). Throws RunError when the
+  // spec.core, under SCHED_OTHER with the nice value of spec.priority when spec.sched is Fifo or
+  // Other: below every SCHED_FIFO callback of the node, so THR preempts it, and nothing it forks
+  // can spin under a real-time policy; under SCHED_IDLE when spec.sched is Idle (the idle
+  // throttle). The command waits for start(). Throws RunError when the
   // supervisor cannot be set up (fork, prctl).
   CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec);
   ~CommandProcess();

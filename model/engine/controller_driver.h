@@ -131,6 +131,8 @@ class ControllerDriver {
 
   bool active() const { return regulator_->active(); }
   const Regulator& regulator() const { return *regulator_; }
+  // A new policy from the next window on (Regulator::set_policy).
+  void set_policy(std::unique_ptr<Policy> policy) { regulator_->set_policy(std::move(policy)); }
   std::size_t entity_count() const { return regulator_->entity_count(); }
   const ActivationTotals& totals() const { return totals_; }
   const std::vector<WindowUsage>& windows() const { return windows_; }

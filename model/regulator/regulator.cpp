@@ -16,6 +16,14 @@ std::vector<std::size_t> accounts_for_scope(Scope scope, std::size_t entities) {
   return accounts;
 }
 
+void Regulator::set_policy(std::unique_ptr<Policy> policy) {
+  if (!policy) throw ContractError("regulator needs a policy");
+  if (policy->regulates() != policy_->regulates())
+    throw ContractError("set_policy: '" + std::string(policy->name()) + "' and '" +
+                        std::string(policy_->name()) + "' differ in whether they regulate");
+  policy_ = std::move(policy);
+}
+
 Regulator::Regulator(RegulatorConfig config, std::unique_ptr<Policy> policy)
     : metric_(std::move(config.metric)),
       policy_(std::move(policy)),

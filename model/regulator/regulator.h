@@ -77,6 +77,12 @@ class Regulator {
   // Timer expiry the regulator asked for through next_tick().
   void tick(TimeNs t, Commands& out);
 
+  // Replaces the policy between two inputs (a reconfiguration, e.g. `rosguard guard` on SIGHUP):
+  // the window open now keeps its budget and boundary; every window after it opens under the new
+  // policy, so regulation never pauses. Throws ContractError when the new policy does not
+  // regulate exactly when the old one did (that would change what was sent to the entities).
+  void set_policy(std::unique_ptr<Policy> policy);
+
   // When the host must call tick() next: the next window boundary while active, else nullopt.
   std::optional<TimeNs> next_tick() const;
 

@@ -151,7 +151,8 @@ std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
   for (const char* c :
        {"platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps", "sampling_overhead_p50_us",
         "pmc_callback_max_us", "rt_isolation_n", "rt_isolation_cv", "nrt_isolation_n",
-        "nrt_isolation_cv", "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses"})
+        "nrt_isolation_cv", "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses",
+        "signal_latency_p50_us", "signal_to_thr_p50_us"})
     h.emplace_back(c);
   for (std::size_t i = 1; i < max_rt; ++i)
     for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "isolation_n",
@@ -229,6 +230,10 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
   cell["pmc_callback_p50_us"] = us(median(callbacks));
   cell["pmc_callback_max_us"] = us(maximum(callbacks));
   cell["sampling_overhead_p50_us"] = us(median(values_of(o, "sampling_overhead")));
+  // hw: an RT enable / disable signal from its publish to the controller, and an enable signal
+  // from its publish to the first THR entered (samples.csv kinds of the same names).
+  cell["signal_latency_p50_us"] = us(median(values_of(o, "signal_latency")));
+  cell["signal_to_thr_p50_us"] = us(median(values_of(o, "signal_to_thr")));
   for (const auto& p : point.params)
     cell["param:" + p.path] = p.value.is_string() ? p.value.get<std::string>() : p.value.dump();
 

@@ -54,6 +54,35 @@ std::string_view to_string(SchedulerKind k) {
   return k == SchedulerKind::Fifo ? "fifo" : "other";
 }
 
+std::string_view to_string(ThrottleMode m) {
+  switch (m) {
+    case ThrottleMode::Auto:
+      return "auto";
+    case ThrottleMode::Fifo:
+      return "fifo";
+    case ThrottleMode::Idle:
+      return "idle";
+    case ThrottleMode::Freezer:
+      return "freezer";
+  }
+  return "auto";
+}
+
+ThrottleMode parse_throttle_mode(const std::string& s) {
+  if (s == "fifo") return ThrottleMode::Fifo;
+  if (s == "idle") return ThrottleMode::Idle;
+  if (s == "freezer") return ThrottleMode::Freezer;
+  return ThrottleMode::Auto;
+}
+
+std::string_view to_string(TransportKind k) {
+  return k == TransportKind::Dds ? "dds" : "inproc";
+}
+
+std::string_view to_string(RtSignal s) {
+  return s == RtSignal::Topic ? "topic" : "self";
+}
+
 PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file) {
   PlatformInfo p;
   p.name = doc.at("name").get<std::string>();
@@ -118,6 +147,7 @@ void build_rt_nodes(const nlohmann::json& rt, std::vector<WorkloadInfo>& workloa
     n.workload = std::move(workloads[i]);
     n.iterations = rt[i].at("iterations").get<int>();
     if (rt[i].contains("period_us")) n.period_us = rt[i].at("period_us").get<std::int64_t>();
+    n.signal = rt[i].value("signal", "self") == "topic" ? RtSignal::Topic : RtSignal::Self;
     placer.place("/nodes/rt/" + std::to_string(i), n.name, n.core);
     nodes.rt.push_back(std::move(n));
   }
@@ -237,6 +267,7 @@ HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const st
   out.pmc_source = parse_pmc_source(hw.at("pmc_source").get<std::string>());
   out.scheduler =
       hw.at("scheduler").get<std::string>() == "fifo" ? SchedulerKind::Fifo : SchedulerKind::Other;
+  out.throttle = parse_throttle_mode(hw.value("throttle", std::string("auto")));
   out.watchdog_ms = hw.at("watchdog_ms").get<std::int64_t>();
   // Three measurements give a median that one outlier cannot move.
   out.baseline_repetitions = std::max(repetitions, 3);
@@ -246,6 +277,14 @@ HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const st
       throw InputError(file, "/hw/baseline_repetitions",
                        "must be at least repetitions (" + std::to_string(repetitions) +
                            "): every repetition round needs a baseline measured before it");
+  }
+  out.transport =
+      hw.value("transport", "inproc") == "dds" ? TransportKind::Dds : TransportKind::Inproc;
+  if (hw.contains("dds")) {
+    const auto& dds = hw.at("dds");
+    if (dds.contains("domain_id")) out.dds_domain_id = dds.at("domain_id").get<std::uint32_t>();
+    out.dds_namespace = dds.value("namespace", "");
+    out.signal_timeout_ms = dds.value("signal_timeout_ms", std::int64_t{60000});
   }
   return out;
 }
@@ -272,6 +311,39 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
 
   s.sim.quantum_us = doc.at("sim").at("quantum_us").get<double>();
   s.hw = build_hw_settings(doc.at("hw"), s.repetitions, file);
+  // DDS topics carry node names as ROS 2 name tokens.
+  if (s.hw.transport == TransportKind::Dds) {
+    const auto check_token = [&](const std::string& at, const std::string& name) {
+      const bool ok = !name.empty() && !(name[0] >= '0' && name[0] <= '9') &&
+                      std::all_of(name.begin(), name.end(), [](char c) {
+                        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                               (c >= '0' && c <= '9') || c == '_';
+                      });
+      if (!ok)
+        throw InputError(
+            file, at,
+            "'" + name +
+                "' cannot be a ROS 2 topic name token (hw.transport dds: "
+                "/rosguard/<node>/...): letters, digits and '_', not starting with a digit");
+    };
+    for (std::size_t i = 0; i < s.nodes.rt.size(); ++i)
+      check_token("/nodes/rt/" + std::to_string(i) + "/name", s.nodes.rt[i].name);
+    for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
+      check_token("/nodes/nrt/" + std::to_string(i) + "/name", s.nodes.nrt[i].name);
+  }
+  // An RT node signalled from another process exists only on hw, over DDS.
+  for (std::size_t i = 0; i < s.nodes.rt.size(); ++i) {
+    if (s.nodes.rt[i].signal != RtSignal::Topic) continue;
+    const std::string at = "/nodes/rt/" + std::to_string(i) + "/signal";
+    if (s.backend != "hw")
+      throw InputError(file, at,
+                       "signal 'topic' (jobs run by another process) needs the hw backend");
+    if (s.hw.transport != TransportKind::Dds)
+      throw InputError(file, at, "signal 'topic' needs hw.transport 'dds'");
+    if (s.nodes.rt[i].period_us)
+      throw InputError(file, "/nodes/rt/" + std::to_string(i) + "/period_us",
+                       "the process that publishes the signal sets the period, not the scenario");
+  }
   return s;
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/shared_json.h"
 #include "core/types.h"
 #include "metric/metric.h"
 
@@ -28,7 +29,7 @@ struct PlatformInfo {
   double reference_mbps = 0.0;
   std::vector<std::string> pmu_events;
   unsigned counter_bits = 64;
-  nlohmann::json doc;
+  SharedJson doc;  // shared by every point that uses the platform
 
   int cores() const { return clusters * cores_per_cluster; }
   int cluster_of(int core) const { return core / cores_per_cluster; }
@@ -37,7 +38,9 @@ struct PlatformInfo {
 struct WorkloadInfo {
   std::string name;
   std::string origin;  // file it was loaded from, or "inline"
-  nlohmann::json doc;  // the workload document, or {"command": [...]} for an external program
+  // The workload document, or {"command": [...]} for an external program; shared by every
+  // point that uses the workload.
+  SharedJson doc;
 
   bool is_command() const { return doc.contains("command"); }
 };
@@ -45,6 +48,11 @@ struct WorkloadInfo {
 enum class NrtMode : std::uint8_t { Loop, Once };
 enum class PmcSourceKind : std::uint8_t { Auto, Perf, Software, Instrumented };
 enum class SchedulerKind : std::uint8_t { Fifo, Other };
+// How the hw backend holds a throttled nRT core (hw/throttle/throttle.h).
+enum class ThrottleMode : std::uint8_t { Auto, Fifo, Idle, Freezer };
+enum class TransportKind : std::uint8_t { Inproc, Dds };
+// Where an RT node's job start / stop comes from: its own jobs here, or a topic (another process).
+enum class RtSignal : std::uint8_t { Self, Topic };
 
 struct RtNodeSpec {
   std::string name;
@@ -52,6 +60,7 @@ struct RtNodeSpec {
   WorkloadInfo workload;
   int iterations = 1;
   std::optional<std::int64_t> period_us;  // absent: jobs back to back
+  RtSignal signal = RtSignal::Self;
 };
 
 struct NrtNodeSpec {
@@ -86,10 +95,15 @@ struct SimSettings {
 struct HwSettings {
   PmcSourceKind pmc_source = PmcSourceKind::Auto;
   SchedulerKind scheduler = SchedulerKind::Fifo;
+  ThrottleMode throttle = ThrottleMode::Auto;
   std::int64_t watchdog_ms = 100;
   // Measurements of each isolation baseline (hw.baseline_repetitions; absent: the larger of
   // repetitions and 3).
   int baseline_repetitions = 3;
+  TransportKind transport = TransportKind::Inproc;
+  std::optional<std::uint32_t> dds_domain_id;  // absent: ROS_DOMAIN_ID, else 0
+  std::string dds_namespace;                   // "" or "/a[/b]"
+  std::int64_t signal_timeout_ms = 60000;
 };
 
 struct Scenario {
@@ -130,5 +144,9 @@ std::optional<double> min_simulated_seconds(const Scenario& s);
 std::string_view to_string(NrtMode m);
 std::string_view to_string(PmcSourceKind k);
 std::string_view to_string(SchedulerKind k);
+std::string_view to_string(ThrottleMode m);
+ThrottleMode parse_throttle_mode(const std::string& s);  // a schema-validated name
+std::string_view to_string(TransportKind k);
+std::string_view to_string(RtSignal s);
 
 }  // namespace rosguard

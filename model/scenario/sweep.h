@@ -29,6 +29,7 @@ struct SweepPoint {
   std::string id;                  // stable id of the parameters, e.g. "p3fa0c2e19b"
   std::vector<SweepParam> params;  // in sweep key order
   nlohmann::json document;         // the base document with the values substituted, no sweep
+                                   // (the loader drops it once the Scenario is built)
 };
 
 // One segment of a dotted path: an object key, then zero or more array indexes.

@@ -239,6 +239,11 @@ def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: fl
     noise = 1.0 + rng.uniform(-0.01, 0.01)
     rt_sd = None if rt_sd is None else 1.0 + (rt_sd - 1.0) * bias * noise
     nrt_sd = None if nrt_sd is None else 1.0 + (nrt_sd - 1.0) * bias * noise
+    # A point may fix its figures (``fixed``: rt_slowdown / nrt_slowdown / throttle_count),
+    # exactly, in every repetition: for tests of checks on chosen numbers.
+    fixed = s.get("fixed", {})
+    rt_sd = fixed.get("rt_slowdown", rt_sd)
+    nrt_sd = fixed.get("nrt_slowdown", nrt_sd)
     rt_iso = ISOLATION.get(s["rt_workload"])
     nrt_iso = ISOLATION.get(s["nrt_workload"])
     samples = _samples(s, rng)
@@ -248,6 +253,7 @@ def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: fl
     delays = samples.get("activation_delay", [])
     callbacks = samples.get("pmc_callback", [])
     throttles = 0 if nrt_sd is None else int(round((nrt_sd - 1.0) * 40))
+    throttles = fixed.get("throttle_count", throttles)
     cells = {
         "point": pid, "rep": str(rep), "backend": backend,
         "rt_workload": s["rt_workload"] or "", "nrt_workload": s["nrt_workload"] or "",

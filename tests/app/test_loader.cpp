@@ -445,7 +445,7 @@ TEST_CASE("Loader::workloads() lists the shipped workloads with their Table 1 fi
   std::vector<std::string> platform_names;
   for (const auto& p : platforms)
     platform_names.push_back(p.name);
-  CHECK(platform_names == std::vector<std::string>{"orin-agx", "vm-2core"});
+  CHECK(platform_names == std::vector<std::string>{"orin-agx", "vm-2core", "vm-2core-dds"});
 }
 
 TEST_CASE("loader: a controller sharing a core with a node is a warning, said once", "[loader]") {

@@ -80,7 +80,7 @@ TEST_CASE("schema: unknown keys list what is allowed and suggest a near name", "
           std::pair<std::string, std::string>{
               "/nodes/rt/0/iteration",
               "unknown key 'iteration' (did you mean 'iterations'?); allowed here: core, "
-              "iterations, name, period_us, workload"});
+              "iterations, name, period_us, signal, workload"});
   }
 }
 
@@ -196,7 +196,13 @@ TEST_CASE("schema: apply_defaults fills nested objects and array items", "[schem
     CHECK(doc["nodes"]["rt"][0]["iterations"] == 1);
     CHECK_FALSE(doc["nodes"]["rt"][0].contains("period_us"));
     CHECK(doc["sim"] == json({{"quantum_us", 10}}));
-    CHECK(doc["hw"] == json({{"pmc_source", "auto"}, {"scheduler", "fifo"}, {"watchdog_ms", 100}}));
+    CHECK(doc["hw"] == json({{"pmc_source", "auto"},
+                             {"scheduler", "fifo"},
+                             {"throttle", "auto"},
+                             {"watchdog_ms", 100},
+                             {"transport", "inproc"},
+                             {"dds", {{"namespace", ""}, {"signal_timeout_ms", 60000}}}}));
+    CHECK(doc["nodes"]["rt"][0]["signal"] == "self");
     CHECK(doc["sweep"] == json::object());
     CHECK(doc["platform"] == "orin-agx");
     CHECK(doc["seed"] == 1);

@@ -3,6 +3,7 @@
 // floor for self-sampling (a bare periodic thread, no node code).
 // Targets on the 2-vCPU VM (issue 4): 4-event software group read median <= 2 us.
 #include <benchmark/benchmark.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <optional>
@@ -12,6 +13,7 @@
 #include "hw/common/sys.h"
 #include "hw/executor/executor.h"
 #include "hw/pmc_source/pmc_source.h"
+#include "hw/topic/dds_topic.h"
 #include "hw/topic/topic.h"
 #include "hw/workload/work_counters.h"
 
@@ -98,19 +100,31 @@ auto spin_until(const std::atomic<bool>& stop) {
 // Manual time: one round trip, so the one-way wake-up is about half of it. Arg busy 1: the
 // subscriber's core runs a spinner at the NCT priority meanwhile, as the nRT core does when the
 // controller publishes THR to it (external sampling): the wake-up must then interrupt a running
-// core, which on a VM can cost far more than waking an idle one.
+// core, which on a VM can cost far more than waking an idle one. Arg dds 1: the topics are the
+// DDS transport's (Cyclone DDS, ROS 2 names, one participant: local delivery) instead of the
+// in-process rings; the messages are control commands either way.
 void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
   const auto cpus = usable_cpus();
   if (cpus.size() < 2) {
     state.SkipWithError("needs two CPUs");
     return;
   }
-  Topic<TimeNs> ping, pong;
+  std::unique_ptr<dds::Participant> participant;
+  std::unique_ptr<Topic<ControlMsg>> ping, pong;
+  if (state.range(1) != 0) {
+    participant = std::make_unique<dds::Participant>();
+    const std::string ns = "/rosguard_bench_" + std::to_string(::getpid());
+    ping = std::make_unique<DdsTopic<ControlMsg>>(*participant, ns, std::vector<DdsSlot>{{"ping"}});
+    pong = std::make_unique<DdsTopic<ControlMsg>>(*participant, ns, std::vector<DdsSlot>{{"pong"}});
+  } else {
+    ping = std::make_unique<InprocTopic<ControlMsg>>();
+    pong = std::make_unique<InprocTopic<ControlMsg>>();
+  }
   Waker ping_waker, pong_waker;
-  const auto ping_pub = ping.add_publisher();
-  const auto ping_sub = ping.subscribe(ping_waker);
-  const auto pong_pub = pong.add_publisher();
-  const auto pong_sub = pong.subscribe(pong_waker);
+  const auto ping_pub = ping->add_publisher();
+  const auto ping_sub = ping->subscribe(ping_waker);
+  const auto pong_pub = pong->add_publisher();
+  const auto pong_sub = pong->subscribe(pong_waker);
   std::atomic<bool> stop{false};
   std::optional<RtThread> spinner;
   if (state.range(0) != 0)
@@ -118,10 +132,10 @@ void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
   RtThread echo(ThreadSpec{"echo", cpus[1], SchedClass::Fifo, prio::kCfb}, [&] {
     while (!stop.load()) {
       const auto e = ping_waker.epoch();
-      TimeNs t;
+      ControlMsg m;
       bool got = false;
-      while (ping.take(ping_sub, t)) {
-        pong.publish(pong_pub, t);
+      while (ping->take(ping_sub, m)) {
+        pong->publish(pong_pub, m);
         got = true;
       }
       if (!got) ping_waker.wait(e, now_ns() + 100 * kNsPerMs);
@@ -131,9 +145,9 @@ void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
   for (auto _ : state) {
     const TimeNs t0 = now_ns();
     const auto e = pong_waker.epoch();
-    ping.publish(ping_pub, t0);
-    TimeNs back;
-    while (!pong.take(pong_sub, back))
+    ping->publish(ping_pub, {ControlMsg::Kind::Command, Command::Thr, t0});
+    ControlMsg back;
+    while (!pong->take(pong_sub, back))
       pong_waker.wait(e, now_ns() + 100 * kNsPerMs);
     state.SetIterationTime(static_cast<double>(now_ns() - t0) / 1e9);
   }
@@ -141,9 +155,11 @@ void BM_TopicRoundTrip_TwoCores(benchmark::State& state) {
   ping_waker.notify();
 }
 BENCHMARK(BM_TopicRoundTrip_TwoCores)
-    ->ArgName("busy")
-    ->Arg(0)
-    ->Arg(1)
+    ->ArgNames({"busy", "dds"})
+    ->Args({0, 0})
+    ->Args({1, 0})
+    ->Args({0, 1})
+    ->Args({1, 1})
     ->UseManualTime()
     ->Iterations(2000);
 

@@ -212,14 +212,14 @@ struct FakeMeter : EntityMeter {
 
 json run_hw(const Script& script) {
   TimeNs clock = 0;
-  hw::Topic<hw::RtEventMsg> rt_topic;
-  hw::Topic<hw::SampleMsg> samples;
+  hw::InprocTopic<hw::RtEventMsg> rt_topic;
+  hw::InprocTopic<hw::SampleMsg> samples;
   std::vector<std::unique_ptr<hw::Topic<hw::ControlMsg>>> controls;
   std::vector<hw::Topic<hw::ControlMsg>*> control_ptrs;
   hw::Waker listener, engine;
   std::vector<std::size_t> subs;
   for (std::size_t e = 0; e < script.entities; ++e) {
-    controls.push_back(std::make_unique<hw::Topic<hw::ControlMsg>>());
+    controls.push_back(std::make_unique<hw::InprocTopic<hw::ControlMsg>>());
     control_ptrs.push_back(controls.back().get());
     subs.push_back(controls.back()->subscribe(listener));
   }

@@ -55,9 +55,16 @@ struct PointRun {
   std::vector<PointOutcome> reps;
 };
 
-LoadedScenario load(const std::string& file) {
+// Every point on `transport`; DDS in a namespace of this process alone (ctest -j runs other
+// tests, and other users of DDS domain 0 may be on the host).
+LoadedScenario load(const std::string& file, TransportKind transport = TransportKind::Inproc) {
   Loader loader(Home{ROSGUARD_TEST_SOURCE_DIR});
-  return loader.load(kScenarios + file);
+  LoadedScenario l = loader.load(kScenarios + file);
+  for (auto& p : l.points) {
+    p.scenario.hw.transport = transport;
+    p.scenario.hw.dds_namespace = "/rosguard_test_" + std::to_string(::getpid());
+  }
+  return l;
 }
 
 void isolate(Backend& b, const Scenario& s, Baselines& baselines, RunContext& ctx) {
@@ -104,8 +111,8 @@ struct Protection {
 };
 
 // One attempt: isolation + both policies alternating; checks the bound.
-Protection protection_attempt(int attempt) {
-  const auto loaded = load("rt-vs-nrt-bandwidth-read.json");
+Protection protection_attempt(int attempt, TransportKind transport) {
+  const auto loaded = load("rt-vs-nrt-bandwidth-read.json", transport);
   auto backend = make_hw_backend(test_policies());
   TestContext ctx;
   Baselines baselines;
@@ -116,6 +123,7 @@ Protection protection_attempt(int attempt) {
   REQUIRE(none.scenario.regulation.policy == "none");
   REQUIRE(interval.scenario.regulation.policy == "interval");
   CHECK(realtime_threads().empty());
+  CHECK(ctx.facts["transport"] == to_string(transport));
 
   const Scenario& s = interval.scenario;
   const auto& rt_iso = baselines.at(s, s.nodes.rt[0].workload, s.nodes.rt[0].core);
@@ -158,8 +166,7 @@ Protection protection_attempt(int attempt) {
   return {std::ranges::min(slow_none) - 1.0, median(paired)};
 }
 
-TEST_CASE("interval regulation at a low threshold protects the RT node, within the bound",
-          "[hw][integration][timing]") {
+void check_protection(TransportKind transport) {
   // The VM shares its host, and how much two vCPUs contend depends on where the host places
   // them (same or different CCD / memory link): the co-runner slows the RT node by 5 % at some
   // times and by 20-45 % at others. Up to three attempts (each alternates the policies over 5
@@ -167,7 +174,7 @@ TEST_CASE("interval regulation at a low threshold protects the RT node, within t
   // interference to remove; the bound must hold in every attempt.
   std::optional<Protection> best;  // of the attempts that had interference to remove
   for (int attempt = 1; attempt <= 3; ++attempt) {
-    const Protection p = protection_attempt(attempt);
+    const Protection p = protection_attempt(attempt, transport);
     if (p.interference < 0.10) continue;  // nothing to protect from right now
     if (!best || p.gain > best->gain) best = p;
     if (p.gain > 0.05) break;
@@ -184,13 +191,22 @@ TEST_CASE("interval regulation at a low threshold protects the RT node, within t
         0.05);  // measurably lower RT slowdown with regulation, repetition by repetition
 }
 
-TEST_CASE("an external command (stress-ng --stream) is regulated as an nRT workload",
-          "[hw][integration][command]") {
+TEST_CASE("interval regulation at a low threshold protects the RT node, within the bound",
+          "[hw][integration][timing]") {
+  check_protection(TransportKind::Inproc);
+}
+
+TEST_CASE("dds transport: interval regulation protects the RT node, within the bound",
+          "[hw][integration][timing][dds]") {
+  check_protection(TransportKind::Dds);
+}
+
+void check_command_regulated(TransportKind transport) {
   if (::access("/usr/bin/stress-ng", X_OK) != 0) {
     WARN("SKIPPED: stress-ng is not installed (Debian package stress-ng)");
     return;
   }
-  const auto loaded = load("stress-ng-nrt.json");
+  const auto loaded = load("stress-ng-nrt.json", transport);
   auto backend = make_hw_backend(test_policies());
   TestContext ctx;
   Baselines baselines;
@@ -220,9 +236,18 @@ TEST_CASE("an external command (stress-ng --stream) is regulated as an nRT workl
   CHECK(std::system("pgrep -x stress-ng > /dev/null") != 0);
 }
 
-TEST_CASE("watchdog: the controller goes silent mid-run, the nRT node returns to nominal",
-          "[hw][integration][safety]") {
-  const auto loaded = load("watchdog.json");
+TEST_CASE("an external command (stress-ng --stream) is regulated as an nRT workload",
+          "[hw][integration][command]") {
+  check_command_regulated(TransportKind::Inproc);
+}
+
+TEST_CASE("dds transport: an external command (stress-ng --stream) is regulated",
+          "[hw][integration][command][dds]") {
+  check_command_regulated(TransportKind::Dds);
+}
+
+void check_watchdog(TransportKind transport) {
+  const auto loaded = load("watchdog.json", transport);
   HwOptions opt;
   opt.controller_fail_after_ns = 30 * kNsPerMs;  // monolithic 1 %: throttled by then, for good
   auto backend = make_hw_backend(test_policies(), opt);
@@ -240,9 +265,18 @@ TEST_CASE("watchdog: the controller goes silent mid-run, the nRT node returns to
   CHECK(now_ns() - t0 < 20 * kNsPerS);
 }
 
-TEST_CASE("a stop request mid-point returns nodes to nominal and throws Interrupted",
+TEST_CASE("watchdog: the controller goes silent mid-run, the nRT node returns to nominal",
           "[hw][integration][safety]") {
-  const auto loaded = load("long-run.json");
+  check_watchdog(TransportKind::Inproc);
+}
+
+TEST_CASE("dds transport: watchdog returns the nRT node to nominal when the controller is silent",
+          "[hw][integration][safety][dds]") {
+  check_watchdog(TransportKind::Dds);
+}
+
+void check_stop(TransportKind transport) {
+  const auto loaded = load("long-run.json", transport);
   auto backend = make_hw_backend(test_policies());
   TestContext ctx;
   Baselines baselines;
@@ -253,6 +287,16 @@ TEST_CASE("a stop request mid-point returns nodes to nominal and throws Interrup
   CHECK_THROWS_AS(backend->run_point(s, baselines, 0, 0, ctx), Interrupted);
   CHECK(now_ns() - t0 < 2 * kNsPerS);
   CHECK(realtime_threads().empty());
+}
+
+TEST_CASE("a stop request mid-point returns nodes to nominal and throws Interrupted",
+          "[hw][integration][safety]") {
+  check_stop(TransportKind::Inproc);
+}
+
+TEST_CASE("dds transport: a stop request mid-point returns nodes to nominal",
+          "[hw][integration][safety][dds]") {
+  check_stop(TransportKind::Dds);
 }
 
 TEST_CASE("a failing nRT command fails the point cleanly", "[hw][integration][safety]") {

@@ -14,8 +14,8 @@ using namespace rosguard::hw;
 namespace {
 
 struct Rig {
-  Topic<ControlMsg> control;
-  Topic<SampleMsg> samples;
+  InprocTopic<ControlMsg> control;
+  InprocTopic<SampleMsg> samples;
   Waker engine, sample_waker;
   std::size_t pub = 0, sample_sub = 0;
   std::unique_ptr<PmcSource> source = make_instrumented_source();

@@ -122,8 +122,12 @@ TEST_CASE("as an unprivileged user the run falls back from SCHED_FIFO, and says 
   REQUIRE(WIFEXITED(status));
   CHECK(WEXITSTATUS(status) == 0);
   CHECK_THAT(text, Catch::Contains("warning: fallback (sched_fifo): SCHED_FIFO refused (EPERM"));
+  // The throttle does not fall back to nice values: auto measured and took the idle mechanism.
+  CHECK_THAT(text, Catch::Contains("warning: fallback (throttle): SCHED_FIFO refused (EPERM"));
   const std::string manifest = slurp(dir / "out" / "manifest.json");
   CHECK_THAT(manifest, Catch::Contains("\"what\": \"sched_fifo\""));
+  CHECK_THAT(manifest, Catch::Contains("\"throttle\": \"idle\"") &&
+                           Catch::Contains("\"throttle_hold\": \"nRT progress while throttled"));
   CHECK(lines_of(slurp(dir / "out" / "points.csv")).size() == 2);
   fs::remove_all(dir);
 }

@@ -29,7 +29,7 @@ TEST_CASE("an SPSC ring keeps order and reports full", "[hw][topic]") {
 }
 
 TEST_CASE("a topic delivers every publisher's messages to every subscriber", "[hw][topic]") {
-  Topic<int> t;
+  InprocTopic<int> t;
   Waker w1, w2;
   const auto p0 = t.add_publisher();
   const auto p1 = t.add_publisher();
@@ -71,7 +71,7 @@ TEST_CASE("wake-up latency from the other core into a SCHED_FIFO subscriber",
     WARN("SKIPPED: needs two CPUs");
     return;
   }
-  Topic<TimeNs> topic;
+  InprocTopic<TimeNs> topic;
   Waker waker;
   const auto pub = topic.add_publisher();
   const auto sub = topic.subscribe(waker);

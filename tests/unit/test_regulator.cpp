@@ -604,3 +604,26 @@ TEST_CASE("regulator: a call rejected for its arguments does not move the clock"
   CHECK_NOTHROW(rig.reg.tick(ms(1), rig.out));
   CHECK(rig.out == Commands{{0, 0, On}});
 }
+
+// --- reconfiguration (rosguard guard's SIGHUP) ----------------------------------------------
+
+TEST_CASE("set_policy: the open window keeps its budget, the next one opens under the new policy",
+          "[regulator][interval][reload]") {
+  Rig rig(make_interval_policy(params(ms(5))), 1);  // 20 %: 1 048 576 B per 5 ms
+  rig.reg.rt_started(0, 0, rig.out);
+  rig.sample(0, 0, 0);
+  rig.sample(ms(1), 0, 8192);                                        // half the budget
+  rig.reg.set_policy(make_interval_policy(params(ms(5), 0, 10.0)));  // 10 %: 524 288 B
+  CHECK(rig.reg.accounts()[0].budget_bytes == 1048576.0);
+  rig.sample(ms(2), 0, 8192);  // exactly the old budget: not over it
+  CHECK(rig.out == Commands{{0, 0, On}});
+  rig.reg.tick(ms(5), rig.out);  // the next window: the new budget, still active
+  CHECK(rig.reg.active());
+  CHECK(rig.reg.accounts()[0].budget_bytes == 524288.0);
+  CHECK(rig.reg.next_tick() == ms(10));
+  rig.sample(ms(5), 0, 0);     // the window's first reading (usage is charged by time)
+  rig.sample(ms(6), 0, 8193);  // over the new budget, under the old one
+  CHECK(rig.out == Commands{{0, 0, On}, {ms(6), 0, Thr}});
+  // A policy that does not regulate cannot replace one that does.
+  CHECK_THROWS_AS(rig.reg.set_policy(make_none_policy(params())), ContractError);
+}

@@ -60,6 +60,7 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
   hw::SuiteOptions suite;
   suite.host = hw::host_facts(probe);
   suite.quick = opt.quick;
+  suite.transport = opt.transport;
   std::atomic<bool> stop{false};
   suite.stop = &stop;
   // The suite calls progress between its timed windows, from this thread: the place to see a

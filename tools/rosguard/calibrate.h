@@ -18,6 +18,7 @@ struct CalibrateOptions {
   bool quiet = false;    // no progress
   std::string name = "host";  // the fitted platform's name
   bool strict = false;        // refuse a fit that leaves a bandwidth unidentified (else: held)
+  std::string transport = "inproc";  // message costs over inproc rings or DDS (hw.transport)
 };
 
 // Exit code 0 on success; throws InputError (bad options or --from file) or RunError (the suite

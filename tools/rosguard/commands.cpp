@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <iomanip>
@@ -15,7 +16,9 @@
 #include "results/columns.h"
 
 #ifdef ROSGUARD_WITH_HW
+#include "hw/common/sys.h"
 #include "hw/pmc_source/pmc_source.h"
+#include "hw/throttle/throttle.h"
 #endif
 
 namespace rosguard {
@@ -164,10 +167,43 @@ int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
 #else
     std::cout << "pmc sources: (the hw backend is not built into this rosguard)\n";
 #endif
+  } else if (what == "throttles") {
+    // How a throttled nRT core can be held here, each measured (only when asked for: ~0.2 s each).
+#ifdef ROSGUARD_WITH_HW
+    const int core = hw::usable_cpus().back();
+    std::cout << "throttles (hw.throttle; measured on CPU " << core
+              << ": a worker's progress while throttled / nominal, 6 windows of 20 ms):\n";
+    const auto fifo_err = hw::fifo_refused();
+    std::string no_freezer;
+    const bool freezer = hw::freezer_root(&no_freezer).has_value();
+    for (const auto kind :
+         {hw::ThrottleKind::Fifo, hw::ThrottleKind::Idle, hw::ThrottleKind::Freezer}) {
+      const std::string name(hw::to_string(kind));
+      if (kind == hw::ThrottleKind::Freezer && !freezer) {
+        print(name, "unavailable here: " + no_freezer);
+        continue;
+      }
+      const auto m = hw::measure_hold(kind, core);
+      std::ostringstream line;
+      if (std::isnan(m.hold_fraction))
+        line << m.detail;
+      else
+        line << std::fixed << std::setprecision(3) << "hold " << 100.0 * m.hold_fraction
+             << " % of nominal progress, activation " << std::setprecision(0) << m.activation_us
+             << " us (worker CPU share unthrottled " << std::setprecision(2) << m.nominal_cpu_share
+             << ")";
+      if (kind == hw::ThrottleKind::Fifo && fifo_err)
+        line << "; SCHED_FIFO refused (" << *fifo_err << "): THR ran at a nice value";
+      print(name, line.str());
+    }
+#else
+    std::cout << "throttles: (the hw backend is not built into this rosguard)\n";
+#endif
   } else {
     throw InputError("", "",
                      "cannot list '" + what +
-                         "': choose workloads, platforms, policies, backends or pmc-sources");
+                         "': choose workloads, platforms, policies, backends, pmc-sources or "
+                         "throttles");
   }
   return 0;
 }

@@ -478,8 +478,9 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
   if (ref.is_object()) {
     // Inline: validated by the scenario schema already; defaults from the workload schema.
     WorkloadInfo w;
-    w.doc = ref;
-    if (!w.is_command()) schemas_.apply_defaults(w.doc, SchemaKind::Workload);
+    json doc = ref;
+    if (!doc.contains("command")) schemas_.apply_defaults(doc, SchemaKind::Workload);
+    w.doc = std::move(doc);
     w.name = ref.value("name", w.is_command() ? ref["command"][0].get<std::string>() : "inline");
     w.origin = "inline";
     return w;
@@ -579,7 +580,9 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
     }
     try {
       Scenario s = build_point(p.document, file);
-      p.document = s.document;
+      // The point's document lives on in the Scenario (with its defaults); one copy is enough
+      // (a sweep of 10,000 points is held in memory, and every sim task forks this process).
+      p.document = nullptr;
       out.points.push_back({std::move(p), std::move(s)});
     } catch (const InputError& e) {
       if (e.file() != file) throw;

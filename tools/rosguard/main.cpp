@@ -12,6 +12,7 @@
 #include "calibrate.h"
 #include "commands.h"
 #include "core/error.h"
+#include "guard_cmd.h"
 #include "host_model.h"
 #include "loader.h"
 #include "profile.h"
@@ -180,14 +181,13 @@ int main(int argc, char** argv) {
 
   std::string list_what;
   auto* list = app.add_subcommand("list",
-                                  "List workloads, platforms, policies, backends, pmc-sources or "
-                                  "the result columns.");
-  list->add_option(
-          "kind", list_what,
-          "workloads | platforms | policies | backends | pmc-sources | columns (default: all "
-          "but columns)")
-      ->check(CLI::IsMember(
-          {"workloads", "platforms", "policies", "backends", "pmc-sources", "columns"}));
+                                  "List workloads, platforms, policies, backends, pmc-sources, "
+                                  "throttles or the result columns.");
+  list->add_option("kind", list_what,
+                   "workloads | platforms | policies | backends | pmc-sources (default: all of "
+                   "these) | throttles (measures each here) | columns")
+      ->check(CLI::IsMember({"workloads", "platforms", "policies", "backends", "pmc-sources",
+                             "throttles", "columns"}));
 
   CalibrateOptions cal;
   auto* calibrate =
@@ -206,6 +206,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   calibrate->add_option("--name", cal.name, "Name of the fitted platform (default: host)");
   calibrate->add_flag("--quiet", cal.quiet, "No progress");
+  calibrate
+      ->add_option("--transport", cal.transport,
+                   "Topic transport whose message costs are measured: inproc (default) or dds "
+                   "(Cyclone DDS with ROS 2 names, as hw.transport dds)")
+      ->check(CLI::IsMember({"inproc", "dds"}));
   calibrate->add_flag("--strict", cal.strict,
                       "Refuse the fit when the co-runs leave a memory bandwidth unidentified "
                       "(default: hold it at the most contention the data allow, with a note)");
@@ -268,6 +273,17 @@ int main(int argc, char** argv) {
       "base_ipc is written as a placeholder: fit "
       "it against measured IPC. Exit 1 when the program fails, with its status.");
 
+  GuardArgs guard_args;
+  auto* guard_cmd = app.add_subcommand(
+      "guard",
+      "Regulate the processes pinned to the configured nRT cores of this machine while RT nodes "
+      "are active, until SIGINT / SIGTERM (every core back to nominal, exit 0); SIGHUP reloads "
+      "the configuration.");
+  guard_cmd->add_option("config", guard_args.config, "Guard configuration (guard.schema.json)")
+      ->required();
+  guard_cmd->add_flag("--check", guard_args.check,
+                      "Validate the configuration, print it with its defaults; nothing runs");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -289,6 +305,7 @@ int main(int argc, char** argv) {
           loader, backends, check_file,
           check_backend.empty() ? std::nullopt : std::optional<std::string>(check_backend),
           check_points);
+    if (*guard_cmd) return guard_command(guard_args, SchemaSet(loader.home().schemas()), policies);
     if (*profile_cmd) return profile_command(prof, SchemaSet(loader.home().schemas()));
     if (*calibrate) return calibrate_host(cal, loader);
     if (*list) return list_catalogue(loader, policies, backends, list_what);

@@ -25,6 +25,8 @@ const char* file_of(SchemaKind kind) {
       return "platform.schema.json";
     case SchemaKind::Workload:
       return "workload.schema.json";
+    case SchemaKind::Guard:
+      return "guard.schema.json";
   }
   return "";
 }
@@ -350,7 +352,8 @@ struct SchemaSet::Impl {
 };
 
 SchemaSet::SchemaSet(const std::filesystem::path& dir) : impl_(std::make_unique<Impl>()) {
-  for (SchemaKind kind : {SchemaKind::Scenario, SchemaKind::Platform, SchemaKind::Workload}) {
+  for (SchemaKind kind :
+       {SchemaKind::Scenario, SchemaKind::Platform, SchemaKind::Workload, SchemaKind::Guard}) {
     const auto path = dir / file_of(kind);
     std::ifstream in(path);
     if (!in) throw RunError("cannot read schema " + path.string());
@@ -361,7 +364,8 @@ SchemaSet::SchemaSet(const std::filesystem::path& dir) : impl_(std::make_unique<
     }
   }
   using Adapter = valijson::adapters::NlohmannJsonAdapter;
-  for (SchemaKind kind : {SchemaKind::Scenario, SchemaKind::Platform, SchemaKind::Workload}) {
+  for (SchemaKind kind :
+       {SchemaKind::Scenario, SchemaKind::Platform, SchemaKind::Workload, SchemaKind::Guard}) {
     auto schema = std::make_unique<valijson::Schema>();
     valijson::SchemaParser parser;
     Adapter adapter(impl_->docs[file_of(kind)]);

@@ -15,11 +15,11 @@
 
 namespace rosguard {
 
-enum class SchemaKind { Scenario, Platform, Workload };
+enum class SchemaKind { Scenario, Platform, Workload, Guard };
 
 class SchemaSet {
  public:
-  // Loads scenario/platform/workload.schema.json from `dir`. Throws RunError when missing.
+  // Loads scenario/platform/workload/guard.schema.json from `dir`. Throws RunError when missing.
   explicit SchemaSet(const std::filesystem::path& dir);
   ~SchemaSet();
   SchemaSet(const SchemaSet&) = delete;

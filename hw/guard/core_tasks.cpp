@@ -1,0 +1,252 @@
+#include "hw/guard/core_tasks.h"
+
+#include <fcntl.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "hw/common/clock.h"
+#include "hw/common/sys.h"
+
+namespace rosguard::hw {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr unsigned long kPfKthread = 0x00200000;  // task flags in /proc/<tid>/stat (field 9)
+
+bool all_digits(const std::string& s) {
+  return !s.empty() && s.find_first_not_of("0123456789") == std::string::npos;
+}
+
+// comm and flags of a thread from /proc/<pid>/task/<tid>/stat; false when it is gone.
+bool read_stat(const std::string& path, std::string& comm, unsigned long& flags) {
+  std::ifstream in(path);
+  std::string text;
+  if (!std::getline(in, text)) return false;
+  const auto open = text.find('('), close = text.rfind(')');
+  if (open == std::string::npos || close == std::string::npos) return false;
+  comm = text.substr(open + 1, close - open - 1);
+  std::istringstream rest(text.substr(close + 2));
+  std::string field;
+  // state ppid pgrp session tty_nr tpgid flags
+  for (int i = 0; i < 7 && rest >> field; ++i)
+    if (i == 6) flags = std::stoul(field);
+  return true;
+}
+
+std::string cgroup_of(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/cgroup");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("0::", 0) == 0) return line.substr(3);
+  return {};
+}
+
+std::string cgroup2_mount_point() {
+  std::ifstream in("/proc/self/mountinfo");
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto dash = line.find(" - ");
+    if (dash == std::string::npos || line.compare(dash + 3, 8, "cgroup2 ") != 0) continue;
+    std::istringstream head(line.substr(0, dash));
+    std::string id, parent, devno, root, mount;
+    head >> id >> parent >> devno >> root >> mount;
+    return mount;
+  }
+  return {};
+}
+
+bool write_text(const std::string& path, const std::string& text) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool ok = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
+  ::close(fd);
+  return ok;
+}
+
+// CPU time of a thread in ns (first field of /proc/<tid>/schedstat), or -1 when it is gone.
+long long thread_cpu_ns_of(pid_t tid) {
+  char path[64];
+  std::snprintf(path, sizeof path, "/proc/%d/schedstat", static_cast<int>(tid));
+  const int fd = ::open(path, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return -1;
+  char buf[96];
+  const ssize_t n = ::read(fd, buf, sizeof buf - 1);
+  ::close(fd);
+  if (n <= 0) return -1;
+  buf[n] = '\0';
+  return std::strtoll(buf, nullptr, 10);
+}
+
+}  // namespace
+
+void CpuTimeGroup::publish(std::vector<pid_t> tids) {
+  std::lock_guard lock(mutex_);
+  published_ = std::move(tids);
+}
+
+void CpuTimeGroup::read(std::span<CounterValue> out) {
+  if (out.empty()) return;
+  const TimeNs now = now_ns();
+  if (first_ < 0) first_ = now;
+  if (std::unique_lock lock(mutex_, std::try_to_lock); lock.owns_lock()) tids_ = published_;
+  std::uint64_t total = ended_ns_;
+  std::set<pid_t> current(tids_.begin(), tids_.end());
+  // Threads that left the list (ended or no longer pinned) keep what they ran while pinned.
+  for (auto it = last_.begin(); it != last_.end();) {
+    if (!current.count(it->first)) {
+      ended_ns_ += it->second;
+      total += it->second;
+      base_.erase(it->first);
+      it = last_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  for (pid_t tid : tids_) {
+    const long long ns = thread_cpu_ns_of(tid);
+    auto it = last_.find(tid);
+    if (ns < 0) continue;  // gone: dropped at the next list
+    // Counted from when it was first seen pinned (its earlier CPU time is not this core's).
+    if (it == last_.end()) {
+      it = last_.emplace(tid, 0).first;
+      base_[tid] = static_cast<std::uint64_t>(ns);
+    }
+    it->second = static_cast<std::uint64_t>(ns) - base_[tid];
+    total += it->second;
+  }
+  out[0] = {total, static_cast<std::uint64_t>(now - first_),
+            static_cast<std::uint64_t>(now - first_)};
+  for (std::size_t i = 1; i < out.size(); ++i)
+    out[i] = {};
+}
+
+CoreTasks::CoreTasks(ThrottleKind kind, std::vector<Core> cores)
+    : kind_(kind), cores_(std::move(cores)), cgroup_mount_(cgroup2_mount_point()) {}
+
+CoreTasks::~CoreTasks() {
+  restore();
+}
+
+std::size_t CoreTasks::count(int core) const {
+  return static_cast<std::size_t>(std::count_if(
+      tasks_.begin(), tasks_.end(), [&](const auto& t) { return t.second.core == core; }));
+}
+
+std::vector<CoreTasks::Change> CoreTasks::rescan() {
+  std::vector<Change> changes;
+  const pid_t self = ::getpid();
+  std::set<pid_t> seen;
+  std::map<int, std::vector<pid_t>> per_core;
+  std::error_code ec;
+  for (const auto& p : fs::directory_iterator("/proc", ec)) {
+    const std::string pname = p.path().filename().string();
+    if (!all_digits(pname)) continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(pname));
+    if (pid == self) continue;
+    std::error_code ec2;
+    for (const auto& t : fs::directory_iterator(p.path() / "task", ec2)) {
+      const std::string tname = t.path().filename().string();
+      if (!all_digits(tname)) continue;
+      const pid_t tid = static_cast<pid_t>(std::stol(tname));
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      if (::sched_getaffinity(tid, sizeof set, &set) != 0 || CPU_COUNT(&set) != 1) continue;
+      const auto core = std::find_if(cores_.begin(), cores_.end(),
+                                     [&](const Core& c) { return CPU_ISSET(c.core, &set); });
+      if (core == cores_.end()) continue;
+      std::string comm;
+      unsigned long flags = 0;
+      if (!read_stat((t.path() / "stat").string(), comm, flags) || (flags & kPfKthread)) continue;
+      seen.insert(tid);
+      auto known = tasks_.find(tid);
+      if (known != tasks_.end()) {
+        if (known->second.policy != SCHED_FIFO && known->second.policy != SCHED_RR)
+          per_core[core->core].push_back(tid);
+        continue;
+      }
+      Task task;
+      task.core = core->core;
+      task.pid = pid;
+      task.policy = ::sched_getscheduler(tid);
+      sched_param sp{};
+      ::sched_getparam(tid, &sp);
+      task.priority = sp.sched_priority;
+      errno = 0;
+      task.nice = ::getpriority(PRIO_PROCESS, static_cast<id_t>(tid));
+      Change ch{core->core, pid, tid, comm, true, ""};
+      if (task.policy == SCHED_FIFO || task.policy == SCHED_RR) {
+        ch.note = "runs under a real-time policy: left alone, not counted";
+      } else {
+        per_core[core->core].push_back(tid);
+        if (kind_ == ThrottleKind::Idle && task.policy != SCHED_IDLE) {
+          const sched_param zero{};
+          if (::sched_setscheduler(tid, SCHED_IDLE, &zero) == 0) {
+            task.idle_applied = true;
+            ch.note = "moved to SCHED_IDLE";
+          } else {
+            ch.note = "SCHED_IDLE refused (" + errno_text(errno) + "): the throttle cannot hold it";
+          }
+        } else if (kind_ == ThrottleKind::Freezer && core->cgroup && !moved_.count(pid)) {
+          const std::string before = cgroup_of(pid);
+          try {
+            core->cgroup->add(pid);
+            moved_[pid] = before;
+            ch.note = "process moved into " + core->cgroup->path();
+          } catch (const RunError& e) {
+            ch.note = std::string("not frozen: ") + e.what();
+          }
+        }
+      }
+      tasks_.emplace(tid, task);
+      changes.push_back(std::move(ch));
+    }
+  }
+  for (auto it = tasks_.begin(); it != tasks_.end();) {
+    if (seen.count(it->first)) {
+      ++it;
+      continue;
+    }
+    // Ended, or no longer pinned to an nRT core: give it back its scheduling.
+    Change ch{it->second.core, it->second.pid, it->first, "", false, ""};
+    if (it->second.idle_applied) {
+      const sched_param sp{it->second.priority};
+      if (::sched_setscheduler(it->first, it->second.policy, &sp) == 0) {
+        ::setpriority(PRIO_PROCESS, static_cast<id_t>(it->first), it->second.nice);
+        ch.note = "scheduling restored (left the core)";
+      }
+    }
+    changes.push_back(std::move(ch));
+    it = tasks_.erase(it);
+  }
+  for (auto& c : cores_)
+    if (c.cputime) c.cputime->publish(per_core[c.core]);
+  return changes;
+}
+
+void CoreTasks::restore() {
+  for (const auto& [tid, t] : tasks_)
+    if (t.idle_applied) {
+      const sched_param sp{t.priority};
+      if (::sched_setscheduler(tid, t.policy, &sp) == 0)
+        ::setpriority(PRIO_PROCESS, static_cast<id_t>(tid), t.nice);
+    }
+  tasks_.clear();
+  if (!cgroup_mount_.empty())
+    for (const auto& [pid, path] : moved_)
+      if (!path.empty())
+        write_text(cgroup_mount_ + (path == "/" ? "" : path) + "/cgroup.procs",
+                   std::to_string(pid));
+  moved_.clear();
+}
+
+}  // namespace rosguard::hw

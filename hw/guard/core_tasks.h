@@ -1,0 +1,88 @@
+// The processes `rosguard guard` regulates: every thread of another process whose CPU affinity is
+// exactly one nRT core ("pinned" to it, e.g. `taskset -c 2 stress-ng ...`).
+//
+// Contract:
+// - CoreTasks is owned by the guard's main thread: rescan() finds the pinned threads, applies the
+//   throttle's needs to new ones (idle: SCHED_IDLE; freezer: their process moves into the core's
+//   cgroup) and forgets those that ended; restore() (also run by the destructor) puts every thread
+//   still alive back as it was (policy, nice value, cgroup). fifo needs nothing of them.
+// - CpuTimeGroup is a CounterGroup read by the controller thread: the CPU time (ns) of the threads
+//   pinned to its core, cumulative (threads that ended keep their last reading). It never blocks
+//   on the main thread: it takes the latest list rescan() published with a try_lock.
+// - Threads under a real-time policy are left alone (noted once): the guard regulates work that
+//   the scheduler can preempt, not another real-time program.
+#pragma once
+
+#include <sys/types.h>
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "hw/pmc_source/pmc_source.h"
+#include "hw/throttle/throttle.h"
+
+namespace rosguard::hw {
+
+class CpuTimeGroup : public CounterGroup {
+ public:
+  std::size_t size() const override { return 1; }
+  void read(std::span<CounterValue> out) override;
+  // Main thread: the threads pinned to the core now.
+  void publish(std::vector<pid_t> tids);
+
+ private:
+  std::mutex mutex_;
+  std::vector<pid_t> published_;  // guarded by mutex_
+  // Controller thread only:
+  std::vector<pid_t> tids_;
+  std::map<pid_t, std::uint64_t> last_;  // CPU time since first seen pinned
+  std::map<pid_t, std::uint64_t> base_;  // its CPU time when first seen
+  std::uint64_t ended_ns_ = 0;
+  TimeNs first_ = -1;
+};
+
+class CoreTasks {
+ public:
+  struct Core {
+    int core = 0;
+    FreezerCgroup* cgroup = nullptr;  // freezer: where its processes go
+    CpuTimeGroup* cputime = nullptr;  // cputime source: fed by rescan()
+  };
+  CoreTasks(ThrottleKind kind, std::vector<Core> cores);
+  ~CoreTasks();
+  CoreTasks(const CoreTasks&) = delete;
+  CoreTasks& operator=(const CoreTasks&) = delete;
+
+  struct Change {
+    int core = 0;
+    pid_t pid = 0, tid = 0;
+    std::string comm;
+    bool added = true;  // false: ended
+    std::string note;   // what was applied, or why not
+  };
+  // Returns what changed since the last rescan.
+  std::vector<Change> rescan();
+  void restore();
+  std::size_t count(int core) const;
+
+ private:
+  struct Task {
+    int core = 0;
+    pid_t pid = 0;
+    int policy = 0;
+    int priority = 0;
+    int nice = 0;
+    bool idle_applied = false;
+    std::string cgroup;  // the process's cgroup before it was moved (freezer), "" when not moved
+  };
+  ThrottleKind kind_;
+  std::vector<Core> cores_;
+  std::map<pid_t, Task> tasks_;         // by tid
+  std::map<pid_t, std::string> moved_;  // pid -> original cgroup (freezer)
+  std::string cgroup_mount_;
+};
+
+}  // namespace rosguard::hw

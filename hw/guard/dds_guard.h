@@ -1,0 +1,66 @@
+// rosguard guard over DDS (hw/topic/dds_topic.h, ROS 2 names and types):
+// - DdsActivity: the RT nodes' `/rosguard/<name>/active` (std_msgs/msg/Bool) from any process on
+//   the domain; one reader thread of its own is the only caller of the signal callback.
+// - DdsPublisher: per nRT core `<core name>`, on the guard's main thread:
+//     /rosguard/<core name>/pmc      rosguard_msgs/msg/PmcSample: entity = the core's index in
+//                                    the configuration, stamp_ns = CLOCK_MONOTONIC of the read,
+//                                    count = 3, value = {the metric's first counter (cumulative),
+//                                    bytes used in the regulation window so far, the window's
+//                                    budget in bytes}
+//     /rosguard/<core name>/command  rosguard_msgs/msg/Command: OFF / ON / THR / REPLENISH as the
+//                                    controller sends them, cause_ns = the read that caused a THR
+// Contract: built and destroyed on the guard's main thread; the participant outlives readers and
+// writers (member order).
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hw/guard/guard.h"
+#include "hw/topic/dds_topic.h"
+
+namespace rosguard::hw {
+
+class DdsActivity : public ActivitySource {
+ public:
+  explicit DdsActivity(std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "");
+  ~DdsActivity() override;
+  std::string describe() const override;
+  void start(const std::vector<std::string>& rt_names, Signal signal) override;
+  void stop() override;
+
+ private:
+  std::unique_ptr<dds::Participant> participant_;
+  std::string ns_;
+  std::unique_ptr<DdsTopic<RtEventMsg>> topic_;
+  std::size_t sub_ = 0;
+  Waker waker_;
+  std::atomic<bool> stop_{false};
+  Signal signal_;
+  std::thread thread_;
+  std::vector<std::string> names_;
+};
+
+class DdsPublisher : public GuardPublisher {
+ public:
+  DdsPublisher(const std::vector<std::string>& core_names,
+               std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "");
+  ~DdsPublisher() override;
+  std::string describe() const override;
+  void sample(const GuardSample& s) override;
+  void command(const GuardCommandNote& c) override;
+  void active(TimeNs, bool) override {}
+
+ private:
+  std::size_t index_of(const std::string& core_name) const;
+  std::unique_ptr<dds::Participant> participant_;
+  std::vector<std::string> names_;
+  std::unique_ptr<DdsTopic<SampleMsg>> samples_;
+  std::unique_ptr<DdsTopic<ControlMsg>> commands_;
+  std::vector<std::size_t> sample_pubs_, command_pubs_;
+};
+
+}  // namespace rosguard::hw

@@ -1,0 +1,410 @@
+#include "hw/guard/guard.h"
+
+#include <time.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <mutex>
+#include <ostream>
+
+#include "core/error.h"
+#include "hw/common/clock.h"
+#include "hw/common/sys.h"
+#include "regulator/regulator.h"
+
+namespace rosguard::hw {
+namespace {
+
+std::string wall_clock() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_REALTIME, &ts);
+  tm utc{};
+  ::gmtime_r(&ts.tv_sec, &utc);
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d.%03ldZ", utc.tm_year + 1900,
+                utc.tm_mon + 1, utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec,
+                ts.tv_nsec / 1000000);
+  return buf;
+}
+
+std::string fmt(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+const WorkloadInfo& no_workload() {
+  static const WorkloadInfo w{};
+  return w;
+}
+
+}  // namespace
+
+// The node threads report failures here (any thread); the main thread looks at them.
+struct Guard::ErrorSink {
+  std::mutex mutex;
+  std::vector<std::string> errors;
+};
+
+Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySource& activity,
+             GuardPublisher& publisher, std::ostream& log)
+    : s_(std::move(settings)),
+      policies_(policies),
+      activity_(activity),
+      publisher_(publisher),
+      log_(log) {
+  const auto cpus = usable_cpus();
+  for (std::size_t i = 0; i < s_.nrt.size(); ++i)
+    if (std::find(cpus.begin(), cpus.end(), s_.nrt[i].core) == cpus.end())
+      throw InputError(s_.file, "/nrt/" + std::to_string(i) + "/core",
+                       "core " + std::to_string(s_.nrt[i].core) + " is not usable on this host");
+  if (s_.controller_core >= 0 &&
+      std::find(cpus.begin(), cpus.end(), s_.controller_core) == cpus.end())
+    throw InputError(s_.file, "/controller/core",
+                     "core " + std::to_string(s_.controller_core) + " is not usable on this host");
+
+  // How the cores are measured.
+  perf_ = make_perf_source();
+  const auto perf_why = perf_->unavailable_reason();
+  const bool perf_ok =
+      !perf_why && perf_->provides("l2d_cache_refill") && perf_->provides("l2d_cache_wb");
+  if (s_.source == GuardSource::Perf && !perf_ok)
+    throw InputError(s_.file, "/hw/pmc_source",
+                     "pmc_source \"perf\": no usable hardware PMU here (" +
+                         perf_why.value_or("the L2 refill / write-back events are missing") +
+                         "); use \"auto\" or \"cputime\"");
+  if (s_.source == GuardSource::Perf || (s_.source == GuardSource::Auto && perf_ok)) {
+    source_name_ = "perf";
+    source_why_ = "perf: the core's hardware PMU per CPU (L2 refills + write-backs x 64 B, Eq. 1)";
+    metric_ = MetricSpec{};
+    group_events_ = {"l2d_cache_refill", "l2d_cache_wb"};
+  } else {
+    source_name_ = "cputime";
+    source_why_ =
+        "cputime: " +
+        std::string(s_.source == GuardSource::Auto
+                        ? "no usable hardware PMU (" + perf_why.value_or("events missing") +
+                              "), so "
+                        : "") +
+        "the budget is CPU time, not bandwidth: the CPU time of the processes pinned to each core "
+        "(/proc/<tid>/schedstat) x reference_mbps; a core may run its processes threshold_pct % "
+        "of each window";
+    metric_.line_bytes = 64;
+    metric_.events = {{"task_clock", s_.reference_mbps * kBytesPerMb / 1e9 / 64.0}};
+    metric_.counter_bits = 64;
+    group_events_ = {"cpu_time"};
+  }
+
+  ThrottleNeeds needs;
+  needs.mode = s_.throttle;
+  needs.scenario_sched = SchedClass::Fifo;
+  needs.commands_only = true;  // processes: the freezer can hold them
+  needs.core = s_.nrt.front().core;
+  throttle_ = choose_throttle(needs);
+
+  auto errors = std::make_shared<ErrorSink>();
+  const RtThread::ErrorHandler on_error = [errors, this](const std::string& thread,
+                                                         std::exception_ptr e) {
+    std::string what = "unknown error";
+    try {
+      std::rethrow_exception(e);
+    } catch (const std::exception& x) {
+      what = x.what();
+    } catch (...) {
+    }
+    std::lock_guard lock(errors->mutex);
+    errors->errors.push_back(thread + ": " + what);
+    notes_waker_.notify();
+  };
+
+  rt_pub_ = rt_topic_.add_publisher();
+  std::vector<Topic<ControlMsg>*> control_ptrs;
+  std::vector<CounterGroup*> groups;
+  std::vector<CoreTasks::Core> task_cores;
+  ControllerConfig cc;
+  cc.core = s_.controller_core;
+  cc.sched = SchedClass::Fifo;
+  cc.sampling = Sampling::External;
+  cc.sampling_period_ns = s_.sampling_period_ns;
+  cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s_.watchdog_ns / 4);
+  cc.metric_events = group_events_.size();
+  cc.keep_measurements = false;
+  cc.notes = &notes_;
+  cc.notes_waker = &notes_waker_;
+  for (std::size_t i = 0; i < s_.nrt.size(); ++i) {
+    controls_.push_back(std::make_unique<InprocTopic<ControlMsg>>());
+    control_ptrs.push_back(controls_.back().get());
+    NrtConfig c;
+    c.name = s_.nrt[i].name;
+    c.entity = i;
+    c.core = s_.nrt[i].core;
+    c.sampling = Sampling::External;
+    c.sampling_period_ns = s_.sampling_period_ns;
+    c.watchdog_ns = s_.watchdog_ns;
+    c.sched = SchedClass::Fifo;
+    c.throttle = throttle_.kind;
+    c.freezer_root = throttle_.freezer_root.value_or("");
+    c.foreign = true;
+    c.keep_measurements = false;
+    c.group_events = group_events_;
+    c.metric_events = group_events_.size();
+    nodes_.push_back(std::make_unique<NrtRunner>(c, no_workload(), *perf_, *controls_.back(),
+                                                 samples_, engine_waker_, on_error, now_ns()));
+    std::unique_ptr<CounterGroup> group;
+    CpuTimeGroup* cpu = nullptr;
+    if (source_name_ == "perf") {
+      PmcTarget t;
+      t.kind = PmcTarget::Kind::Cpu;
+      t.pid = -1;
+      t.cpu = c.core;
+      group = perf_->open(group_events_, t);
+    } else {
+      auto g = std::make_unique<CpuTimeGroup>();
+      cpu = g.get();
+      group = std::move(g);
+    }
+    groups.push_back(group.get());
+    nodes_.back()->set_group(std::move(group));
+    cputime_.push_back(cpu);
+    task_cores.push_back({c.core, nodes_.back()->cgroup(), cpu});
+    cc.entity_cores.push_back(c.core);
+    cc.group_sizes.push_back(group_events_.size());
+  }
+  RegulatorConfig rc;
+  rc.rt_count = s_.rt.size();
+  rc.account_of_entity = accounts_for_scope(s_.scope, s_.nrt.size());
+  rc.metric = metric_;
+  controller_ = std::make_unique<Controller>(cc, std::make_unique<Regulator>(rc, make_policy(s_)),
+                                             rt_topic_, samples_, control_ptrs, nullptr,
+                                             engine_waker_, on_error, now_ns());
+  controller_->set_groups(groups);
+  tasks_ = std::make_unique<CoreTasks>(throttle_.kind, task_cores);
+  last_sample_t_.assign(s_.nrt.size(), 0);
+  sample_count_.assign(s_.nrt.size(), 0);
+  shown_state_.assign(s_.nrt.size(), NodeState::Off);
+  stats_.last_budget_bytes.assign(s_.nrt.size(), 0.0);
+  error_sink_ = errors;
+}
+
+Guard::~Guard() {
+  shutdown();
+}
+
+std::unique_ptr<Policy> Guard::make_policy(const GuardSettings& s) const {
+  PolicyParams p;
+  p.threshold_pct = s.threshold_pct;
+  p.reference_mbps = s.reference_mbps;
+  p.regulation_period_ns = s.regulation_period_ns;
+  return policies_.make(s.policy, p);
+}
+
+void Guard::logln(const std::string& line) {
+  log_ << wall_clock() << " guard " << s_.name << ": " << line << '\n' << std::flush;
+}
+
+void Guard::start() {
+  logln("measuring with " + source_why_);
+  std::string holds;
+  for (const auto& m : throttle_.measured)
+    holds += (holds.empty() ? "" : ", ") + describe_hold(m);
+  logln("throttle '" + std::string(to_string(throttle_.kind)) + "' (" + throttle_.why +
+        "; measured hold, nRT progress while throttled / nominal: " + holds + ")");
+  if (!throttle_.fallback.empty()) logln("warning: fallback (throttle): " + throttle_.fallback);
+  for (auto& n : nodes_)
+    n->start();
+  controller_->start();
+  for (const auto& o : outcomes())
+    if (!o.detail.empty()) logln("warning: " + o.detail);
+  rescan();
+  activity_.start(s_.rt, [this](std::size_t rt, bool active) {
+    rt_topic_.publish(rt_pub_, RtEventMsg{rt, active, now_ns()});
+  });
+  std::string cores;
+  for (const auto& n : s_.nrt)
+    cores += (cores.empty() ? "" : ", ") + n.name + " (CPU " + std::to_string(n.core) + ")";
+  std::string rts;
+  for (const auto& r : s_.rt)
+    rts += (rts.empty() ? "" : ", ") + r;
+  logln("regulating " + cores + " with " + s_.policy + " at " + fmt(s_.threshold_pct) + " % of " +
+        fmt(s_.reference_mbps) + " MB/s per " + fmt(ns_to_us(s_.regulation_period_ns)) +
+        " us window, sampled every " + fmt(ns_to_us(s_.sampling_period_ns)) +
+        " us, while any of [" + rts + "] is active (" + activity_.describe() + "); publishing to " +
+        publisher_.describe());
+  started_ = true;
+}
+
+std::vector<SchedOutcome> Guard::outcomes() const {
+  std::vector<SchedOutcome> out;
+  for (const auto& n : nodes_)
+    for (const auto& o : n->outcomes())
+      out.push_back(o);
+  out.push_back(controller_->outcome());
+  return out;
+}
+
+void Guard::rescan() {
+  for (const auto& c : tasks_->rescan()) {
+    const std::string& core =
+        s_.nrt[static_cast<std::size_t>(std::distance(
+                   s_.nrt.begin(), std::find_if(s_.nrt.begin(), s_.nrt.end(),
+                                                [&](const auto& n) { return n.core == c.core; })))]
+            .name;
+    logln(core + ": " + (c.added ? "regulating" : "released") + " pid " + std::to_string(c.pid) +
+          " tid " + std::to_string(c.tid) + (c.comm.empty() ? "" : " (" + c.comm + ")") +
+          (c.note.empty() ? "" : ": " + c.note));
+  }
+  next_rescan_ = now_ns() + s_.rescan_ns;
+}
+
+void Guard::drain() {
+  ControllerNote n;
+  while (notes_.pop(n)) {
+    const std::size_t e = n.entity < s_.nrt.size() ? n.entity : 0;
+    switch (n.kind) {
+      case ControllerNote::Kind::Sample: {
+        ++stats_.samples;
+        GuardSample g{s_.nrt[e].name, s_.nrt[e].core, n.t,     n.value, 0.0,
+                      n.used,         n.budget,       n.value2};
+        if (last_sample_t_[e] > 0 && n.t > last_sample_t_[e])
+          g.mbps = n.value / kBytesPerMb / (static_cast<double>(n.t - last_sample_t_[e]) / 1e9);
+        last_sample_t_[e] = n.t;
+        stats_.last_budget_bytes[e] = n.budget;
+        if (sample_count_[e]++ % s_.publish_every == 0) publisher_.sample(g);
+        break;
+      }
+      case ControllerNote::Kind::Command: {
+        const NodeState next = n.command == Command::Thr   ? NodeState::Thr
+                               : n.command == Command::Off ? NodeState::Off
+                                                           : NodeState::On;
+        if (n.command == Command::Thr) ++stats_.throttles;
+        if (next != shown_state_[e])
+          logln(s_.nrt[e].name + ": " + std::string(to_string(shown_state_[e])) + " -> " +
+                std::string(to_string(next)) + " (" + std::string(to_string(n.command)) + ")");
+        shown_state_[e] = next;
+        publisher_.command({s_.nrt[e].name, s_.nrt[e].core, n.t, n.command, n.cause});
+        break;
+      }
+      case ControllerNote::Kind::Activation:
+        if (n.active) ++stats_.activations;
+        logln(n.active ? "regulation active (an RT node started)"
+                       : "regulation inactive (every RT node finished)");
+        publisher_.active(n.t, n.active);
+        break;
+      case ControllerNote::Kind::Policy:
+        ++stats_.policy_swaps;
+        logln("new policy parameters in force from the next window");
+        break;
+      case ControllerNote::Kind::Budget:
+      case ControllerNote::Kind::WindowClosed:
+        break;
+    }
+  }
+  stats_.notes_dropped = controller_->notes_dropped();
+  std::lock_guard lock(error_sink_->mutex);
+  if (!error_sink_->errors.empty())
+    throw RunError("guard " + s_.name + ": a node thread failed: " + error_sink_->errors.front());
+}
+
+void Guard::serve(TimeNs max_wait_ns) {
+  const auto epoch = notes_waker_.epoch();
+  drain();
+  const TimeNs now = now_ns();
+  if (now >= next_rescan_) {
+    rescan();
+    return;
+  }
+  notes_waker_.wait(epoch, std::min(now + max_wait_ns, next_rescan_));
+}
+
+void Guard::run(const std::function<bool()>& stop, const std::function<bool()>& reload_due,
+                const std::function<std::optional<GuardSettings>()>& reload_settings) {
+  while (!stop()) {
+    if (reload_due && reload_due()) {
+      if (auto next = reload_settings ? reload_settings() : std::nullopt) reload(*next);
+    }
+    serve(50 * kNsPerMs);
+  }
+}
+
+bool Guard::reload(const GuardSettings& next) {
+  std::string refused;
+  const auto differs = [&](bool d, const char* key) {
+    if (d) refused += (refused.empty() ? "" : ", ") + std::string(key);
+  };
+  differs(next.name != s_.name, "name");
+  differs(next.controller_core != s_.controller_core, "controller.core");
+  differs(next.rt != s_.rt, "rt");
+  differs(next.nrt.size() != s_.nrt.size() ||
+              !std::equal(next.nrt.begin(), next.nrt.end(), s_.nrt.begin(),
+                          [](const auto& a, const auto& b) {
+                            return a.name == b.name && a.core == b.core;
+                          }),
+          "nrt");
+  differs(next.policy != s_.policy, "regulation.policy");
+  differs(next.sampling_period_ns != s_.sampling_period_ns, "regulation.sampling_period_us");
+  differs(next.reference_mbps != s_.reference_mbps, "regulation.reference_mbps");
+  differs(next.scope != s_.scope, "regulation.scope");
+  differs(next.source != s_.source, "hw.pmc_source");
+  differs(next.throttle != s_.throttle, "hw.throttle");
+  differs(next.watchdog_ns != s_.watchdog_ns, "hw.watchdog_ms");
+  if (!refused.empty()) {
+    logln("reload refused: " + refused +
+          " changed (only regulation.threshold_pct and regulation.regulation_period_us can change "
+          "while running; restart the guard for the rest); the running configuration stays");
+    return false;
+  }
+  std::string what;
+  if (next.threshold_pct != s_.threshold_pct)
+    what += "threshold_pct " + fmt(s_.threshold_pct) + " -> " + fmt(next.threshold_pct);
+  if (next.regulation_period_ns != s_.regulation_period_ns)
+    what += std::string(what.empty() ? "" : ", ") + "regulation_period_us " +
+            fmt(ns_to_us(s_.regulation_period_ns)) + " -> " +
+            fmt(ns_to_us(next.regulation_period_ns));
+  const TimeNs rescan = next.rescan_ns;
+  const std::size_t every = next.publish_every;
+  if (what.empty()) {
+    logln("reload: regulation unchanged");
+  } else {
+    controller_->post_policy(make_policy(next));
+    logln("reload: " + what + " (from the next window; regulation continues meanwhile)");
+  }
+  s_.threshold_pct = next.threshold_pct;
+  s_.regulation_period_ns = next.regulation_period_ns;
+  s_.rescan_ns = rescan;
+  s_.publish_every = every;
+  return true;
+}
+
+void Guard::shutdown() {
+  if (shut_) return;
+  shut_ = true;
+  activity_.stop();
+  // Every core back to nominal first (its throttle released, its threads joined), then the
+  // controller, then the processes get their scheduling and cgroups back.
+  for (auto& n : nodes_)
+    n->shutdown();
+  controller_->shutdown();
+  tasks_->restore();
+  try {
+    drain();
+  } catch (const RunError&) {
+  }
+  nodes_.clear();
+  if (started_)
+    logln("stopped: " + std::to_string(s_.nrt.size()) +
+          " core(s) back to nominal, every guard thread joined, " +
+          std::to_string(realtime_threads().size()) + " thread(s) left under SCHED_FIFO");
+}
+
+GuardStats Guard::stats() const {
+  return stats_;
+}
+
+std::vector<NodeState> Guard::states() const {
+  std::vector<NodeState> out;
+  for (const auto& n : nodes_)
+    out.push_back(n->state());
+  return out;
+}
+
+}  // namespace rosguard::hw

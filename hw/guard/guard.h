@@ -1,0 +1,195 @@
+// rosguard guard: the deployed form of the mechanism. It regulates whatever runs on the nRT cores
+// of a live system while RT nodes say they are active, with the engine every run uses (the hw
+// Controller around model/engine's ControllerDriver and its Regulator and policy, one throttle
+// node per core: hw/nodes/nrt_node.h in its `foreign` form, CFB + THR on the core).
+//
+// Contract:
+// - Built, started, run and shut down on one thread (the guard's main thread). start() returns
+//   once every thread runs; run() serves until `stop()` is true: it drains what the controller
+//   did (ControllerNote) to the GuardPublisher and the log, and rescans the cores' processes
+//   every rescan period. reload() (main thread, between run() passes) swaps the policy at the
+//   next window, never pausing regulation. shutdown() (also the destructor) returns every core to
+//   nominal, joins every thread (none is left under SCHED_FIFO) and gives the processes back
+//   their scheduling and cgroups.
+// - ActivitySource: start() is given a callback it calls from ONE thread of its own (or, for
+//   InprocActivity, from whoever calls signal(), one thread at a time) with the RT node's index
+//   and its new state; stop() returns once that thread has stopped calling.
+// - GuardPublisher: called on the main thread only; must not block for long (it is between the
+//   controller's notes and the log).
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <iosfwd>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hw/guard/core_tasks.h"
+#include "hw/nodes/controller.h"
+#include "hw/nodes/nrt_node.h"
+#include "hw/throttle/throttle.h"
+#include "policy/policy.h"
+
+namespace rosguard::hw {
+
+enum class GuardSource { Auto, Perf, Cputime };
+
+struct GuardSettings {
+  std::string name;
+  std::string file;  // for messages
+  int controller_core = -1;
+  std::vector<std::string> rt;
+  struct Nrt {
+    std::string name;
+    int core = 0;
+  };
+  std::vector<Nrt> nrt;
+  std::string policy = "interval";
+  TimeNs sampling_period_ns = kNsPerMs;
+  TimeNs regulation_period_ns = 5 * kNsPerMs;
+  double threshold_pct = 10.0;
+  double reference_mbps = 0.0;
+  Scope scope = Scope::Core;
+  GuardSource source = GuardSource::Auto;
+  ThrottleMode throttle = ThrottleMode::Auto;
+  TimeNs watchdog_ns = 100 * kNsPerMs;
+  TimeNs rescan_ns = 200 * kNsPerMs;
+  std::size_t publish_every = 1;
+};
+
+class ActivitySource {
+ public:
+  using Signal = std::function<void(std::size_t rt, bool active)>;
+  virtual ~ActivitySource() = default;
+  virtual std::string describe() const = 0;
+  virtual void start(const std::vector<std::string>& rt_names, Signal signal) = 0;
+  virtual void stop() = 0;
+};
+
+// Signals given by the caller (tests; an embedding program).
+class InprocActivity : public ActivitySource {
+ public:
+  std::string describe() const override { return "in-process calls"; }
+  void start(const std::vector<std::string>&, Signal signal) override {
+    signal_ = std::move(signal);
+  }
+  void stop() override { signal_ = {}; }
+  void signal(std::size_t rt, bool active) {
+    if (signal_) signal_(rt, active);
+  }
+
+ private:
+  Signal signal_;
+};
+
+struct GuardSample {
+  std::string core_name;
+  int core = 0;
+  TimeNs t = 0;
+  double bytes = 0.0;         // accounted by this sample
+  double mbps = 0.0;          // since the core's previous sample
+  double used_bytes = 0.0;    // in the window so far
+  double budget_bytes = 0.0;  // of the window
+  double counter = 0.0;       // the metric's first counter, cumulative (as read)
+};
+struct GuardCommandNote {
+  std::string core_name;
+  int core = 0;
+  TimeNs t = 0;
+  Command command = Command::Off;
+  TimeNs cause = 0;  // the read that caused a THR (0 otherwise)
+};
+
+class GuardPublisher {
+ public:
+  virtual ~GuardPublisher() = default;
+  virtual std::string describe() const = 0;
+  virtual void sample(const GuardSample& s) = 0;  // also the budget: used / budget
+  virtual void command(const GuardCommandNote& c) = 0;
+  virtual void active(TimeNs t, bool active) = 0;
+};
+
+// Publishes nothing (the log still has every state change).
+class NullPublisher : public GuardPublisher {
+ public:
+  std::string describe() const override { return "none (log only)"; }
+  void sample(const GuardSample&) override {}
+  void command(const GuardCommandNote&) override {}
+  void active(TimeNs, bool) override {}
+};
+
+// What a guard did so far (tests, the final log line).
+struct GuardStats {
+  std::uint64_t activations = 0;
+  std::uint64_t samples = 0;
+  std::uint64_t throttles = 0;  // THR commands sent
+  std::uint64_t policy_swaps = 0;
+  std::uint64_t notes_dropped = 0;
+  std::vector<double> last_budget_bytes;  // per core, from the latest sample
+};
+
+class Guard {
+ public:
+  Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySource& activity,
+        GuardPublisher& publisher, std::ostream& log);
+  ~Guard();
+  Guard(const Guard&) = delete;
+  Guard& operator=(const Guard&) = delete;
+
+  void start();
+  void run(const std::function<bool()>& stop, const std::function<bool()>& reload_due = {},
+           const std::function<std::optional<GuardSettings>()>& reload_settings = {});
+  // One pass of run(): drain notes, rescan when due; waits at most `max_wait_ns` for notes.
+  void serve(TimeNs max_wait_ns);
+  // Applies a changed configuration: regulation.threshold_pct / regulation_period_us take effect
+  // from the next window; any other difference is refused (returns false, logged).
+  bool reload(const GuardSettings& next);
+  void shutdown();
+
+  const GuardSettings& settings() const { return s_; }
+  const ThrottleChoice& throttle() const { return throttle_; }
+  const std::string& source_description() const { return source_why_; }
+  GuardStats stats() const;
+  std::vector<NodeState> states() const;  // per nRT core now
+  std::vector<SchedOutcome> outcomes() const;
+
+ private:
+  void logln(const std::string& line);
+  std::unique_ptr<Policy> make_policy(const GuardSettings& s) const;
+  void drain();
+  void rescan();
+  struct ErrorSink;
+
+  GuardSettings s_;
+  const PolicyRegistry& policies_;
+  ActivitySource& activity_;
+  GuardPublisher& publisher_;
+  std::ostream& log_;
+  ThrottleChoice throttle_;
+  std::string source_name_, source_why_;
+  std::unique_ptr<PmcSource> perf_;
+  MetricSpec metric_;
+  std::vector<std::string> group_events_;
+
+  Waker engine_waker_, notes_waker_;
+  NoteRing notes_;
+  InprocTopic<RtEventMsg> rt_topic_;
+  InprocTopic<SampleMsg> samples_;  // unused (external sampling); the controller needs one
+  std::size_t rt_pub_ = 0;
+  std::vector<std::unique_ptr<Topic<ControlMsg>>> controls_;
+  std::vector<std::unique_ptr<NrtRunner>> nodes_;
+  std::vector<CpuTimeGroup*> cputime_;
+  std::unique_ptr<Controller> controller_;
+  std::unique_ptr<CoreTasks> tasks_;
+  std::shared_ptr<ErrorSink> error_sink_;
+  TimeNs next_rescan_ = 0;
+  std::vector<TimeNs> last_sample_t_;
+  std::vector<std::size_t> sample_count_;
+  std::vector<NodeState> shown_state_;
+  GuardStats stats_;
+  bool started_ = false, shut_ = false;
+};
+
+}  // namespace rosguard::hw

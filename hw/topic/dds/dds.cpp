@@ -1,0 +1,189 @@
+#include "hw/topic/dds/dds.h"
+
+#include <time.h>
+
+#include <cctype>
+#include <cstdlib>
+#include <memory>
+
+namespace rosguard::dds {
+
+namespace {
+
+std::string fail_text(std::string_view what, std::string_view topic, dds_return_t rc) {
+  std::string s(what);
+  if (!topic.empty()) s += " (" + std::string(topic) + ")";
+  s += ": ";
+  s += dds_strretcode(rc);
+  return s;
+}
+
+std::int64_t clock_ns(clockid_t id) {
+  timespec ts{};
+  ::clock_gettime(id, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+// QoS of ROS 2's default profile: reliable, keep last `depth`, volatile.
+struct Qos {
+  explicit Qos(int depth) : q(dds_create_qos()) {
+    dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+    dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
+    dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
+  }
+  ~Qos() { dds_delete_qos(q); }
+  Qos(const Qos&) = delete;
+  Qos& operator=(const Qos&) = delete;
+  dds_qos_t* q;
+};
+
+void check_ros_name(std::string_view name, std::string_view what) {
+  const auto bad = [&](const char* why) {
+    throw DdsError(std::string(what) + " '" + std::string(name) + "' is not a ROS 2 name: " + why);
+  };
+  if (name.empty() || name.front() != '/') bad("it must start with '/'");
+  if (name.size() > 1 && name.back() == '/') bad("it must not end with '/'");
+  for (std::size_t i = 0; i < name.size(); ++i) {
+    const char c = name[i];
+    if (c == '/') {
+      if (i + 1 < name.size() && name[i + 1] == '/') bad("empty token ('//')");
+      if (i + 1 < name.size() && std::isdigit(static_cast<unsigned char>(name[i + 1])))
+        bad("a token starts with a digit");
+    } else if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_')) {
+      bad("only letters, digits, '_' and '/' are allowed");
+    }
+  }
+}
+
+std::string rosguard_topic(std::string_view ns, std::string_view node, std::string_view leaf) {
+  if (!ns.empty()) check_ros_name(ns, "namespace");
+  std::string name = std::string(ns) + "/rosguard/" + std::string(node) + "/" + std::string(leaf);
+  check_ros_name(name, "topic");
+  return name;
+}
+
+}  // namespace
+
+std::string dds_topic_name(std::string_view ros_name) {
+  check_ros_name(ros_name, "topic");
+  return "rt" + std::string(ros_name);
+}
+
+std::string dds_type_name(std::string_view ros_type) {
+  // pkg/msg/Type -> pkg::msg::dds_::Type_
+  const auto a = ros_type.find('/');
+  const auto b = ros_type.rfind('/');
+  if (a == std::string_view::npos || a == b)
+    throw DdsError("'" + std::string(ros_type) + "' is not a ROS 2 type name (pkg/msg/Type)");
+  return std::string(ros_type.substr(0, a)) +
+         "::" + std::string(ros_type.substr(a + 1, b - a - 1)) +
+         "::dds_::" + std::string(ros_type.substr(b + 1)) + "_";
+}
+
+std::string active_topic(std::string_view ns, std::string_view node) {
+  return rosguard_topic(ns, node, "active");
+}
+std::string pmc_topic(std::string_view ns, std::string_view node) {
+  return rosguard_topic(ns, node, "pmc");
+}
+std::string command_topic(std::string_view ns, std::string_view node) {
+  return rosguard_topic(ns, node, "command");
+}
+
+std::uint32_t default_domain_id() {
+  const char* env = std::getenv("ROS_DOMAIN_ID");
+  if (!env || !*env) return 0;
+  char* end = nullptr;
+  const long v = std::strtol(env, &end, 10);
+  // 232: the largest domain whose default UDP ports stay below 65535 (ROS 2's limit on Linux).
+  if (*end != '\0' || v < 0 || v > 232)
+    throw DdsError(std::string("ROS_DOMAIN_ID='") + env + "' is not a domain id in 0..232");
+  return static_cast<std::uint32_t>(v);
+}
+
+Participant::Participant(std::optional<std::uint32_t> domain_id)
+    : domain_(domain_id ? *domain_id : default_domain_id()) {
+  handle_ = dds_create_participant(domain_, nullptr, nullptr);
+  if (handle_ < 0)
+    throw DdsError(
+        fail_text("dds_create_participant on domain " + std::to_string(domain_), "", handle_));
+}
+
+Participant::~Participant() {
+  if (handle_ > 0) dds_delete(handle_);
+}
+
+Endpoint::Endpoint(Participant& p, std::string ros_topic, const dds_topic_descriptor_t* desc,
+                   bool writer, int depth, std::function<void()> on_data)
+    : ros_topic_(std::move(ros_topic)), writer_(writer), on_data_(std::move(on_data)) {
+  const std::string name = dds_topic_name(ros_topic_);
+  // The descriptor's type name is the DDS form already (rosguard_msgs::msg::dds_::PmcSample_).
+  topic_ = dds_create_topic(p.handle(), desc, name.c_str(), nullptr, nullptr);
+  if (topic_ < 0) throw DdsError(fail_text("dds_create_topic", ros_topic_, topic_));
+  Qos qos(depth);
+  if (writer_) {
+    entity_ = dds_create_writer(p.handle(), topic_, qos.q, nullptr);
+  } else {
+    dds_listener_t* l = nullptr;
+    if (on_data_) {
+      l = dds_create_listener(this);
+      dds_lset_data_available(l, &Endpoint::on_data_available);
+    }
+    entity_ = dds_create_reader(p.handle(), topic_, qos.q, l);
+    if (l) dds_delete_listener(l);  // the reader keeps a copy
+  }
+  if (entity_ < 0) {
+    const dds_return_t rc = entity_;
+    entity_ = 0;
+    dds_delete(topic_);
+    throw DdsError(fail_text(writer_ ? "dds_create_writer" : "dds_create_reader", ros_topic_, rc));
+  }
+}
+
+Endpoint::~Endpoint() {
+  // Deleting the reader waits for a listener call in progress, so `this` outlives it.
+  if (entity_ > 0) dds_delete(entity_);
+  if (topic_ > 0) dds_delete(topic_);
+}
+
+void Endpoint::on_data_available(dds_entity_t, void* arg) {
+  static_cast<Endpoint*>(arg)->on_data_();
+}
+
+std::uint32_t Endpoint::matched() const {
+  if (writer_) {
+    dds_publication_matched_status_t st{};
+    if (dds_get_publication_matched_status(entity_, &st) < 0) return 0;
+    return st.current_count;
+  }
+  dds_subscription_matched_status_t st{};
+  if (dds_get_subscription_matched_status(entity_, &st) < 0) return 0;
+  return st.current_count;
+}
+
+bool Endpoint::take_raw(void* sample, std::int64_t* source_realtime_ns) {
+  void* samples[1] = {sample};
+  dds_sample_info_t info{};
+  // Fixed-size types: the sample is filled in place, nothing to return to Cyclone.
+  while (true) {
+    const dds_return_t n = dds_take(entity_, samples, &info, 1, 1);
+    if (n < 0) throw DdsError(fail_text("dds_take", ros_topic_, n));
+    if (n == 0) return false;
+    if (!info.valid_data) continue;  // a lifecycle notice (writer gone), not a message
+    if (source_realtime_ns) *source_realtime_ns = info.source_timestamp;
+    return true;
+  }
+}
+
+void Endpoint::write_raw(const void* sample) {
+  const dds_return_t rc = dds_write(entity_, sample);
+  if (rc < 0) throw DdsError(fail_text("dds_write", ros_topic_, rc));
+}
+
+std::int64_t realtime_to_monotonic_ns(std::int64_t realtime_ns) {
+  const std::int64_t mono = clock_ns(CLOCK_MONOTONIC);
+  const std::int64_t real = clock_ns(CLOCK_REALTIME);
+  return realtime_ns - (real - mono);
+}
+
+}  // namespace rosguard::dds

@@ -1,0 +1,178 @@
+#include "hw/topic/dds_topic.h"
+
+#include <algorithm>
+
+#include "core/error.h"
+#include "hw/common/clock.h"
+
+namespace rosguard::hw {
+
+static_assert(kMaxGroupEvents == dds::kPmcSampleSlots,
+              "rosguard_msgs/msg/PmcSample carries kMaxGroupEvents counters");
+
+// How a message kind maps to its ROS 2 type and topic leaf.
+template <class T>
+struct DdsCodec;
+
+template <>
+struct DdsCodec<RtEventMsg> {
+  using Wire = dds::BoolMsg;
+  static std::string topic(std::string_view ns, std::string_view node) {
+    return dds::active_topic(ns, node);
+  }
+  static Wire encode(const RtEventMsg& m) { return Wire{m.started}; }
+  static RtEventMsg decode(const Wire& w, std::int64_t source_realtime_ns, const DdsSlot& slot) {
+    return {slot.key, w.data, dds::realtime_to_monotonic_ns(source_realtime_ns)};
+  }
+};
+
+template <>
+struct DdsCodec<SampleMsg> {
+  using Wire = dds::PmcSampleMsg;
+  static std::string topic(std::string_view ns, std::string_view node) {
+    return dds::pmc_topic(ns, node);
+  }
+  static Wire encode(const SampleMsg& m) {
+    Wire w{};
+    w.entity = static_cast<std::uint32_t>(m.entity);
+    w.stamp_ns = m.t_published;
+    w.count = m.count;
+    for (std::size_t i = 0; i < kMaxGroupEvents; ++i) {
+      w.value[i] = m.counters[i].value;
+      w.time_enabled_ns[i] = m.counters[i].time_enabled_ns;
+      w.time_running_ns[i] = m.counters[i].time_running_ns;
+    }
+    return w;
+  }
+  static SampleMsg decode(const Wire& w, std::int64_t, const DdsSlot&) {
+    SampleMsg m;
+    m.entity = w.entity;
+    m.t_published = w.stamp_ns;
+    m.count = w.count;
+    for (std::size_t i = 0; i < kMaxGroupEvents; ++i)
+      m.counters[i] = {w.value[i], w.time_enabled_ns[i], w.time_running_ns[i]};
+    return m;
+  }
+};
+
+template <>
+struct DdsCodec<ControlMsg> {
+  using Wire = dds::CommandMsg;
+  static std::string topic(std::string_view ns, std::string_view node) {
+    return dds::command_topic(ns, node);
+  }
+  static Wire encode(const ControlMsg& m) {
+    std::uint8_t c = dds::command::kKeepalive;
+    if (m.kind == ControlMsg::Kind::Command) {
+      switch (m.command) {
+        case Command::Off:
+          c = dds::command::kOff;
+          break;
+        case Command::On:
+          c = dds::command::kOn;
+          break;
+        case Command::Thr:
+          c = dds::command::kThr;
+          break;
+        case Command::Replenish:
+          c = dds::command::kReplenish;
+          break;
+      }
+    }
+    return Wire{c, m.t_cause};
+  }
+  static ControlMsg decode(const Wire& w, std::int64_t, const DdsSlot& slot) {
+    ControlMsg m;
+    m.t_cause = w.cause_ns;
+    switch (w.command) {
+      case dds::command::kOff:
+        m.command = Command::Off;
+        break;
+      case dds::command::kOn:
+        m.command = Command::On;
+        break;
+      case dds::command::kThr:
+        m.command = Command::Thr;
+        break;
+      case dds::command::kReplenish:
+        m.command = Command::Replenish;
+        break;
+      case dds::command::kKeepalive:
+        m.kind = ControlMsg::Kind::Keepalive;
+        m.command = Command::On;
+        break;
+      default:
+        // Someone else's writer on our topic: refuse it rather than guess a state.
+        throw RunError("DDS topic of node " + slot.node + ": unknown command code " +
+                       std::to_string(w.command));
+    }
+    return m;
+  }
+};
+
+template <class T>
+DdsTopic<T>::DdsTopic(dds::Participant& participant, std::string ns, std::vector<DdsSlot> slots)
+    : participant_(participant), slots_(std::move(slots)) {
+  for (const auto& s : slots_)
+    topics_.push_back(DdsCodec<T>::topic(ns, s.node));
+}
+
+// Readers and writers go before the participant (members are destroyed in reverse order; the
+// participant is not ours).
+template <class T>
+DdsTopic<T>::~DdsTopic() = default;
+
+template <class T>
+std::size_t DdsTopic<T>::add_publisher() {
+  const std::size_t p = writers_.size();
+  if (p >= slots_.size())
+    throw RunError("DDS topic: more publishers than the " + std::to_string(slots_.size()) +
+                   " slots it was built with");
+  writers_.push_back(std::make_unique<dds::Writer<Wire>>(participant_, topics_[p]));
+  return p;
+}
+
+template <class T>
+std::size_t DdsTopic<T>::subscribe(Waker& waker) {
+  Subscriber sub;
+  for (const auto& t : topics_)
+    sub.readers.push_back(
+        std::make_unique<dds::Reader<Wire>>(participant_, t, [&waker] { waker.notify(); }));
+  subscribers_.push_back(std::move(sub));
+  return subscribers_.size() - 1;
+}
+
+template <class T>
+bool DdsTopic<T>::publish(std::size_t publisher, const T& msg) {
+  try {
+    writers_.at(publisher)->write(DdsCodec<T>::encode(msg));
+    return true;
+  } catch (const dds::DdsError&) {
+    dropped_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+}
+
+// Round robin over the slots, as InprocTopic visits its publishers.
+template <class T>
+bool DdsTopic<T>::take(std::size_t subscriber, T& msg) {
+  Subscriber& sub = subscribers_.at(subscriber);
+  const std::size_t n = sub.readers.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t s = (sub.next + i) % n;
+    Wire w{};
+    std::int64_t source_ns = 0;
+    if (sub.readers[s]->take(w, &source_ns)) {
+      sub.next = (s + 1) % n;
+      msg = DdsCodec<T>::decode(w, source_ns, slots_[s]);
+      return true;
+    }
+  }
+  return false;
+}
+
+template class DdsTopic<RtEventMsg>;
+template class DdsTopic<SampleMsg>;
+template class DdsTopic<ControlMsg>;
+
+}  // namespace rosguard::hw

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Issue 13 item 3: `rosguard guard` regulates a stress-ng process pinned on an nRT core while an
+# RT program in another process (rosguard-rt-node) signals its jobs over DDS
+# (/rosguard/planner/active, std_msgs/msg/Bool); SIGTERM then leaves no throttled core and no
+# SCHED_FIFO thread, exit 0.
+# Usage: guard_dds_cli.sh ROSGUARD RT_NODE SOURCE_DIR
+set -euo pipefail
+rosguard=$1
+rt_node=$2
+src=$3
+command -v stress-ng >/dev/null || { echo "SKIPPED: stress-ng is not installed"; exit 0; }
+[[ $(nproc) -ge 2 ]] || { echo "SKIPPED: needs two CPUs"; exit 0; }
+tmp=$(mktemp -d)
+guard_pid="" stress_pid=""
+cleanup() {
+  [[ -n "$guard_pid" ]] && kill -9 "$guard_pid" 2>/dev/null || true
+  [[ -n "$stress_pid" ]] && kill -9 -- "-$stress_pid" 2>/dev/null || true
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+ns="/rosguard_test_guard_$$_${RANDOM}"
+export CYCLONEDDS_URI="file://$src/tests/hw/cyclonedds-loopback.xml"
+cat >"$tmp/guard.json" <<JSON
+{ "name": "clitest", "controller": { "core": 0 }, "rt": [ { "name": "planner" } ],
+  "nrt": [ { "name": "be", "core": 1 } ],
+  "regulation": { "threshold_pct": 10, "reference_mbps": 1000, "regulation_period_us": 10000 },
+  "hw": { "rescan_ms": 50 },
+  "activity": { "source": "dds" }, "publish": { "transport": "dds" },
+  "dds": { "namespace": "$ns" } }
+JSON
+setsid taskset -c 1 stress-ng --cpu 1 --cpu-method int64 --timeout 120s --quiet &
+stress_pid=$!
+"$rosguard" guard "$tmp/guard.json" 2>"$tmp/log" &
+guard_pid=$!
+for _ in $(seq 200); do grep -q "regulating be (CPU 1)" "$tmp/log" && break; sleep 0.1; done
+grep -q "regulating be (CPU 1)" "$tmp/log" || { cat "$tmp/log"; echo "FAIL: guard did not start"; exit 1; }
+for _ in $(seq 50); do grep -q "regulating pid.*stress-ng" "$tmp/log" && break; sleep 0.1; done
+# The RT program: 3 jobs of 300 ms on core 0, signalled over DDS.
+"$rt_node" --name planner --ns "$ns" --jobs 3 --job-ms 300 --gap-ms 200 --core 0 \
+  --working-set-kb 4096 --wait-ms 20000 >"$tmp/rt.out"
+sleep 0.3
+# Once more, and stop the guard while regulation is active.
+"$rt_node" --name planner --ns "$ns" --jobs 1 --job-ms 3000 --core 0 --working-set-kb 4096 \
+  --wait-ms 20000 >/dev/null &
+rt_pid=$!
+for _ in $(seq 100); do [[ $(grep -c "regulation active" "$tmp/log") -ge 4 ]] && break; sleep 0.05; done
+sleep 0.2
+kill -TERM "$guard_pid"
+rc=0
+wait "$guard_pid" || rc=$?
+guard_pid=""
+kill "$rt_pid" 2>/dev/null || true
+wait "$rt_pid" 2>/dev/null || true
+cat "$tmp/log" | grep -v -- "-> THR\|-> ON" | head -40
+fail() { echo "FAIL: $*"; exit 1; }
+[[ $rc -eq 0 ]] || fail "guard exited $rc"
+[[ $(grep -c "regulation active (an RT node started)" "$tmp/log") -eq 4 ]] || fail "expected 4 activations"
+[[ $(grep -c "regulation inactive" "$tmp/log") -ge 3 ]] || fail "expected 3 deactivations"
+thr=$(grep -c -- "-> THR" "$tmp/log" || true)
+[[ $thr -ge 10 ]] || fail "expected the core throttled during the jobs ($thr THR)"
+grep -q "SIGTERM received" "$tmp/log" || fail "no SIGTERM line"
+grep -q "stopped: 1 core(s) back to nominal, every guard thread joined, 0 thread(s) left under SCHED_FIFO" "$tmp/log" || fail "no clean stop"
+# Nothing left: no guard thread anywhere, and stress-ng runs under its own policy again.
+if ps -eLo comm | grep -q "^be-thr\|^be-cfb"; then fail "a guard thread is still alive"; fi
+for t in /proc/$(pgrep -f "stress-ng-cpu" | head -1)/task/*; do
+  pol=$(chrt -p "$(basename "$t")" | head -1)
+  [[ $pol == *SCHED_OTHER* ]] || fail "stress-ng thread left as: $pol"
+done
+echo "OK: $thr THR commands over 4 activations; clean SIGTERM"

@@ -1,0 +1,437 @@
+// rosguard guard (hw/guard/guard.h, tools/rosguard/guard_cmd.cpp): a stress-ng process pinned on
+// an nRT core is held to its budget while an RT node says it is active and runs freely otherwise;
+// SIGTERM leaves no throttled core and no SCHED_FIFO thread; SIGHUP with a changed threshold takes
+// effect from the next window while regulation goes on.
+#include <fcntl.h>
+#include <sched.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hw/common/sys.h"
+#include "hw/guard/dds_guard.h"
+#include "hw/guard/guard.h"
+#include "hw_test_files.h"
+#include "policy/policy.h"
+
+using namespace rosguard;
+using namespace rosguard::hw;
+namespace fs = std::filesystem;
+using rosguard::test::slurp;
+
+namespace {
+
+// Below this share of its core, unregulated, stress-ng shares the core with other work (other
+// tests' SCHED_FIFO threads, builds): CPU-share comparisons then say nothing about the guard.
+constexpr double kQuiet = 0.6;
+
+bool have_stress_ng() {
+  return ::access("/usr/bin/stress-ng", X_OK) == 0 && ::access("/usr/bin/taskset", X_OK) == 0;
+}
+
+// `taskset -c CORE stress-ng --cpu 1` in its own process group; killed with the group.
+class Stress {
+ public:
+  explicit Stress(int core) {
+    pid_ = ::fork();
+    REQUIRE(pid_ >= 0);
+    if (pid_ == 0) {
+      ::setpgid(0, 0);
+      const int null = ::open("/dev/null", O_WRONLY);
+      ::dup2(null, 1);
+      ::dup2(null, 2);
+      const std::string c = std::to_string(core);
+      ::execl("/usr/bin/taskset", "taskset", "-c", c.c_str(), "/usr/bin/stress-ng", "--cpu", "1",
+              "--cpu-method", "int64", "--timeout", "120s", static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    ::setpgid(pid_, pid_);
+  }
+  ~Stress() {
+    ::kill(-pid_, SIGKILL);
+    ::waitpid(pid_, nullptr, 0);
+  }
+  // CPU time (ns) of every thread in the process group so far.
+  std::uint64_t cpu_ns() const {
+    std::uint64_t total = 0;
+    for (const auto& p :
+         fs::directory_iterator("/proc", fs::directory_options::skip_permission_denied)) {
+      const std::string name = p.path().filename();
+      if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+      const std::string stat = slurp(p.path() / "stat");
+      const auto close = stat.rfind(')');
+      if (close == std::string::npos) continue;
+      std::istringstream rest(stat.substr(close + 2));
+      char state;
+      long ppid, pgrp;
+      rest >> state >> ppid >> pgrp;
+      if (pgrp != pid_) continue;
+      std::error_code ec;
+      for (const auto& t : fs::directory_iterator(p.path() / "task", ec))
+        total += std::strtoull(slurp(t.path() / "schedstat").c_str(), nullptr, 10);
+    }
+    return total;
+  }
+  // Share of one CPU the group got over `d`.
+  double share(std::chrono::milliseconds d) const {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::uint64_t c0 = cpu_ns();
+    std::this_thread::sleep_for(d);
+    const std::uint64_t c1 = cpu_ns();
+    const double wall =
+        std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count();
+    return static_cast<double>(c1 - c0) / wall;
+  }
+  // Every thread of the group under SCHED_OTHER (none left in SCHED_IDLE or elsewhere).
+  bool all_sched_other() const {
+    bool ok = true, any = false;
+    for (const auto& p :
+         fs::directory_iterator("/proc", fs::directory_options::skip_permission_denied)) {
+      const std::string name = p.path().filename();
+      if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+      if (::getpgid(std::stoi(name)) != pid_) continue;
+      std::error_code ec;
+      for (const auto& t : fs::directory_iterator(p.path() / "task", ec)) {
+        any = true;
+        ok = ok && ::sched_getscheduler(std::stoi(t.path().filename().string())) == SCHED_OTHER;
+      }
+    }
+    return ok && any;
+  }
+  pid_t pid() const { return pid_; }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+GuardSettings settings_for(int ctl, int core, double threshold_pct) {
+  GuardSettings s;
+  s.name = "test";
+  s.file = "test";
+  s.controller_core = ctl;
+  s.rt = {"planner"};
+  s.nrt = {{"be", core}};
+  s.sampling_period_ns = kNsPerMs;
+  s.regulation_period_ns = 10 * kNsPerMs;
+  s.threshold_pct = threshold_pct;
+  s.reference_mbps = 1000.0;  // cputime: the budget is threshold_pct % of each window's time
+  s.rescan_ns = 50 * kNsPerMs;
+  return s;
+}
+
+struct Recorder : GuardPublisher {
+  std::string describe() const override { return "test recorder"; }
+  void sample(const GuardSample& s) override { samples.push_back(s); }
+  void command(const GuardCommandNote& c) override { commands.push_back(c); }
+  void active(TimeNs, bool a) override { actives.push_back(a); }
+  std::vector<GuardSample> samples;
+  std::vector<GuardCommandNote> commands;
+  std::vector<bool> actives;
+};
+
+// Serves the guard for `d` on this thread (its main thread).
+void serve_for(Guard& g, std::chrono::milliseconds d) {
+  const auto end = std::chrono::steady_clock::now() + d;
+  while (std::chrono::steady_clock::now() < end)
+    g.serve(5 * kNsPerMs);
+}
+
+double share_while_serving(Guard& g, const Stress& st, std::chrono::milliseconds d) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::uint64_t c0 = st.cpu_ns();
+  serve_for(g, d);
+  const std::uint64_t c1 = st.cpu_ns();
+  const double wall =
+      std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count();
+  return static_cast<double>(c1 - c0) / wall;
+}
+
+}  // namespace
+
+TEST_CASE("guard holds a pinned stress-ng to its budget while the RT node is active",
+          "[hw][guard]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng, taskset and two CPUs");
+    return;
+  }
+  const int core = cpus.back(), ctl = cpus.front();
+  Stress st(core);
+  PolicyRegistry policies;
+  register_builtin(policies);
+  InprocActivity activity;
+  Recorder rec;
+  std::ostringstream log;
+  {
+    Guard g(settings_for(ctl, core, 10.0), policies, activity, rec, log);
+    g.start();
+    serve_for(g, std::chrono::milliseconds(300));  // a rescan finds stress-ng
+    const double before = share_while_serving(g, st, std::chrono::milliseconds(500));
+    activity.signal(0, true);
+    serve_for(g, std::chrono::milliseconds(50));
+    const double active = share_while_serving(g, st, std::chrono::milliseconds(1000));
+    activity.signal(0, false);
+    serve_for(g, std::chrono::milliseconds(50));
+    const double after = share_while_serving(g, st, std::chrono::milliseconds(500));
+    INFO(log.str());
+    INFO("CPU share of stress-ng: before " << before << ", active " << active << ", after " << after
+                                           << "; throttle " << to_string(g.throttle().kind));
+    CHECK_THAT(log.str(), Catch::Contains("regulating pid " + std::to_string(st.pid())) ||
+                              Catch::Contains("(stress-ng"));
+    CHECK(g.stats().throttles > 10);
+    CHECK(g.stats().activations == 1);
+    // Budget: 10 % of each 10 ms window, plus one sampling period of overshoot and the
+    // activation delay; far below what it gets unregulated.
+    if (before < kQuiet) {
+      WARN("SKIPPED (CPU shares): other work held the core (stress-ng got "
+           << before << " of it unregulated)");
+    } else {
+      CHECK(active < 0.35);
+      CHECK(active < 0.5 * before);
+      CHECK(after > 2.0 * active);
+    }
+    REQUIRE_FALSE(rec.samples.empty());
+    CHECK(rec.samples.back().budget_bytes == Approx(0.10 * 1000.0 * 1048576.0 * 0.010));
+    g.shutdown();
+  }
+  CHECK(realtime_threads().empty());
+  CHECK(st.all_sched_other());
+  CHECK_THAT(log.str(), Catch::Contains("stopped: 1 core(s) back to nominal") &&
+                            Catch::Contains("0 thread(s) left under SCHED_FIFO"));
+}
+
+TEST_CASE("guard reload: a new threshold from the next window, regulation never pauses",
+          "[hw][guard][reload]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng, taskset and two CPUs");
+    return;
+  }
+  const int core = cpus.back(), ctl = cpus.front();
+  Stress st(core);
+  PolicyRegistry policies;
+  register_builtin(policies);
+  InprocActivity activity;
+  Recorder rec;
+  std::ostringstream log;
+  Guard g(settings_for(ctl, core, 50.0), policies, activity, rec, log);
+  g.start();
+  serve_for(g, std::chrono::milliseconds(300));
+  const double free = share_while_serving(g, st, std::chrono::milliseconds(400));
+  activity.signal(0, true);
+  const double at50 = share_while_serving(g, st, std::chrono::milliseconds(800));
+  const std::size_t before = rec.samples.size();
+  REQUIRE(g.reload(settings_for(ctl, core, 5.0)));
+  const double at5 = share_while_serving(g, st, std::chrono::milliseconds(800));
+  activity.signal(0, false);
+  serve_for(g, std::chrono::milliseconds(50));
+  g.shutdown();
+  INFO(log.str());
+  INFO("CPU share unregulated: " << free << ", at 50 %: " << at50 << ", at 5 %: " << at5);
+  if (free < kQuiet)
+    WARN("SKIPPED (CPU shares): other work held the core (stress-ng got " << free
+                                                                          << " of it unregulated)");
+  else
+    CHECK(at5 < 0.6 * at50);
+  // The budget in the samples goes from 50 % to 5 % of the window, with no sample in between
+  // that saw regulation off, and samples kept coming through the reload.
+  const double b50 = 0.50 * 1000.0 * 1048576.0 * 0.010, b5 = 0.05 * 1000.0 * 1048576.0 * 0.010;
+  REQUIRE(rec.samples.size() > before + 100);
+  CHECK(rec.samples[before - 1].budget_bytes == Approx(b50));
+  CHECK(rec.samples.back().budget_bytes == Approx(b5));
+  bool switched = false;
+  TimeNs longest = 0;
+  for (std::size_t i = before; i < rec.samples.size(); ++i) {
+    const double b = rec.samples[i].budget_bytes;
+    CHECK((b == Approx(b50) || b == Approx(b5)));
+    if (switched) CHECK(b == Approx(b5));  // never back
+    switched = switched || b == Approx(b5);
+    longest = std::max(longest, rec.samples[i].t - rec.samples[i - 1].t);
+  }
+  CHECK(switched);
+  // No window without samples: the longest silence is well under one 10 ms window.
+  CHECK(longest < 10 * kNsPerMs);
+  CHECK(std::count(rec.actives.begin(), rec.actives.end(), false) == 1);  // only at the end
+  CHECK_THAT(log.str(), Catch::Contains("reload: threshold_pct 50 -> 5") &&
+                            Catch::Contains("new policy parameters in force from the next window"));
+  // A change that cannot be applied while running is refused, and the guard keeps going.
+  auto other = settings_for(ctl, core, 5.0);
+  other.policy = "monitor";
+  CHECK_FALSE(g.reload(other));
+}
+
+TEST_CASE("rosguard guard: SIGHUP reloads, SIGTERM leaves no throttled core and no FIFO thread",
+          "[hw][guard][cli]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng, taskset and two CPUs");
+    return;
+  }
+  const int core = cpus.back(), ctl = cpus.front();
+  const fs::path dir = fs::temp_directory_path() / ("rosguard-guard-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const auto config = [&](double threshold) {
+    nlohmann::json doc = {{"name", "cli"},
+                          {"controller", {{"core", ctl}}},
+                          {"rt", {{{"name", "planner"}}}},
+                          {"nrt", {{{"name", "be"}, {"core", core}}}},
+                          {"regulation",
+                           {{"policy", "interval"},
+                            {"sampling_period_us", 1000},
+                            {"regulation_period_us", 10000},
+                            {"threshold_pct", threshold},
+                            {"reference_mbps", 1000}}},
+                          {"hw", {{"rescan_ms", 50}}},
+                          {"activity", {{"source", "fifo"}, {"path", (dir / "activity").string()}}},
+                          {"publish", {{"transport", "none"}}}};
+    std::ofstream(dir / "guard.json.tmp") << doc.dump(2);
+    fs::rename(dir / "guard.json.tmp", dir / "guard.json");
+  };
+  config(50.0);
+  Stress st(core);
+  const fs::path err = dir / "stderr";
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 2);
+    ::setenv("ROSGUARD_HOME", ROSGUARD_TEST_SOURCE_DIR, 1);
+    ::execl(ROSGUARD_BINARY, "rosguard", "guard", (dir / "guard.json").c_str(),
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const auto wait_for = [&](const std::string& text, int seconds) {
+    for (int i = 0; i < seconds * 20; ++i) {
+      if (slurp(err).find(text) != std::string::npos) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return false;
+  };
+  REQUIRE(wait_for("regulating be (CPU", 20));
+  REQUIRE(wait_for("regulating pid", 5));
+  const double free = st.share(std::chrono::milliseconds(400));
+  { std::ofstream(dir / "activity") << "planner 1\n"; }
+  CHECK(wait_for("regulation active", 5));
+  CHECK(wait_for("-> THR", 5));
+  const double at50 = st.share(std::chrono::milliseconds(600));
+  config(5.0);
+  ::kill(pid, SIGHUP);
+  CHECK(wait_for("reload: threshold_pct 50 -> 5", 5));
+  CHECK(wait_for("new policy parameters in force from the next window", 5));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const double at5 = st.share(std::chrono::milliseconds(600));
+  // Still regulating (the RT node is active) when stopped: SIGTERM must release the core.
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  const std::string text = slurp(err);
+  INFO(text);
+  INFO("CPU share unregulated: " << free << ", at 50 %: " << at50 << ", at 5 %: " << at5);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  const bool quiet = free >= kQuiet;
+  if (!quiet)
+    WARN("SKIPPED (CPU shares): other work held the core (stress-ng got " << free
+                                                                          << " of it unregulated)");
+  if (quiet) CHECK(at5 < 0.6 * at50);
+  CHECK_THAT(text, Catch::Contains("SIGTERM received") &&
+                       Catch::Contains("stopped: 1 core(s) back to nominal") &&
+                       Catch::Contains("0 thread(s) left under SCHED_FIFO"));
+  CHECK_THAT(text, !Catch::Contains("regulation inactive"));  // no gap across the reload
+  // Nothing of the guard is left: no thread anywhere named after its core's callbacks, and the
+  // core runs stress-ng freely again, under its own scheduling.
+  for (const auto& p :
+       fs::directory_iterator("/proc", fs::directory_options::skip_permission_denied)) {
+    const std::string name = p.path().filename();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::error_code ec;
+    for (const auto& t : fs::directory_iterator(p.path() / "task", ec)) {
+      const std::string comm = slurp(t.path() / "comm");
+      CHECK(comm.rfind("be-thr", 0) != 0);
+      CHECK(comm.rfind("be-cfb", 0) != 0);
+    }
+  }
+  if (quiet) CHECK(st.share(std::chrono::milliseconds(400)) > 2.0 * at5);
+  CHECK(st.all_sched_other());
+  fs::remove_all(dir);
+}
+
+TEST_CASE("guard over DDS: Bool activity in, samples (with budgets) and commands out, ROS 2 names",
+          "[hw][guard][dds]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng, taskset and two CPUs");
+    return;
+  }
+  const std::string uri =
+      std::string("file://") + ROSGUARD_TEST_SOURCE_DIR + "/tests/hw/cyclonedds-loopback.xml";
+  ::setenv("CYCLONEDDS_URI", uri.c_str(), 1);
+  const std::string ns = "/guard_test_" + std::to_string(::getpid());
+  const int core = cpus.back(), ctl = cpus.front();
+  Stress st(core);
+  PolicyRegistry policies;
+  register_builtin(policies);
+  DdsActivity activity(std::nullopt, ns);
+  DdsPublisher publisher({"be"}, std::nullopt, ns);
+  // Plain Cyclone endpoints with the ROS 2 names, as an RT node and a `ros2 topic echo` would use.
+  dds::Participant outside;
+  dds::Writer<dds::BoolMsg> rt(outside, ns + "/rosguard/planner/active");
+  dds::Reader<dds::PmcSampleMsg> pmc(outside, ns + "/rosguard/be/pmc");
+  dds::Reader<dds::CommandMsg> cmd(outside, ns + "/rosguard/be/command");
+  CHECK(dds::dds_topic_name(ns + "/rosguard/be/pmc") == "rt" + ns + "/rosguard/be/pmc");
+  std::ostringstream log;
+  Guard g(settings_for(ctl, core, 10.0), policies, activity, publisher, log);
+  g.start();
+  // Wait for discovery both ways (volatile topics keep nothing for late joiners).
+  for (int i = 0; i < 200 && (rt.matched() == 0 || pmc.matched() == 0 || cmd.matched() == 0); ++i)
+    serve_for(g, std::chrono::milliseconds(10));
+  REQUIRE(rt.matched() > 0);
+  REQUIRE(pmc.matched() > 0);
+  std::size_t samples = 0, thr = 0;
+  double budget = 0.0;
+  // Keep-last 10 (ROS 2's default depth): take as they come, as a subscriber does.
+  const auto drain = [&] {
+    dds::PmcSampleMsg s{};
+    while (pmc.take(s)) {
+      ++samples;
+      CHECK(s.count == 3);
+      CHECK(s.entity == 0u);
+      budget = static_cast<double>(s.value[2]);
+    }
+    dds::CommandMsg c{};
+    while (cmd.take(c))
+      thr += c.command == dds::command::kThr ? 1 : 0;
+  };
+  dds::BoolMsg on{true};
+  rt.write(on);
+  for (int i = 0; i < 100; ++i) {
+    serve_for(g, std::chrono::milliseconds(5));
+    drain();
+  }
+  dds::BoolMsg off{false};
+  rt.write(off);
+  for (int i = 0; i < 20; ++i) {
+    serve_for(g, std::chrono::milliseconds(5));
+    drain();
+  }
+  INFO(log.str());
+  CHECK(g.stats().activations == 1);
+  CHECK(g.stats().throttles > 5);
+  CHECK(samples > 100);  // 1 kHz sampling for 0.5 s
+  CHECK(budget == Approx(0.10 * 1000.0 * 1048576.0 * 0.010).epsilon(1e-6));
+  CHECK(thr == g.stats().throttles);
+  g.shutdown();
+  CHECK(realtime_threads().empty());
+}

@@ -14,6 +14,7 @@ packages=(
   cyclonedds-dev cyclonedds-tools
   valgrind
   help2man bash-completion
+  slurm-wlm munge
 )
 [[ "${ROSGUARD_WITH_SIM:-ON}" == OFF ]] || packages+=(libsystemc-dev)
 
@@ -39,6 +40,16 @@ else
   exit 1
 fi
 export DEBIAN_FRONTEND=noninteractive
+# slurm-wlm and munge are for tests/slurm, which start their own daemons on their own config;
+# their packages' postinst would start the system's (invoke-rc.d). Under systemd that is what
+# Debian intends (munge starts; slurmd / slurmctld skip without /etc/slurm/slurm.conf). In a
+# container or chroot without systemd (CI) nothing must start: a policy-rc.d that refuses every
+# start (Debian's mechanism for image builds) is put in place for this install, where none is.
+policy=/usr/sbin/policy-rc.d
+if [[ ! -d /run/systemd/system && ! -e $policy ]]; then
+  "${sudo[@]}" sh -c "printf '#!/bin/sh\nexit 101\n' >$policy && chmod 755 $policy"
+  trap '"${sudo[@]}" rm -f "$policy"' EXIT
+fi
 # ROSGUARD_APT_UPDATED: the caller (e.g. .ci/run) has just updated the package lists.
 [[ -n "${ROSGUARD_APT_UPDATED:-}" ]] || "${sudo[@]}" apt-get update
 "${sudo[@]}" apt-get install -y --no-install-recommends "${missing[@]}"

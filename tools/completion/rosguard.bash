@@ -17,7 +17,7 @@ _rosguard() {
   case $prev in
     --out | --from | -o) _filedir; return ;;
     --backend) COMPREPLY=($(compgen -W "sim hw" -- "$cur")); return ;;
-    --jobs | --shard | --name | --slice-instructions | --skip-instructions | --max-instructions) return ;;
+    --jobs | --shard | --array | --sbatch-arg | --name | --slice-instructions | --skip-instructions | --max-instructions) return ;;
   esac
   if [[ $cur == -* ]]; then
     local opts
@@ -29,6 +29,7 @@ _rosguard() {
     list) COMPREPLY=($(compgen -W "workloads platforms policies backends pmc-sources columns" -- "$cur")) ;;
     platform) COMPREPLY=($(compgen -W "probe" -- "$cur")) ;;
     run | check) _filedir json ;;
+    status) _filedir -d ;;
     *) _filedir ;;
   esac
 }

@@ -4,8 +4,10 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <ctime>
 #include <fstream>
+#include <sstream>
 
 #include "version.h"
 
@@ -40,6 +42,42 @@ json host_facts() {
     }
   }
   return h;
+}
+
+std::optional<unsigned long long> process_start_ticks(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat;
+  if (!std::getline(in, stat)) return std::nullopt;
+  // The command name (field 2) may hold spaces and parentheses: count fields after the last ')'.
+  const auto close = stat.rfind(')');
+  if (close == std::string::npos) return std::nullopt;
+  std::istringstream fields(stat.substr(close + 1));
+  std::string field;
+  for (int i = 3; i <= 22; ++i)
+    if (!(fields >> field)) return std::nullopt;
+  try {
+    return std::stoull(field);
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+json process_facts() {
+  json p;
+  utsname u{};
+  if (::uname(&u) == 0) p["host"] = u.nodename;
+  p["pid"] = ::getpid();
+  if (const auto ticks = process_start_ticks(::getpid())) p["pid_start"] = *ticks;
+  const auto env = [](const char* name) -> std::string {
+    const char* v = std::getenv(name);
+    return v ? v : "";
+  };
+  if (const std::string array = env("SLURM_ARRAY_JOB_ID"), task = env("SLURM_ARRAY_TASK_ID");
+      !array.empty() && !task.empty())
+    p["slurm_job"] = array + "_" + task;
+  else if (const std::string job = env("SLURM_JOB_ID"); !job.empty())
+    p["slurm_job"] = job;
+  return p;
 }
 
 // The revision is the one baked in when the build was configured: an installed rosguard has no

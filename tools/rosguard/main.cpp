@@ -17,6 +17,8 @@
 #include "loader.h"
 #include "profile.h"
 #include "runner.h"
+#include "slurm.h"
+#include "status.h"
 #include "version.h"
 
 namespace {
@@ -25,6 +27,7 @@ constexpr const char* kFooter = R"(
 Start here:
   rosguard check scenarios/quickstart.json    validate a scenario, count its points
   rosguard run scenarios/quickstart.json      sweep it on the sim backend
+  rosguard status results/quickstart          how far a run (or a Slurm job) is
   rosguard plot results/quickstart            draw its figures
 Run 'rosguard <command> --help' for the options of a command.)";
 
@@ -58,6 +61,8 @@ struct RunArgs {
   rosguard::RunOptions options;
   std::string shard;    // "I/N", parsed by run_command
   std::string backend;  // empty: the scenario's
+  bool slurm = false;
+  rosguard::SlurmOptions slurm_options;
 };
 
 CLI::App* add_run_command(CLI::App& app, RunArgs& args) {
@@ -76,7 +81,26 @@ CLI::App* add_run_command(CLI::App& app, RunArgs& args) {
   run->add_flag("--overwrite", opt.overwrite, "Replace the results already in --out");
   run->add_flag("--trace", opt.trace, "Also write trace.json (Chrome trace, opens in Perfetto)");
   run->add_flag("--quiet", opt.quiet, "No progress or summary");
-  run->footer("Writes manifest.json, points.csv and samples.csv (docs/design.md, results format).");
+  run->add_flag("--slurm", args.slurm,
+                "Submit the run to Slurm (sbatch) as an array job, one shard per task, all "
+                "writing into --out on a filesystem the nodes share; prints the job id");
+  run->add_option("--array", args.slurm_options.array,
+                  "With --slurm: the number of array tasks, i.e. shards (default: one per point, "
+                  "at most " +
+                      std::to_string(rosguard::kDefaultSlurmShards) + ")")
+      ->check(CLI::Range(1, INT_MAX));
+  run->add_option("--sbatch-arg", args.slurm_options.sbatch_args,
+                  "With --slurm: one more sbatch option for the script, written as an #SBATCH "
+                  "line; repeat it (e.g. --sbatch-arg=--partition=short "
+                  "--sbatch-arg=--time=30)")
+      ->allow_extra_args(false);
+  run->add_flag("--dry-run", args.slurm_options.dry_run,
+                "With --slurm: print the sbatch script; write and submit nothing");
+  run->footer(
+      "Writes manifest.json, points.csv and samples.csv (docs/design.md, results format).\n"
+      "With --slurm the script goes to OUT/slurm/run.sbatch, the tasks' logs to "
+      "OUT/slurm/JOB_TASK.out;\nfollow the run with 'rosguard status OUT', which also prints how "
+      "to re-run a failed shard.");
   return run;
 }
 
@@ -89,7 +113,19 @@ int run_command(RunArgs& args, const std::string& command_line, rosguard::Loader
     throw rosguard::InputError("", "",
                                "--resume and --overwrite contradict each other; choose one");
   opt.command_line = command_line;
-  return rosguard::run_scenario(opt, loader, backends);
+  if (!args.slurm) {
+    for (const auto& [given, name] :
+         {std::pair{args.slurm_options.array > 0, "--array"},
+          std::pair{!args.slurm_options.sbatch_args.empty(), "--sbatch-arg"},
+          std::pair{args.slurm_options.dry_run, "--dry-run"}})
+      if (given) throw rosguard::InputError("", "", std::string(name) + " goes with --slurm");
+    return rosguard::run_scenario(opt, loader, backends);
+  }
+  if (!args.shard.empty())
+    throw rosguard::InputError("", "",
+                               "--shard and --slurm contradict each other: --slurm runs every "
+                               "shard, one per array task (--array N)");
+  return rosguard::submit_to_slurm(opt, args.slurm_options, loader, backends);
 }
 
 }  // namespace
@@ -119,6 +155,16 @@ int main(int argc, char** argv) {
   check->add_option("--backend", check_backend, "Check as if run on this backend")
       ->check(CLI::IsMember({"sim", "hw"}));
   check->add_flag("--points", check_points, "List every point's id and parameters");
+
+  std::string status_dir;
+  auto* status = app.add_subcommand(
+      "status",
+      "Show how far a run is: points and runs done per shard and overall, the shards that failed "
+      "or still run (also on Slurm), and the commands that re-run a failed shard.");
+  status->add_option("results", status_dir, "Results folder of a run (its --out)")->required();
+  status->footer(
+      "Reads DIR/manifest.json, DIR/points.csv and, after --slurm, DIR/slurm/job.json "
+      "and squeue. Exit 0; 2 when DIR is not a results folder.");
 
   std::string plot_dir, plot_out;
   auto* plot = app.add_subcommand("plot", "Draw every figure a results folder supports.");
@@ -253,6 +299,7 @@ int main(int argc, char** argv) {
     Loader loader(Home::locate());
 
     if (*run) return run_command(run_args, joined_args(argc, argv), loader, backends);
+    if (*status) return results_status(status_dir);
     if (*check)
       return check_scenario(
           loader, backends, check_file,

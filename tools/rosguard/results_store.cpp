@@ -239,6 +239,7 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
   m["shards"][shard] = {{"status", "running"},
                         {"command", m.value("command", "")},
                         {"start_time", m.value("start_time", "")}};
+  m["shards"][shard].update(process_facts());  // host, pid: `rosguard status` checks it runs
   if (!m.contains("fallbacks")) m["fallbacks"] = json::array();
   if (!m.contains("facts")) m["facts"] = json::object();
   for (const auto& f : m["fallbacks"])

@@ -298,6 +298,17 @@ int report_to_user(const RunOptions& opt, const InvocationReport& report, const 
 
 }  // namespace
 
+LoadedScenario load_for_run(const RunOptions& opt, Loader& loader,
+                            const BackendRegistry& backends) {
+  LoadedScenario loaded = loader.load(opt.scenario_file, opt.backend);
+  make_backend(loaded, backends);
+  return loaded;
+}
+
+fs::path results_folder(const RunOptions& opt, const LoadedScenario& loaded) {
+  return opt.out.empty() ? fs::path("results") / loaded.points.front().scenario.name : opt.out;
+}
+
 int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& backends) {
   // 1. Load and validate everything; errors here are InputErrors and nothing is written.
   LoadedScenario loaded = loader.load(opt.scenario_file, opt.backend);
@@ -308,8 +319,8 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     order.emplace(p.sweep.id, p.sweep.index);
 
   // 2. The results folder: new, resumed, or shared with other shards of the same scenario.
-  ResultsStore store(opt.out.empty() ? fs::path("results") / first.name : opt.out,
-                     join(header_of(loaded), ","), order, first.repetitions);
+  ResultsStore store(results_folder(opt, loaded), join(header_of(loaded), ","), order,
+                     first.repetitions);
   store.prepare(opt.overwrite, opt.resume || opt.shard_count > 1, scenario_hash(loaded));
   const ResultsStore::Opened opened =
       store.open(describe_run(loaded, first.backend, opt.command_line),

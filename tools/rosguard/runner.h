@@ -29,6 +29,14 @@ struct RunOptions {
   std::string command_line;  // recorded in the manifest
 };
 
+// Loads the scenario and validates every point against its backend, as run_scenario does before
+// it writes anything: InputError (exit 2); RunError when the backend is not built in.
+LoadedScenario load_for_run(const RunOptions& options, Loader& loader,
+                            const BackendRegistry& backends);
+
+// The results folder of a run: --out, else results/<scenario name>.
+std::filesystem::path results_folder(const RunOptions& options, const LoadedScenario& loaded);
+
 // Returns the process exit code (0 ok, 1 runtime failure, 130 / 143 interrupted). Throws
 // InputError (exit 2) before anything is written.
 int run_scenario(const RunOptions& options, Loader& loader, const BackendRegistry& backends);

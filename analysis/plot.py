@@ -32,15 +32,21 @@ SUMMARY_METRICS = (
     "throttle_count", "throttled_us", "activation_delay_p50_us", "activation_delay_max_us",
     "pmc_callback_p50_us", "pmc_callback_max_us", "sampling_overhead_p50_us",
     "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses", "rt_isolation_cv",
-    "nrt_isolation_cv",
+    "nrt_isolation_cv", "rt_unregulated_slowdown", "nrt_unregulated_slowdown",
 )
 SAMPLE_KINDS = ("activation_delay", "pmc_callback", "sampling_overhead", "rt_job")
 STATS = ("mean", "min", "max", "std")
 
 
-def run(folder, out=None, stream=sys.stdout) -> int:
-    """Draws every supported figure of a results folder; returns the exit code (0)."""
+def run(folder, out=None, stream=sys.stdout, rt_slowdown_max=None) -> int:
+    """Draws every supported figure of a results folder; returns the exit code (0).
+    ``rt_slowdown_max``: the RT slowdown target to draw (overrides tune.json's)."""
     results = load_results(folder)
+    if rt_slowdown_max is not None:
+        if results.tune.get("rt_slowdown_max") not in (None, rt_slowdown_max):
+            print(f"note: drawing the target {rt_slowdown_max:g} given on the command line, "
+                  f"not tune.json's {results.tune['rt_slowdown_max']:g}", file=stream)
+        results.rt_slowdown_max = rt_slowdown_max
     if not results.rows:
         raise InvalidInput(f"{results.folder / 'points.csv'} holds no rows yet "
                            f"(run status: {results.status}): nothing to plot")

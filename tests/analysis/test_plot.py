@@ -36,7 +36,8 @@ def test_plot_writes_every_supported_figure(results_dir, tmp_path, name):
     figures = {p.stem for p in out.glob("*.png")}
     assert figures == EXPECTED[name]
     assert {p.stem for p in out.glob("*.pdf")} == figures
-    kinds_drawn = {"rt_nrt_grid" if s.startswith("rt_nrt_grid") else s for s in EXPECTED[name]}
+    kinds_drawn = {s.split("_threshold")[0] if s.startswith("rt_nrt_grid") else
+                   "mechanisms" if s.startswith("mechanisms") else s for s in EXPECTED[name]}
     assert printed.count("  skipped ") == len(REGISTRY) - len(kinds_drawn)
     assert (out / "summary.csv").is_file()
 

@@ -171,10 +171,13 @@ int main(int argc, char** argv) {
       "Reads DIR/manifest.json, DIR/points.csv and, after --slurm, DIR/slurm/job.json "
       "and squeue. Exit 0; 2 when DIR is not a results folder.");
 
-  std::string plot_dir, plot_out;
+  std::string plot_dir, plot_out, plot_rt_max;
   auto* plot = app.add_subcommand("plot", "Draw every figure a results folder supports.");
   plot->add_option("results", plot_dir, "Results folder of a run")->required();
   plot->add_option("--out", plot_out, "Figure folder (default: RESULTS/figures)");
+  plot->add_option("--rt-slowdown-max", plot_rt_max,
+                   "Draw this RT slowdown bound (e.g. 1.05) as a target on every RT slowdown "
+                   "figure and the trade-off figure (default: DIR/tune.json's, if any)");
 
   std::string cmp_a, cmp_b, cmp_out;
   auto* compare =
@@ -318,6 +321,7 @@ int main(int argc, char** argv) {
     if (*plot) {
       std::vector<std::string> args = {"plot", plot_dir};
       if (!plot_out.empty()) args.insert(args.end(), {"--out", plot_out});
+      if (!plot_rt_max.empty()) args.insert(args.end(), {"--rt-slowdown-max", plot_rt_max});
       return run_analysis(loader.home(), args);
     }
     if (*compare) {

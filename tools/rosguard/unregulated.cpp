@@ -88,9 +88,24 @@ std::string UnregulatedCoruns::key(const Scenario& s) {
 
 Scenario UnregulatedCoruns::scenario_of(const Scenario& point) {
   Scenario s = point;
-  s.regulation.policy = "none";
+  // Nothing of the point's setting leaks into the co-run: every point of a key (whichever a
+  // shard meets first) gives the same one. Only what defines the measurement stays.
+  RegulationSpec r;
+  r.policy = "none";
+  r.metric = point.regulation.metric;
+  r.reference_mbps = point.regulation.reference_mbps;
+  r.reference_from_platform = point.regulation.reference_from_platform;
+  s.regulation = r;
+  nlohmann::json doc = {{"policy", "none"},
+                        {"sampling", std::string(to_string(r.sampling))},
+                        {"sampling_period_us", r.sampling_period_us},
+                        {"regulation_period_us", r.regulation_period_us},
+                        {"threshold_pct", r.threshold_pct},
+                        {"scope", std::string(to_string(r.scope))}};
   if (s.document.contains("regulation") && s.document["regulation"].is_object())
-    s.document["regulation"]["policy"] = "none";
+    for (const char* k : {"metric", "reference_mbps"})
+      if (s.document["regulation"].contains(k)) doc[k] = s.document["regulation"][k];
+  s.document["regulation"] = doc;
   return s;
 }
 

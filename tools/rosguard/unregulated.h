@@ -41,7 +41,8 @@ class UnregulatedCoruns {
   static bool needed(const Scenario& point);
   // The co-run's identity (see the contract above), e.g. "corun/mser+bandwidth_read/1a2b3c4d".
   static std::string key(const Scenario& point);
-  // `point` with its regulation off (policy none); everything else as it is.
+  // `point` with its regulation off: policy none, the other regulation settings at their
+  // defaults (the metric and reference bandwidth kept); everything else as it is.
   static Scenario scenario_of(const Scenario& point);
 
   void put(const std::string& key, CorunResult result, int rep);

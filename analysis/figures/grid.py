@@ -23,8 +23,8 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from analysis import style
-from analysis.configs import (as_config, describe, distinct, group_by, held_fixed,
-                              keys_in_order, slug, title, varying)
+from analysis.configs import (as_config, backend_words, describe, distinct, group_by,
+                              held_fixed, keys_in_order, slug, title, varying)
 from analysis.figures import reference
 from analysis.figures.base import FigurePlan
 
@@ -71,11 +71,6 @@ def plan(results):
         draw = partial(_draw, results, pts, conf_cols, conf_keys, {**fixed, **file_config})
         plans.append(FigurePlan(KIND, stem, summary, draw))
     return plans
-
-
-def backend_words(backend: str) -> str:
-    """'simulated' for sim results, 'measured' for hw (the ``backend`` column)."""
-    return {"sim": "simulated", "hw": "measured"}.get(backend, f"{backend} results")
 
 
 def _conf_label(conf_cols, key, backend) -> str:

@@ -130,7 +130,8 @@ def test_a_grid_with_one_configuration_says_how_it_was_obtained(tmp_path, drawn,
     assert f"(1: {words})" in plan.summary
     fig = drawn(plan)
     assert _legend_labels(fig)[0] == words
-    assert "measured" not in " ".join(_legend_labels(fig)) or backend == "hw"
+    assert fig._suptitle.get_text().endswith(f"[{words}]")
+    assert ("measured" in fig._suptitle.get_text()) == (backend == "hw")
 
 
 # --- the trade-off figure ---------------------------------------------------------------------

@@ -60,12 +60,6 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
   return s;
 }
 
-// The tasks of this shard in phases that run one after another (the tasks of one phase run in
-// any order, --jobs at a time). A baseline measured once (sim: deterministic) comes before every
-// point. A baseline measured R_b times (hw) is interleaved with the repetitions R of the points:
-// measurement k runs just before repetition round baseline_round(k, R, R_b) (R_b >= R: one
-// before each round, the extra ones before the first rounds), so that the machine's drift hits
-// the baseline and the co-runs alike and every round has a baseline measured before it.
 // The unregulated co-runs (unregulated.h) of a shard are points appended to the loaded scenario
 // after the scenario's own (index >= first): they run as point tasks (on the policy-none copy of
 // a point), after the baselines of their round and before its points, so that the rows are
@@ -108,13 +102,18 @@ CorunPlan add_corun_points(LoadedScenario& loaded, const RunOptions& opt, const 
   return plan;
 }
 
+// The tasks of this shard in phases that run one after another (the tasks of one phase run in
+// any order, --jobs at a time). A baseline measured once (sim: deterministic) comes before every
+// point. A baseline measured R_b times (hw) is interleaved with the repetitions R of the points:
+// measurement k runs just before repetition round baseline_round(k, R, R_b) (R_b >= R: one
+// before each round, the extra ones before the first rounds), so that the machine's drift hits
+// the baseline and the co-runs alike and every round has a baseline measured before it.
 struct TaskPlan {
   std::vector<std::vector<Task>> phases;
   std::size_t tasks = 0;       // in all phases
   std::size_t runs = 0;        // point runs among them (the rest measure baselines, co-runs)
   std::size_t skipped = 0;     // runs of this shard already in points.csv
   std::set<std::string> keys;  // baselines this shard's points use
-  std::size_t coruns = 0;      // unregulated co-run measurements among the tasks
 };
 
 TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
@@ -178,7 +177,6 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
       if (coruns_held.has(loaded.points[point].sweep.id, k)) continue;
       corun_rounds[static_cast<std::size_t>(baseline_round(k, reps, measurements))].push_back(
           {Task::Kind::Point, point, k, "", nullptr, 0});
-      ++plan.coruns;
     }
   }
   const auto add = [&](std::vector<Task> phase) {

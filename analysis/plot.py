@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis import style
-from analysis.configs import column_words, group_by, varying
+from analysis.configs import column_words, describe, group_by, varying
 from analysis.figures import plan_figures
 from analysis.results import InvalidInput, load_results
 from analysis.tables import write_csv
@@ -102,6 +102,28 @@ def print_digest(results, stream) -> None:
         print("  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip(), file=stream)
     if len(rows) > DIGEST_ROWS:
         print(f"  ... {len(rows) - DIGEST_ROWS} more rows in summary.csv", file=stream)
+    print_unregulated(results, stream)
+
+
+def print_unregulated(results, stream) -> None:
+    """What the unregulated co-run (policy none) costs, per workload pair: the reference every
+    slowdown figure draws."""
+    pairs: dict = {}
+    for p in results.points:
+        rt, nrt = p.stat("rt_unregulated_slowdown"), p.stat("nrt_unregulated_slowdown")
+        if rt or nrt:
+            pairs.setdefault(describe({c: p.config.get(c) for c in ("rt_workload",
+                                                                    "nrt_workload")}),
+                             (rt.mean if rt else None, nrt.mean if nrt else None))
+    if not pairs:
+        return
+    print("unregulated co-run (the same nodes with policy none; slowdown = time / isolation "
+          "time):", file=stream)
+    for words, (rt, nrt) in list(pairs.items())[:DIGEST_ROWS]:
+        cells = [f"{node} {v:.3f}" for node, v in (("RT", rt), ("nRT", nrt)) if v is not None]
+        print(f"  {words}: {', '.join(cells)}", file=stream)
+    if len(pairs) > DIGEST_ROWS:
+        print(f"  ... {len(pairs) - DIGEST_ROWS} more pairs", file=stream)
 
 
 def write_summary(results, path: Path) -> Path:

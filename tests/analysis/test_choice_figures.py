@@ -86,6 +86,20 @@ def test_slowdown_lines_draw_the_unregulated_corun_of_each_pair(loaded, drawn):
     assert "unregulated co-run" in " ".join(t.get_text() for t in fig.texts)
 
 
+def test_plot_prints_what_the_unregulated_corun_costs_per_pair(results_dir, tmp_path):
+    import io
+    from analysis import plot
+    stream = io.StringIO()
+    plot.run(results_dir("threshold"), tmp_path / "figs", stream=stream)
+    printed = stream.getvalue()
+    results = load_results(results_dir("threshold"))
+    assert "unregulated co-run (the same nodes with policy none" in printed
+    for w in ("bandwidth_read", "mser"):
+        p = next(p for p in results.points if p.config["rt_workload"] == w)
+        assert (f"  RT {w} / nRT {w}: RT {p.mean('rt_unregulated_slowdown'):.3f}, "
+                f"nRT {p.mean('nrt_unregulated_slowdown'):.3f}\n") in printed
+
+
 def test_no_unregulated_line_without_the_columns(loaded, drawn):
     fig = drawn(_plans(loaded("no_unregulated"))["slowdown_vs_threshold"])
     assert UNREGULATED not in _legend_labels(fig)

@@ -22,11 +22,19 @@ def unregulated(points, metric: str) -> list:
     """The distinct unregulated co-run slowdowns (means over repetitions) behind the points'
     ``metric`` ("rt_slowdown" or "nrt_slowdown"), ascending; [] when none was measured."""
     column = UNREGULATED_METRIC.get(metric)
+    if column is None:
+        return []
+    # The regulated points carry the co-run the runner measured (one value per co-run); the
+    # policy-none points carry their own runs, each a little different on hw: they stand in,
+    # as their mean, only where no regulated point says.
+    regulated = [p.stat(column) for p in points if p.config.get("policy") != "none"]
+    own = [p.stat(column) for p in points if p.config.get("policy") == "none"]
     values: list = []
-    for p in points:
-        s = p.stat(column) if column else None
+    for s in regulated:
         if s and not any(abs(s.mean - v) <= 1e-9 * max(1.0, abs(v)) for v in values):
             values.append(s.mean)
+    if not values and any(own):
+        values.append(sum(s.mean for s in own if s) / sum(1 for s in own if s))
     return sorted(values)
 
 

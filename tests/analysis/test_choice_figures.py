@@ -325,3 +325,17 @@ def test_several_sampling_periods_keep_the_min_median_max_markers(loaded, drawn)
     fig = drawn(_plans(loaded("delay"))["activation_delay_vs_sampling_period"])
     assert not [p for p in fig.axes[0].patches if isinstance(p, PathPatch)]
     assert fig.axes[0].get_xscale() == "log"
+
+
+def test_policy_none_points_stand_in_as_one_line_only_without_a_measured_corun(tmp_path,
+                                                                               drawn):
+    # A hw sweep of policy none alone (an older folder: no co-run of its own measured): the
+    # none points' slowdowns vary a little per threshold; one line at their mean.
+    points = resultgen.sweep({"policy": "none"}, {"regulation.threshold_pct": [10, 20, 30]})
+    results = load_results(resultgen.write_results(tmp_path / "none", points, backend="hw"))
+    fig = drawn(_plans(results)["slowdown_vs_threshold"])
+    rt_panel = fig.axes[0]
+    lines = _lines(rt_panel, UNREGULATED)
+    assert len(lines) == 1
+    assert lines[0].get_ydata()[0] == pytest.approx(
+        np.mean([p.mean("rt_slowdown") for p in results.points]))

@@ -39,8 +39,12 @@ exit codes: 0 success, 2 invalid input, 1 runtime failure
 PLOT_HELP = """\
 Draw every figure the results support: slowdown vs threshold, vs sampling period and vs
 regulation period (RT and nRT); RT x nRT grids per threshold and configuration; activation
-delay and PMC callback duration (min / median / max per sampling period, self vs external);
-sampling overhead vs sampling period. Figures the data do not support are skipped with a
+delay and PMC callback duration (min / median / max per sampling period, self vs external; a
+box per series at a single sampling period); sampling overhead vs sampling period; the RT vs
+nRT trade-off (one marker per regulation setting, the Pareto front, tune.json's best and
+runner-up); the mechanism comparison (bars per policy and sampling mode, per nRT workload and
+threshold). Slowdown figures draw the unregulated co-run (rt_/nrt_unregulated_slowdown) and,
+with --rt-slowdown-max or a tune.json, the RT target. Figures the data do not support are skipped with a
 reason. Also writes summary.csv (per point: mean / min / max / std over repetitions) and
 distributions.csv (sample statistics per sampling mode and period).
 """
@@ -67,6 +71,19 @@ report.json; with --readme, replace the block between <!-- validation:begin --> 
 """
 
 
+def _slowdown_bound(text: str) -> float:
+    """--rt-slowdown-max: a number >= 1 (a slowdown below isolation cannot be asked for)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not value >= 1.0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(
+            f"{text}: an RT slowdown bound is a finite number >= 1.0 (1.0 = as fast as alone; "
+            "e.g. 1.05 for 5 %)")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argparse parser of the two subcommands."""
     parser = argparse.ArgumentParser(
@@ -79,6 +96,10 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("results", metavar="RESULTS_DIR", help="results folder of a run")
     plot.add_argument("--out", metavar="DIR",
                       help="where figures and tables go (default: RESULTS_DIR/figures)")
+    plot.add_argument("--rt-slowdown-max", metavar="X", type=_slowdown_bound,
+                      help="an RT slowdown bound (e.g. 1.05): drawn as a target on every RT "
+                           "slowdown figure and the trade-off figure (default: "
+                           "RESULTS_DIR/tune.json's rt_slowdown_max, if any)")
 
     compare = sub.add_parser("compare", help="compare two results folders point by point",
                              description=COMPARE_HELP)
@@ -132,7 +153,7 @@ def main(argv=None) -> int:
         # Imported here so that --help and usage errors do not load matplotlib.
         if args.command == "plot":
             from analysis import plot
-            return plot.run(args.results, args.out)
+            return plot.run(args.results, args.out, rt_slowdown_max=args.rt_slowdown_max)
         if args.command == "calibration":
             from analysis import calibration
             return calibration.run(args.folder)

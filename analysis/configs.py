@@ -162,14 +162,20 @@ def held_fixed(points, columns) -> dict:
 
 
 def title(what: str, fixed: dict, results) -> str:
-    """Figure title: what it shows, what is held fixed, and the backend."""
+    """Figure title: what it shows, what is held fixed, and how it was obtained
+    ('[simulated]' or '[measured]')."""
     hidden = {"reference_mbps", "nrt_mode"}
     if fixed.get("policy") in ("monitor", "none"):
         hidden |= {"threshold_pct", "regulation_period_us"}   # no budget to speak of
     shown = {c: v for c, v in fixed.items() if c not in hidden}
     context = describe(shown)
     head = f"{what} — {context}" if context else what
-    return f"{head} [{results.backend}]"
+    return f"{head} [{backend_words(results.backend)}]"
+
+
+def backend_words(backend: str) -> str:
+    """'simulated' for sim results, 'measured' for hw (the ``backend`` column)."""
+    return {"sim": "simulated", "hw": "measured"}.get(backend, f"{backend} results")
 
 
 def finite(value) -> bool:

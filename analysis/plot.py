@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis import style
-from analysis.configs import column_words, group_by, varying
+from analysis.configs import column_words, describe, group_by, varying
 from analysis.figures import plan_figures
 from analysis.results import InvalidInput, load_results
 from analysis.tables import write_csv
@@ -32,15 +32,21 @@ SUMMARY_METRICS = (
     "throttle_count", "throttled_us", "activation_delay_p50_us", "activation_delay_max_us",
     "pmc_callback_p50_us", "pmc_callback_max_us", "sampling_overhead_p50_us",
     "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses", "rt_isolation_cv",
-    "nrt_isolation_cv",
+    "nrt_isolation_cv", "rt_unregulated_slowdown", "nrt_unregulated_slowdown",
 )
 SAMPLE_KINDS = ("activation_delay", "pmc_callback", "sampling_overhead", "rt_job")
 STATS = ("mean", "min", "max", "std")
 
 
-def run(folder, out=None, stream=sys.stdout) -> int:
-    """Draws every supported figure of a results folder; returns the exit code (0)."""
+def run(folder, out=None, stream=sys.stdout, rt_slowdown_max=None) -> int:
+    """Draws every supported figure of a results folder; returns the exit code (0).
+    ``rt_slowdown_max``: the RT slowdown target to draw (overrides tune.json's)."""
     results = load_results(folder)
+    if rt_slowdown_max is not None:
+        if results.tune.get("rt_slowdown_max") not in (None, rt_slowdown_max):
+            print(f"note: drawing the target {rt_slowdown_max:g} given on the command line, "
+                  f"not tune.json's {results.tune['rt_slowdown_max']:g}", file=stream)
+        results.rt_slowdown_max = rt_slowdown_max
     if not results.rows:
         raise InvalidInput(f"{results.folder / 'points.csv'} holds no rows yet "
                            f"(run status: {results.status}): nothing to plot")
@@ -96,6 +102,28 @@ def print_digest(results, stream) -> None:
         print("  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip(), file=stream)
     if len(rows) > DIGEST_ROWS:
         print(f"  ... {len(rows) - DIGEST_ROWS} more rows in summary.csv", file=stream)
+    print_unregulated(results, stream)
+
+
+def print_unregulated(results, stream) -> None:
+    """What the unregulated co-run (policy none) costs, per workload pair: the reference every
+    slowdown figure draws."""
+    pairs: dict = {}
+    for p in results.points:
+        rt, nrt = p.stat("rt_unregulated_slowdown"), p.stat("nrt_unregulated_slowdown")
+        if rt or nrt:
+            pairs.setdefault(describe({c: p.config.get(c) for c in ("rt_workload",
+                                                                    "nrt_workload")}),
+                             (rt.mean if rt else None, nrt.mean if nrt else None))
+    if not pairs:
+        return
+    print("unregulated co-run (the same nodes with policy none; slowdown = time / isolation "
+          "time):", file=stream)
+    for words, (rt, nrt) in list(pairs.items())[:DIGEST_ROWS]:
+        cells = [f"{node} {v:.3f}" for node, v in (("RT", rt), ("nRT", nrt)) if v is not None]
+        print(f"  {words}: {', '.join(cells)}", file=stream)
+    if len(pairs) > DIGEST_ROWS:
+        print(f"  ... {len(pairs) - DIGEST_ROWS} more pairs", file=stream)
 
 
 def write_summary(results, path: Path) -> Path:

@@ -1,10 +1,11 @@
 """Loading a results folder (docs/design.md section 6) into a clean structure.
 
-``load_results(folder)`` reads ``manifest.json``, ``points.csv`` and the optional
-``samples.csv``. Cells are typed: known text columns stay strings, every other column is a
+``load_results(folder)`` reads ``manifest.json``, ``points.csv``, the optional
+``samples.csv`` and the optional ``tune.json`` (what ``rosguard tune`` writes beside its
+points: the RT slowdown target and the settings it chose). Cells are typed: known text columns stay strings, every other column is a
 float; an empty cell ("not applicable") becomes ``None`` in text columns and NaN in numeric
 ones. Rows are aggregated per point over repetitions (``Point``), and samples are grouped by
-(point, kind) over all repetitions.
+(point, kind) over all repetitions. The grouping is pandas' (``groupby``).
 
 Invalid input raises ``InvalidInput`` (or its subclass ``NotAResultsFolder``) with a one-line
 message naming the file and what is wrong; the CLI maps it to exit code 2.
@@ -20,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 SCHEMA_VERSION = 1
 
@@ -116,6 +118,10 @@ class Results:
     samples: dict
     points: list
     config_columns: list
+    tune: dict = field(default_factory=dict)   # tune.json, {} without one
+    # The RT slowdown bound figures draw as a target: tune.json's rt_slowdown_max, or what the
+    # user gave (rosguard plot --rt-slowdown-max, set by analysis.plot); None: no target.
+    rt_slowdown_max: float | None = None
 
     @property
     def backend(self) -> str:
@@ -165,7 +171,41 @@ def load_results(folder) -> Results:
     samples = _read_samples(folder / "samples.csv")
     config_columns = _config_columns(columns, rows)
     points = _aggregate(rows, columns, config_columns)
-    return Results(folder, manifest, columns, rows, samples, points, config_columns)
+    tune = _read_tune(folder / "tune.json")
+    return Results(folder, manifest, columns, rows, samples, points, config_columns, tune,
+                   tune.get("rt_slowdown_max"))
+
+
+TUNE_SETTINGS = ("best", "runner_up", "unregulated")
+
+
+def _read_tune(path: Path) -> dict:
+    """tune.json: {"rt_slowdown_max": X, "best": {...}, "runner_up": {...},
+    "unregulated": {...}, ...}; {} when the folder has none. Each setting is an object (what
+    analysis.figures.tradeoff matches against the points: a point id, the regulation columns,
+    or rt_slowdown / nrt_slowdown); null means none was found."""
+    if not path.is_file():
+        return {}
+    try:
+        tune = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise InvalidInput(f"{path}: invalid JSON (line {e.lineno}: {e.msg})") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise InvalidInput(f"{path}: cannot read: {e}") from None
+    if not isinstance(tune, dict):
+        raise InvalidInput(f"{path}: expected a JSON object")
+    bound = tune.get("rt_slowdown_max")
+    if bound is not None and (isinstance(bound, bool) or not isinstance(bound, (int, float))
+                              or not math.isfinite(bound) or bound <= 0):
+        raise InvalidInput(f"{path}: /rt_slowdown_max: expected a positive number, "
+                           f"got {json.dumps(bound)}")
+    if bound is not None:
+        tune["rt_slowdown_max"] = float(bound)
+    for key in TUNE_SETTINGS:
+        if tune.get(key) is not None and not isinstance(tune[key], dict):
+            raise InvalidInput(f"{path}: /{key}: expected an object or null, "
+                               f"got {json.dumps(tune[key])}")
+    return tune
 
 
 def _read_manifest(path: Path) -> dict:
@@ -287,21 +327,20 @@ def _config_columns(columns, rows) -> list:
     """
     known = [c for c in BASE_CONFIG_COLUMNS if c in columns]
     known += [c for c in columns if _NODE_WORKLOAD.match(c)]
-    extra = []
-    for c in columns:
-        if c.startswith(PARAM_PREFIX) and not _determined_by(rows, known, c):
-            extra.append(c)
-    return known + extra
+    params = [c for c in columns if c.startswith(PARAM_PREFIX)]
+    if not params or not rows:
+        return known
+    frame = pd.DataFrame.from_records(rows, columns=columns)
+    return known + [c for c in params if not _determined_by(frame, known, c)]
 
 
-def _determined_by(rows, keys, column) -> bool:
-    seen: dict = {}
-    for r in rows:
-        k = tuple(_hashable(r[c]) for c in keys)
-        v = _hashable(r[column])
-        if seen.setdefault(k, v) != v:
-            return False
-    return True
+def _determined_by(frame: pd.DataFrame, keys, column) -> bool:
+    """True when each combination of the key columns comes with one value of ``column``
+    (NaN / None count as a value of their own)."""
+    if not keys:
+        return frame[column].nunique(dropna=False) <= 1
+    values = frame.groupby(list(keys), dropna=False, sort=False)[column].nunique(dropna=False)
+    return bool((values <= 1).all())
 
 
 def _hashable(value):
@@ -312,20 +351,38 @@ def _hashable(value):
 
 
 def _aggregate(rows, columns, config_columns) -> list:
-    """Points in the order of their first row, with Stat per numeric measured column."""
+    """Points in the order of their first row, with Stat per numeric measured column (pandas
+    groupby over the point id; NaN / inf cells ignored, as Stat.of does)."""
     metrics = [c for c in columns
                if c not in config_columns and c not in ("point", "rep")
                and not _is_text_column(c) and not c.startswith(PARAM_PREFIX)]
-    by_point: dict = {}
-    for r in rows:
-        by_point.setdefault(r["point"], []).append(r)
+    if not rows:
+        return []
+    frame = pd.DataFrame.from_records(rows, columns=columns)
+    by_point = frame.groupby("point", sort=False)
+    firsts = {r["point"]: r for r in by_point.head(1)[["point", *config_columns]]
+              .to_dict("records")}
+    reps = by_point["rep"].nunique()
+    stats_of = {pid: {} for pid in reps.index}
+    if metrics:
+        # A column the reader kept as text (cells that are not numbers) has no statistics.
+        values = frame[metrics].apply(pd.to_numeric, errors="coerce")
+        values = values.replace([np.inf, -np.inf], np.nan)
+        values["point"] = frame["point"]
+        table = values.groupby("point", sort=False).agg(["count", "mean", "min", "max", "std"])
+        cells = table.to_numpy(dtype=float)
+        at = {key: i for i, key in enumerate(table.columns)}
+        for row, pid in zip(cells, table.index):
+            for m in metrics:
+                n = int(row[at[(m, "count")]])
+                if n:
+                    stats_of[pid][m] = Stat(n, float(row[at[(m, "mean")]]),
+                                            float(row[at[(m, "min")]]),
+                                            float(row[at[(m, "max")]]),
+                                            float(row[at[(m, "std")]]) if n > 1 else 0.0)
     points = []
-    for pid, prow in by_point.items():
-        config = {c: _hashable(prow[0][c]) for c in config_columns}
-        stats = {}
-        for m in metrics:
-            s = Stat.of(r[m] for r in prow if isinstance(r[m], float))
-            if s:
-                stats[m] = s
-        points.append(Point(pid, config, len({r["rep"] for r in prow}), stats))
+    for pid in reps.index:
+        config = {c: _hashable(firsts[pid][c]) for c in config_columns}
+        stats = stats_of[pid]
+        points.append(Point(pid, config, int(reps[pid]), stats))
     return points

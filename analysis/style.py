@@ -27,6 +27,17 @@ AXIS_LABELS = {
 }
 ISOLATION_STYLE = {"color": "0.35", "linestyle": "--", "linewidth": 1.0, "zorder": 1}
 ISOLATION_LABEL = "isolation (1.0)"
+# The unregulated co-run (the same nodes with policy none: what regulation protects from) and
+# the user's RT slowdown target (rosguard plot --rt-slowdown-max, or tune.json).
+UNREGULATED_STYLE = {"color": "firebrick", "linestyle": (0, (6, 3)), "linewidth": 1.3,
+                     "zorder": 1.5}
+UNREGULATED_LABEL = "unregulated co-run"
+TARGET_STYLE = {"color": "black", "linestyle": ":", "linewidth": 1.5, "zorder": 1.6}
+
+
+def target_label(value: float) -> str:
+    """Legend words of the RT slowdown target line."""
+    return f"target: RT slowdown ≤ {value:g}"
 
 # Min / median / max markers as in the paper: ▽ × △.
 MIN_MARKER = {"marker": "v", "markerfacecolor": "none", "linestyle": "none"}

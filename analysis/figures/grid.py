@@ -5,7 +5,11 @@ part of the regulation configuration). Rows are RT workloads, columns nRT worklo
 cell holds two clusters of bars, RT slowdown and nRT slowdown, with one bar per
 configuration (policy, sampling mode, sampling / regulation period, e.g. "self 1 ms /
 reg. 5 ms"). Bars rise from isolation (slowdown 1.0, dashed) to the mean over repetitions;
-error bars span min-max over repetitions. All cells share the y axis.
+error bars span min-max over repetitions. All cells share the y axis. Over each cluster a red
+dashed segment marks the unregulated co-run of the pair (policy none, measured once per pair),
+and a dotted one over the RT cluster the user's RT slowdown target (analysis/figures/reference.py).
+Without configuration columns the single bar is labelled "simulated" or "measured" after the
+backend.
 
 Applies when, for some RT workload, the nRT workload takes at least two values.
 """
@@ -19,8 +23,9 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from analysis import style
-from analysis.configs import (as_config, describe, distinct, group_by, held_fixed,
-                              keys_in_order, slug, title, varying)
+from analysis.configs import (as_config, backend_words, describe, distinct, group_by,
+                              held_fixed, keys_in_order, slug, title, varying)
+from analysis.figures import reference
 from analysis.figures.base import FigurePlan
 
 KIND = "RT x nRT grid"
@@ -59,16 +64,18 @@ def plan(results):
         file_config = as_config(file_cols, key)
         stem = f"{STEM}_{slug(file_config)}" if file_cols else STEM
         words = describe(file_config)
+        labels = ", ".join(_conf_label(conf_cols, k, results.backend) for k in conf_keys)
         summary = (f"RT and nRT slowdown per RT x nRT workload pair"
                    f"{', ' + words if words else ''}; bars per configuration "
-                   f"({len(conf_keys)}: {', '.join(_conf_label(conf_cols, k) for k in conf_keys)})")
+                   f"({len(conf_keys)}: {labels})")
         draw = partial(_draw, results, pts, conf_cols, conf_keys, {**fixed, **file_config})
         plans.append(FigurePlan(KIND, stem, summary, draw))
     return plans
 
 
-def _conf_label(conf_cols, key) -> str:
-    return describe(as_config(conf_cols, key), short=True) if conf_cols else "measured"
+def _conf_label(conf_cols, key, backend) -> str:
+    return describe(as_config(conf_cols, key), short=True) if conf_cols \
+        else backend_words(backend)
 
 
 def _draw(results, points, conf_cols, conf_keys, fixed):
@@ -84,7 +91,8 @@ def _draw(results, points, conf_cols, conf_keys, fixed):
             ax = axes[r][c]
             cell = cells.get((rt, nrt))
             if cell:
-                extremes += _draw_cell(ax, cell, conf_cols, conf_keys)
+                extremes += _draw_cell(ax, cell, conf_cols, conf_keys,
+                                       reference.target(results, "rt_slowdown"))
             else:
                 ax.text(0.5, 0.5, "no data", transform=ax.transAxes, ha="center",
                         va="center", fontsize=8, color="0.5")
@@ -95,23 +103,32 @@ def _draw(results, points, conf_cols, conf_keys, fixed):
                 ax.set_ylabel(f"RT {rt}\nslowdown (×)", fontsize=9)
     lo, hi = min(extremes), max(extremes)
     axes[0][0].set_ylim(min(lo, 1.0) - 0.02 * (hi - lo), hi + 0.22 * (hi - lo or 1.0))
-    handles = [Patch(color=style.colour(i), label=_conf_label(conf_cols, k))
+    handles = [Patch(color=style.colour(i), label=_conf_label(conf_cols, k, results.backend))
                for i, k in enumerate(conf_keys)]
     handles.append(Line2D([], [], label=style.ISOLATION_LABEL, **style.ISOLATION_STYLE))
+    if any(reference.unregulated(points, m) for m in reference.UNREGULATED_METRIC):
+        handles.append(Line2D([], [], label=style.UNREGULATED_LABEL,
+                              **style.UNREGULATED_STYLE))
+    if results.rt_slowdown_max is not None:
+        handles.append(Line2D([], [], label=style.target_label(results.rt_slowdown_max),
+                              **style.TARGET_STYLE))
     right = 1.0 - LEGEND_WIDTH_IN / width
     fig.legend(handles=handles, loc="center left", bbox_to_anchor=(right, 0.5), fontsize=8,
                frameon=False, title="configuration", title_fontsize=8)
     note = ("bars (value on top): mean slowdown over "
             f"{results.repetitions} repetitions, drawn from isolation (1.0); "
             "error bars: min–max over repetitions; rows: RT workload, columns: nRT workload")
+    refs = reference.note(points, results)
+    note += f"; {refs}" if refs else ""
     style.finish(fig, title("RT x nRT slowdowns", fixed, results), note, right=right)
     return fig
 
 
-def _draw_cell(ax, cell, conf_cols, conf_keys) -> list:
+def _draw_cell(ax, cell, conf_cols, conf_keys, target=None) -> list:
     """Two clusters (RT, nRT) of bars, one bar per configuration, each labelled with its
-    value (the y axis is shared, so small RT slowdowns stay readable); returns the min and
-    max slowdowns drawn."""
+    value (the y axis is shared, so small RT slowdowns stay readable), the unregulated
+    co-run over each cluster and the RT target over the RT one; returns the min and max
+    slowdowns drawn."""
     by_conf = group_by(cell, conf_cols)
     n = len(conf_keys)
     width = 0.8 / n
@@ -131,6 +148,12 @@ def _draw_cell(ax, cell, conf_cols, conf_keys) -> list:
                         textcoords="offset points", rotation=90, ha="center", va="bottom",
                         fontsize=5.5)
             extremes += [s.min, s.max]
+        for value in reference.unregulated(cell, metric):
+            reference.unregulated_segment(ax, node - 0.45, node + 0.45, value)
+            extremes.append(value)
+    if target is not None:
+        ax.hlines(target, -0.45, 0.45, label=style.target_label(target), **style.TARGET_STYLE)
+        extremes.append(target)
     ax.axhline(1.0, **style.ISOLATION_STYLE)
     ax.set_xticks([0, 1])
     ax.set_xticklabels(["RT", "nRT"], fontsize=8)

@@ -2,7 +2,11 @@
 
 Every line figure has one row of panels per group of points (e.g. per workload pair) and
 one line per series (e.g. interval vs monolithic). Markers are means over repetitions,
-error bars span min-max over repetitions, and the dashed line is isolation (slowdown 1.0).
+error bars span min-max over repetitions, and the grey dashed line is isolation (slowdown 1.0).
+Slowdown panels also draw the unregulated co-run of their points (red dashed, "unregulated
+co-run": the same nodes with policy none, measured once per workload pair) and, on RT panels,
+the user's target (dotted; ``rosguard plot --rt-slowdown-max`` or tune.json): see
+analysis/figures/reference.py.
 A kind applies when, with everything else fixed, its x parameter takes at least two values.
 
 Kinds (paper experiment in brackets):
@@ -30,6 +34,7 @@ import numpy as np
 from analysis import style
 from analysis.configs import (as_config, column_words, describe, distinct, finite, group_by,
                               held_fixed, title, varying)
+from analysis.figures import reference
 from analysis.figures.base import FigurePlan
 from analysis.figures.grid import grid_applies
 from analysis.style import number
@@ -51,7 +56,7 @@ class SlowdownPanel:
         return any(p.stat(self.metric) for p in points)
 
     def draw(self, ax, series, results, x: str) -> None:
-        """Draws every series of one group."""
+        """Draws every series of one group, the group's unregulated co-run and the target."""
         for index, label, points in series:
             pts = sorted((p for p in points if p.stat(self.metric) and finite(p.config[x])),
                          key=lambda p: p.config[x])
@@ -64,6 +69,8 @@ class SlowdownPanel:
                         marker=style.marker(index), markersize=5, linewidth=1.4, capsize=3,
                         label=label)
         style.isolation_line(ax)
+        reference.draw_unregulated(ax, [p for _, _, pts in series for p in pts], self.metric)
+        reference.draw_target(ax, reference.target(results, self.metric))
         ax.set_ylabel(f"{self.node} {style.SLOWDOWN_LABEL}")
 
 
@@ -216,6 +223,9 @@ class LineKind:
         note = style.ERRORBAR_NOTE.replace("repetitions", f"{results.repetitions} repetitions", 1)
         if any(isinstance(p, SamplesPanel) for p in lay.panels):
             note += "; ▽ × △: min / median / max of the samples"
+        if any(isinstance(p, SlowdownPanel) for p in lay.panels):
+            refs = reference.note([p for p in results.points if self.select(p)], results)
+            note += f"; {refs}" if refs else ""
         return note
 
 

@@ -86,6 +86,16 @@ std::vector<ColumnInfo> build_points() {
        "median delay of an RT enable / disable signal from its publish to the controller (hw)"},
       {"signal_to_thr_p50_us", "us",
        "median delay from an RT enable signal's publish to the first throttle (hw)"},
+      {"rt_unregulated_time_us", "us",
+       "the first RT node's job time in the unregulated co-run: the same nodes with policy "
+       "none (measured once per co-run, hw: median of the baseline measurements; a point "
+       "with policy none: its own rt_time_us; empty with rosguard run --no-unregulated)"},
+      {"rt_unregulated_slowdown", "ratio",
+       "rt_unregulated_time_us / rt_isolation_us: the RT slowdown without regulation"},
+      {"nrt_unregulated_time_us", "us",
+       "the first nRT node's time for one run in the unregulated co-run (as nrt_time_us)"},
+      {"nrt_unregulated_slowdown", "ratio",
+       "nrt_unregulated_time_us / nrt_isolation_us: the nRT slowdown without regulation"},
   };
   d.insert(d.end(), rest.begin(), rest.end());
   node("rt<i>_", rt_node_columns(), "");

@@ -154,6 +154,10 @@ std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
         "nrt_isolation_cv", "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses",
         "signal_latency_p50_us", "signal_to_thr_p50_us"})
     h.emplace_back(c);
+  // The point's unregulated co-run (filled by the runner: tools/rosguard/unregulated.h).
+  for (const char* c : {"rt_unregulated_time_us", "rt_unregulated_slowdown",
+                        "nrt_unregulated_time_us", "nrt_unregulated_slowdown"})
+    h.emplace_back(c);
   for (std::size_t i = 1; i < max_rt; ++i)
     for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "isolation_n",
                           "isolation_cv", "response_p99_us", "response_max_us", "deadline_misses"})

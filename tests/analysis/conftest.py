@@ -25,6 +25,9 @@ FIXTURES = {
     "grid": (resultgen.grid_points, {"reps": 2}),
     "memguard": (resultgen.memguard_points, {}),
     "rt_alone": (resultgen.rt_alone_points, {}),
+    "mechanisms": (resultgen.mechanism_points, {}),
+    "tune": (resultgen.tune_points, {"tune": resultgen.TUNE}),
+    "no_unregulated": (resultgen.threshold_points, {"unregulated": False}),
 }
 
 

@@ -35,7 +35,12 @@ FIXED_COLUMNS = [
 EXTRA_COLUMNS = ["platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps",
                  "sampling_overhead_p50_us", "pmc_callback_max_us", "rt_isolation_n",
                  "rt_isolation_cv", "nrt_isolation_n", "nrt_isolation_cv",
-                 "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses"]
+                 "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses",
+                 "signal_latency_p50_us", "signal_to_thr_p50_us"]
+# The unregulated co-run (tools/rosguard/unregulated.h): written unless write_results gets
+# unregulated=False (a folder of an older rosguard, or rosguard run --no-unregulated).
+UNREGULATED_COLUMNS = ["rt_unregulated_time_us", "rt_unregulated_slowdown",
+                       "nrt_unregulated_time_us", "nrt_unregulated_slowdown"]
 RT_JOBS = 3
 REFERENCE_MBPS = 26271.74
 # workload: (isolation time us, IPC, bandwidth MB/s) -- Table 1 of the paper for IPC / MB/s.
@@ -157,6 +162,44 @@ def memguard_points() -> list:
                   "regulation.sampling": ["self", "external"]})
 
 
+def mechanism_points() -> list:
+    """Experiment 8 with several mechanisms: ROSGuard self / external against a third policy
+    (``memguard``, sampling ``overflow``), bandwidth_read RT vs three SD-VBS nRT, thresholds
+    20-40 %."""
+    mechanisms = [{"policy": "interval", "sampling": "self"},
+                  {"policy": "interval", "sampling": "external"},
+                  {"policy": "memguard", "sampling": "overflow"}]
+    return sweep({"rt_workload": "bandwidth_read", "sampling_period_us": 200,
+                  "regulation_period_us": 1000},
+                 {"nodes.nrt[0].workload": ["disparity", "mser", "sift"],
+                  "regulation.threshold_pct": [20, 30, 40],
+                  "regulation": mechanisms})
+
+
+def tune_points() -> list:
+    """What ``rosguard tune`` leaves: one workload pair, every simulated setting (policy x
+    threshold x sampling period)."""
+    return sweep({"rt_workload": "mser", "nrt_workload": "bandwidth_read"},
+                 {"regulation.policy": ["interval", "monolithic"],
+                  "regulation.threshold_pct": [5, 10, 20, 30],
+                  "regulation.sampling_period_us": [500, 1000]})
+
+
+# tune.json as `rosguard tune` writes it (the shape analysis/figures/tradeoff.py reads): the
+# best setting by its regulation keys, the runner-up by its point id (filled in by
+# write_results), the unregulated co-run by its slowdowns.
+TUNE = {
+    "rt_slowdown_max": 1.05,
+    "objective": "nrt-throughput",
+    "best": {"policy": "interval", "regulation.threshold_pct": 10, "sampling_period_us": 500},
+    "runner_up": {"point": None},
+    "unregulated": {"rt_slowdown": 1.2, "nrt_slowdown": 1.03},
+    "simulated_points": 16,
+}
+TUNE_RUNNER_UP = {"regulation.policy": "interval", "regulation.threshold_pct": 5,
+                  "regulation.sampling_period_us": 1000}
+
+
 def rt_alone_points() -> list:
     """RT node alone (nodes.nrt empty): isolation only, no figure applies."""
     return sweep({"nrt_workload": None, "policy": "none"},
@@ -171,7 +214,9 @@ def _slowdowns(s: dict) -> tuple:
     """Toy model: (rt slowdown or None, nrt slowdown or None)."""
     rt, nrt, policy = s["rt_workload"], s["nrt_workload"], s["policy"]
     th = s["threshold_pct"] / 100.0
-    sampling_cost = (59.0 if s["sampling"] == "self" else 2.0) / s["sampling_period_us"]
+    # us per sample: self-sampling ~59, external ~2, another mode (an overflow interrupt) ~0.5
+    sampling_cost = ({"self": 59.0, "external": 2.0}.get(s["sampling"], 0.5)
+                     / s["sampling_period_us"])
     if policy == "none":
         sampling_cost = 0.0
     rt_sd = nrt_sd = None
@@ -187,6 +232,9 @@ def _slowdowns(s: dict) -> tuple:
         elif policy == "monolithic":
             rt_sd = 1.0 + interference * 0.2 * th
             nrt_sd = 1.0 + sampling_cost + 4.0 * excess + 0.5
+        elif policy == "memguard":   # stopped at once when its budget runs out
+            rt_sd = 1.0 + interference * min(1.0, 0.4 * th / max(_intensity(nrt), 0.05)) * reg
+            nrt_sd = 1.0 + sampling_cost + 2.5 * excess * reg ** 0.3 + 0.1 * _intensity(rt)
         else:
             rt_sd = 1.0 + interference
             nrt_sd = 1.0 + sampling_cost + 0.2 * _intensity(rt)
@@ -198,7 +246,7 @@ def _slowdowns(s: dict) -> tuple:
 def _samples(s: dict, rng: random.Random) -> dict:
     """{kind: [values us]} for one run."""
     out = {}
-    regulated = s["policy"] in ("interval", "monolithic")
+    regulated = s["policy"] in ("interval", "monolithic", "memguard")
     external = s["sampling"] == "external"
     if s["nrt_workload"] and s["policy"] != "none":
         mean, sd = (4.0, 0.5) if external else (15.0, 1.5)
@@ -236,6 +284,10 @@ def _median(values):
 
 def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: float):
     rt_sd, nrt_sd = _slowdowns(s)
+    # The unregulated co-run: measured once per workload pair (the same value in every
+    # repetition and at every setting); a policy-none point carries its own (noisy) values.
+    un_rt, un_nrt = (_slowdowns({**s, "policy": "none"}) if s["rt_workload"]
+                     and s["nrt_workload"] else (None, None))
     noise = 1.0 + rng.uniform(-0.01, 0.01)
     rt_sd = None if rt_sd is None else 1.0 + (rt_sd - 1.0) * bias * noise
     nrt_sd = None if nrt_sd is None else 1.0 + (nrt_sd - 1.0) * bias * noise
@@ -244,6 +296,8 @@ def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: fl
     fixed = s.get("fixed", {})
     rt_sd = fixed.get("rt_slowdown", rt_sd)
     nrt_sd = fixed.get("nrt_slowdown", nrt_sd)
+    if s["policy"] == "none":
+        un_rt, un_nrt = rt_sd, nrt_sd
     rt_iso = ISOLATION.get(s["rt_workload"])
     nrt_iso = ISOLATION.get(s["nrt_workload"])
     samples = _samples(s, rng)
@@ -283,6 +337,10 @@ def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: fl
         "rt_isolation_n": "1" if rt_iso else "", "nrt_isolation_n": "1" if nrt_iso else "",
         "rt_response_p99_us": _us(float(np.percentile(jobs, 99)) if jobs else None),
         "rt_response_max_us": _us(max(jobs) if jobs else None),
+        "rt_unregulated_time_us": _us(rt_iso and un_rt and un_rt * rt_iso[0]),
+        "rt_unregulated_slowdown": _ratio(un_rt if rt_iso else None),
+        "nrt_unregulated_time_us": _us(nrt_iso and un_nrt and un_nrt * nrt_iso[0]),
+        "nrt_unregulated_slowdown": _ratio(un_nrt if nrt_iso else None),
     }
     for key, value in s["params"].items():
         cells[f"param:{key}"] = _param(value)
@@ -290,17 +348,21 @@ def _row(s: dict, pid: str, rep: int, backend: str, rng: random.Random, bias: fl
 
 
 def write_results(folder, points, *, reps=3, backend="sim", with_samples=True, seed=1,
-                  bias=1.0, status="complete", drop=(), references=True) -> Path:
+                  bias=1.0, status="complete", drop=(), references=True,
+                  unregulated=True, tune=None) -> Path:
     """Writes manifest.json, points.csv and (optionally) samples.csv; returns the folder.
 
     ``bias`` scales every slowdown excess (slowdown - 1), e.g. to fake a model that
     over-predicts; ``drop`` lists point indexes to leave out (points missing on one side);
-    ``references`` lists the workloads' Table 1 figures in the manifest, as the runner does.
+    ``references`` lists the workloads' Table 1 figures in the manifest, as the runner does;
+    ``unregulated`` writes the unregulated co-run columns; ``tune`` (a dict) is written as
+    tune.json, as ``rosguard tune`` does.
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     sweep_keys = list(points[0]["params"]) if points else []
-    header = FIXED_COLUMNS + EXTRA_COLUMNS + [f"param:{k}" for k in sweep_keys]
+    header = (FIXED_COLUMNS + EXTRA_COLUMNS + (UNREGULATED_COLUMNS if unregulated else [])
+              + [f"param:{k}" for k in sweep_keys])
     rng = random.Random(seed)
     rows, sample_rows, manifest_points = [], [], []
     for index, s in enumerate(points):
@@ -336,6 +398,10 @@ def write_results(folder, points, *, reps=3, backend="sim", with_samples=True, s
                 "reference": {"ipc": ipc, "mbps": mbps, "source": "paper, Table 1"}}
             for w, (_, ipc, mbps) in ISOLATION.items()}
     (folder / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n")
+    if tune is not None:
+        if tune.get("runner_up") == {"point": None}:   # the fixture's runner-up, by its id
+            tune = {**tune, "runner_up": {"point": point_id(TUNE_RUNNER_UP)}}
+        (folder / "tune.json").write_text(json.dumps(tune, indent=2) + "\n")
     return folder
 
 

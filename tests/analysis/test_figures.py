@@ -19,15 +19,24 @@ DELAY = "activation_delay_vs_sampling_period"
 CALLBACK = "pmc_callback_vs_sampling_period"
 
 EXPECTED = {
-    "threshold": {"slowdown_vs_threshold", DELAY, CALLBACK},
-    "regulation": {"slowdown_vs_regulation_period"},
-    "sampling": {"slowdown_vs_threshold", "slowdown_vs_sampling_period", DELAY, CALLBACK},
-    "delay": {"slowdown_vs_sampling_period", DELAY, CALLBACK},
+    "threshold": {"slowdown_vs_threshold", DELAY, CALLBACK, "tradeoff",
+                  "mechanisms_bandwidth_read", "mechanisms_mser"},
+    "regulation": {"slowdown_vs_regulation_period", "tradeoff"},
+    "sampling": {"slowdown_vs_threshold", "slowdown_vs_sampling_period", DELAY, CALLBACK,
+                 "tradeoff"},
+    "delay": {"slowdown_vs_sampling_period", DELAY, CALLBACK, "tradeoff", "mechanisms"},
     "overhead": {"sampling_overhead_vs_sampling_period", CALLBACK},
     "grid": {"rt_nrt_grid_threshold15", "rt_nrt_grid_threshold20", "rt_nrt_grid_threshold30",
-             DELAY, CALLBACK},
+             DELAY, CALLBACK, "tradeoff", "mechanisms_bandwidth_read",
+             "mechanisms_bandwidth_write", "mechanisms_mser"},
     "memguard": {"slowdown_vs_threshold", "rt_nrt_grid_threshold20",
-                 "rt_nrt_grid_threshold30", "rt_nrt_grid_threshold40", DELAY, CALLBACK},
+                 "rt_nrt_grid_threshold30", "rt_nrt_grid_threshold40", DELAY, CALLBACK,
+                 "tradeoff", "mechanisms"},
+    "mechanisms": {"slowdown_vs_threshold", "rt_nrt_grid_threshold20",
+                   "rt_nrt_grid_threshold30", "rt_nrt_grid_threshold40", DELAY, CALLBACK,
+                   "tradeoff", "mechanisms"},
+    "tune": {"slowdown_vs_threshold", "slowdown_vs_sampling_period", DELAY, CALLBACK,
+             "tradeoff", "mechanisms"},
     "rt_alone": {"isolation_table1"},
 }
 
@@ -195,7 +204,7 @@ def test_rt_nrt_grid_layout(loaded, drawn):
     assert axes[0].get_ylabel().startswith("RT mser") and axes[4].get_ylabel().startswith(
         "RT bandwidth_read")
     assert _legend_labels(fig) == ["self 1 ms", "external 1 ms", "external 500 µs",
-                                   "isolation (1.0)"]
+                                   "isolation (1.0)", "unregulated co-run"]
     assert "threshold 20 %" in _texts(fig) and "regulation 5 ms" in _texts(fig)
     cell = axes[0]                                   # RT mser / nRT bandwidth_read
     bars = [b for c in cell.containers if isinstance(c, BarContainer) for b in c]

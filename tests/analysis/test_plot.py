@@ -36,7 +36,8 @@ def test_plot_writes_every_supported_figure(results_dir, tmp_path, name):
     figures = {p.stem for p in out.glob("*.png")}
     assert figures == EXPECTED[name]
     assert {p.stem for p in out.glob("*.pdf")} == figures
-    kinds_drawn = {"rt_nrt_grid" if s.startswith("rt_nrt_grid") else s for s in EXPECTED[name]}
+    kinds_drawn = {s.split("_threshold")[0] if s.startswith("rt_nrt_grid") else
+                   "mechanisms" if s.startswith("mechanisms") else s for s in EXPECTED[name]}
     assert printed.count("  skipped ") == len(REGISTRY) - len(kinds_drawn)
     assert (out / "summary.csv").is_file()
 
@@ -106,7 +107,8 @@ def test_plot_prints_what_the_figures_show(results_dir, loaded, tmp_path):
     stream = io.StringIO()
     assert plot.run(results_dir("threshold"), tmp_path, stream=stream) == 0
     text = stream.getvalue()
-    table = text[text.index("what the figures show"):].splitlines()
+    table = text[text.index("what the figures show"):text.index("unregulated co-run (")]
+    table = table.splitlines()
     assert table[1].split("  ") and [c.strip() for c in table[1].split("  ") if c.strip()] == [
         "RT workload", "nRT workload", "policy", "threshold (%)", "rt slowdown", "nrt slowdown"]
     first = loaded("threshold").points[0]

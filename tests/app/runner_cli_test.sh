@@ -293,6 +293,89 @@ list)
   [[ $? -eq 2 ]] || fail "list bogus should exit 2"
   grep -q "bogus" "$tmp/err" || fail "list bogus does not name the bad kind"
   ;;
+unregulated)
+  # The unregulated co-run (tools/rosguard/unregulated.h): measured once per co-run key, not
+  # per threshold or policy (sim: once; hw: as the baselines, 3 times), written into every
+  # row; a policy-none point carries its own values; kept over a resume; off with
+  # --no-unregulated.
+  sed 's/"monolithic"\]/"monolithic", "none"]/' $scenario > tests/app/fixtures/unregulated.json
+  trap 'rm -rf "$tmp" tests/app/fixtures/unregulated.json' EXIT
+  check() {  # check DIR MEASUREMENTS
+    /usr/bin/python3 - "$1" "$2" <<'PY' || fail "$1: wrong unregulated co-run"
+import csv, json, statistics, sys
+out, n = sys.argv[1], int(sys.argv[2])
+u = json.load(open(f"{out}/unregulated.json"))
+assert len(u) == 1, u                         # one workload pair: one co-run
+(key, v), = u.items()
+assert key.startswith("corun/fake+fake/"), key
+assert [r["rep"] for r in v["runs"]] == list(range(n)), v
+rt = statistics.median(r["rt_time_us"][0] for r in v["runs"])
+nrt = statistics.median(r["nrt_time_us"][0] for r in v["runs"])
+assert abs(v["rt_time_us"][0] - rt) < 1e-9 and abs(v["nrt_time_us"][0] - nrt) < 1e-9, v
+rows = list(csv.DictReader(open(f"{out}/points.csv")))
+assert len(rows) == 36, len(rows)
+for r in rows:
+    if r["policy"] == "none":                 # its own co-run
+        for node in ("rt", "nrt"):
+            assert r[f"{node}_unregulated_time_us"] == r[f"{node}_time_us"], r
+            assert r[f"{node}_unregulated_slowdown"] == r[f"{node}_slowdown"], r
+        continue
+    assert abs(float(r["rt_unregulated_time_us"]) - rt) < 1e-3, r
+    assert abs(float(r["nrt_unregulated_time_us"]) - nrt) < 1e-3, r
+    for node in ("rt", "nrt"):
+        ratio = float(r[f"{node}_unregulated_time_us"]) / float(r[f"{node}_isolation_us"])
+        assert abs(float(r[f"{node}_unregulated_slowdown"]) - ratio) < 1e-5, r
+m = json.load(open(f"{out}/manifest.json"))
+assert m["facts"]["unregulated_corun"].startswith("measured once"), m["facts"]
+PY
+  }
+  s=tests/app/fixtures/unregulated.json
+  "$bin" run $s --out "$tmp/sim" --quiet || fail "sim run"
+  check "$tmp/sim" 1
+  "$bin" run $s --backend hw --out "$tmp/hw" --quiet 2>/dev/null || fail "hw run"
+  check "$tmp/hw" 3
+  # Shards into one folder and a single run give the same bytes (whichever point a shard
+  # takes its co-run from).
+  "$bin" run $s --out "$tmp/sh" --shard 1/2 --quiet || fail "shard 1/2"
+  "$bin" run $s --out "$tmp/sh" --shard 0/2 --quiet || fail "shard 0/2"
+  cmp "$tmp/sim/points.csv" "$tmp/sh/points.csv" || fail "sharded points.csv differs"
+  # Interrupted after the co-runs, resumed: the measurements are kept, every row filled.
+  ROSGUARD_FAKE_SLEEP_MS=100 "$bin" run $s --backend hw --out "$tmp/r" --quiet 2>/dev/null &
+  pid=$!
+  wait_rows "$tmp/r" 2
+  kill -INT $pid
+  wait $pid
+  [[ -f "$tmp/r/unregulated.json" ]] || fail "no unregulated.json after the first rows"
+  cp "$tmp/r/unregulated.json" "$tmp/before.json"
+  held=$(/usr/bin/python3 -c "import json,sys; print(sum(len(v['runs']) for v in json.load(open(sys.argv[1])).values()))" "$tmp/before.json")
+  done_rows=$(rows "$tmp/r")
+  ROSGUARD_FAKE_CALLS="$tmp/calls" "$bin" run $s --backend hw --out "$tmp/r" --resume --quiet \
+    2>/dev/null || fail "resume"
+  check "$tmp/r" 3
+  # The resume ran the missing rows and only the co-run measurements it did not have.
+  [[ $(wc -l < "$tmp/calls") -eq $((36 - done_rows + 3 - held)) ]] ||
+    fail "resume: $(wc -l < "$tmp/calls") runs for $((36 - done_rows)) rows and $((3 - held)) co-run(s)"
+  # (hw: measurement k runs before repetition round floor(k x 2 / 3): the third one may come
+  # only with the resume; those taken before are kept as they were.)
+  /usr/bin/python3 - "$tmp/before.json" "$tmp/r/unregulated.json" <<'PY' ||
+import json, sys
+before, after = (json.load(open(f)) for f in sys.argv[1:])
+for key, v in before.items():
+    assert v["runs"], v
+    for run in v["runs"]:
+        assert run in after[key]["runs"], (run, after[key]["runs"])
+PY
+    fail "the resume replaced co-run measurements it had"
+  # Off: no co-run, empty cells, the manifest says so.
+  "$bin" run $s --out "$tmp/off" --no-unregulated --quiet || fail "--no-unregulated"
+  [[ ! -e "$tmp/off/unregulated.json" ]] || fail "--no-unregulated wrote unregulated.json"
+  /usr/bin/python3 - "$tmp/off" <<'PY' || fail "--no-unregulated: cells or manifest"
+import csv, json, sys
+rows = list(csv.DictReader(open(f"{sys.argv[1]}/points.csv")))
+assert all(r["rt_unregulated_slowdown"] == "" for r in rows if r["policy"] != "none")
+assert json.load(open(f"{sys.argv[1]}/manifest.json"))["facts"]["unregulated_corun"].startswith("off")
+PY
+  ;;
 *)
   fail "unknown case $case"
   ;;

@@ -62,6 +62,7 @@ struct RunArgs {
   std::string shard;    // "I/N", parsed by run_command
   std::string backend;  // empty: the scenario's
   bool slurm = false;
+  bool no_unregulated = false;
   rosguard::SlurmOptions slurm_options;
 };
 
@@ -81,6 +82,9 @@ CLI::App* add_run_command(CLI::App& app, RunArgs& args) {
   run->add_flag("--overwrite", opt.overwrite, "Replace the results already in --out");
   run->add_flag("--trace", opt.trace, "Also write trace.json (Chrome trace, opens in Perfetto)");
   run->add_flag("--quiet", opt.quiet, "No progress or summary");
+  run->add_flag("--no-unregulated", args.no_unregulated,
+                "Do not measure the unregulated co-run (the nodes with policy none, once per "
+                "workload pair and cores) that fills the *_unregulated_* columns");
   run->add_flag("--slurm", args.slurm,
                 "Submit the run to Slurm (sbatch) as an array job, one shard per task, all "
                 "writing into --out on a filesystem the nodes share; prints the job id");
@@ -113,6 +117,7 @@ int run_command(RunArgs& args, const std::string& command_line, rosguard::Loader
     throw rosguard::InputError("", "",
                                "--resume and --overwrite contradict each other; choose one");
   opt.command_line = command_line;
+  opt.unregulated = !args.no_unregulated;
   if (!args.slurm) {
     for (const auto& [given, name] :
          {std::pair{args.slurm_options.array > 0, "--array"},
@@ -166,10 +171,13 @@ int main(int argc, char** argv) {
       "Reads DIR/manifest.json, DIR/points.csv and, after --slurm, DIR/slurm/job.json "
       "and squeue. Exit 0; 2 when DIR is not a results folder.");
 
-  std::string plot_dir, plot_out;
+  std::string plot_dir, plot_out, plot_rt_max;
   auto* plot = app.add_subcommand("plot", "Draw every figure a results folder supports.");
   plot->add_option("results", plot_dir, "Results folder of a run")->required();
   plot->add_option("--out", plot_out, "Figure folder (default: RESULTS/figures)");
+  plot->add_option("--rt-slowdown-max", plot_rt_max,
+                   "Draw this RT slowdown bound (e.g. 1.05) as a target on every RT slowdown "
+                   "figure and the trade-off figure (default: DIR/tune.json's, if any)");
 
   std::string cmp_a, cmp_b, cmp_out;
   auto* compare =
@@ -313,6 +321,7 @@ int main(int argc, char** argv) {
     if (*plot) {
       std::vector<std::string> args = {"plot", plot_dir};
       if (!plot_out.empty()) args.insert(args.end(), {"--out", plot_out});
+      if (!plot_rt_max.empty()) args.insert(args.end(), {"--rt-slowdown-max", plot_rt_max});
       return run_analysis(loader.home(), args);
     }
     if (*compare) {

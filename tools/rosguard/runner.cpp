@@ -17,6 +17,7 @@
 #include "run_manifest.h"
 #include "stop_signal.h"
 #include "task_pool.h"
+#include "unregulated.h"
 
 namespace rosguard {
 namespace fs = std::filesystem;
@@ -59,6 +60,48 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
   return s;
 }
 
+// The unregulated co-runs (unregulated.h) of a shard are points appended to the loaded scenario
+// after the scenario's own (index >= first): they run as point tasks (on the policy-none copy of
+// a point), after the baselines of their round and before its points, so that the rows are
+// written with them.
+struct CorunPlan {
+  std::size_t first = 0;          // index of the first co-run point: the scenario's point count
+  std::vector<int> measurements;  // per co-run point, as many as the baselines get
+  bool is_corun(std::size_t point) const { return point >= first; }
+};
+
+// Appends one point per distinct co-run key this shard's regulated points need (none with
+// `opt.unregulated` off).
+CorunPlan add_corun_points(LoadedScenario& loaded, const RunOptions& opt, const Backend& backend) {
+  CorunPlan plan;
+  plan.first = loaded.points.size();
+  if (!opt.unregulated) return plan;
+  std::map<std::string, std::size_t> index;  // key -> its co-run point
+  std::vector<LoadedPoint> added;
+  for (std::size_t i = 0; i < plan.first; ++i) {
+    const LoadedPoint& p = loaded.points[i];
+    if (p.sweep.index % static_cast<std::size_t>(opt.shard_count) !=
+            static_cast<std::size_t>(opt.shard_index) ||
+        !UnregulatedCoruns::needed(p.scenario))
+      continue;
+    const std::string key = UnregulatedCoruns::key(p.scenario);
+    const int measurements = backend.baseline_repetitions(p.scenario);
+    auto [it, fresh] = index.try_emplace(key, added.size());
+    if (fresh) {
+      LoadedPoint corun;
+      corun.sweep.index = plan.first + added.size();
+      corun.sweep.id = key;
+      corun.scenario = UnregulatedCoruns::scenario_of(p.scenario);
+      added.push_back(std::move(corun));
+      plan.measurements.push_back(measurements);
+    }
+    plan.measurements[it->second] = std::max(plan.measurements[it->second], measurements);
+  }
+  for (auto& p : added)
+    loaded.points.push_back(std::move(p));
+  return plan;
+}
+
 // The tasks of this shard in phases that run one after another (the tasks of one phase run in
 // any order, --jobs at a time). A baseline measured once (sim: deterministic) comes before every
 // point. A baseline measured R_b times (hw) is interleaved with the repetitions R of the points:
@@ -68,17 +111,18 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
 struct TaskPlan {
   std::vector<std::vector<Task>> phases;
   std::size_t tasks = 0;       // in all phases
-  std::size_t runs = 0;        // point runs among them (the rest measure baselines)
+  std::size_t runs = 0;        // point runs among them (the rest measure baselines, co-runs)
   std::size_t skipped = 0;     // runs of this shard already in points.csv
   std::set<std::string> keys;  // baselines this shard's points use
 };
 
 TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
-                    const ResultsStore::Opened& opened, const Backend& backend) {
+                    const ResultsStore::Opened& opened, const Backend& backend,
+                    const CorunPlan& corun_plan, const UnregulatedCoruns& coruns_held) {
   TaskPlan plan;
   const int reps = loaded.points.front().scenario.repetitions;
   std::vector<std::vector<Task>> iso_rounds(static_cast<std::size_t>(reps)),
-      point_rounds(static_cast<std::size_t>(reps));
+      corun_rounds(static_cast<std::size_t>(reps)), point_rounds(static_cast<std::size_t>(reps));
   struct Need {
     std::size_t point = 0;
     const WorkloadInfo* workload = nullptr;
@@ -88,7 +132,8 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
   std::map<std::string, Need> needs;  // by baseline key, in first-use order below
   std::vector<std::string> key_order;
   bool interleave = false;
-  for (const auto& p : loaded.points) {
+  for (std::size_t i = 0; i < corun_plan.first; ++i) {
+    const LoadedPoint& p = loaded.points[i];
     if (p.sweep.index % static_cast<std::size_t>(opt.shard_count) !=
         static_cast<std::size_t>(opt.shard_index))
       continue;
@@ -124,26 +169,40 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
       iso_rounds[round].push_back({Task::Kind::Isolation, n.point, k, key, n.workload, n.core});
     }
   }
+  // Co-run measurements a resumed folder (or another shard) already holds are not taken again.
+  for (std::size_t c = 0; c < corun_plan.measurements.size(); ++c) {
+    const std::size_t point = corun_plan.first + c;
+    const int measurements = corun_plan.measurements[c];
+    for (int k = 0; k < measurements; ++k) {
+      if (coruns_held.has(loaded.points[point].sweep.id, k)) continue;
+      corun_rounds[static_cast<std::size_t>(baseline_round(k, reps, measurements))].push_back(
+          {Task::Kind::Point, point, k, "", nullptr, 0});
+    }
+  }
   const auto add = [&](std::vector<Task> phase) {
     plan.tasks += phase.size();
     for (const Task& t : phase)
-      plan.runs += t.kind == Task::Kind::Point ? 1 : 0;
+      plan.runs += t.kind == Task::Kind::Point && !corun_plan.is_corun(t.point) ? 1 : 0;
     if (!phase.empty()) plan.phases.push_back(std::move(phase));
   };
-  if (!interleave) {  // every baseline first, then the points in sweep order
-    std::vector<Task> isolation, points;
+  if (!interleave) {  // every baseline first, then the co-runs, then the points in sweep order
+    std::vector<Task> isolation, coruns, points;
     for (auto& r : iso_rounds)
       isolation.insert(isolation.end(), r.begin(), r.end());
+    for (auto& r : corun_rounds)
+      coruns.insert(coruns.end(), r.begin(), r.end());
     for (auto& r : point_rounds)
       points.insert(points.end(), r.begin(), r.end());
     std::stable_sort(points.begin(), points.end(),
                      [](const Task& a, const Task& b) { return a.point < b.point; });
     add(std::move(isolation));
+    add(std::move(coruns));
     add(std::move(points));
     return plan;
   }
   for (std::size_t r = 0; r < iso_rounds.size(); ++r) {
     add(std::move(iso_rounds[r]));
+    add(std::move(corun_rounds[r]));
     add(std::move(point_rounds[r]));
   }
   return plan;
@@ -162,9 +221,11 @@ int worker_count(const RunOptions& opt, const Backend& backend) {
 // arrives; gathers what the manifest needs (fallbacks, facts) into `report`.
 class TaskRunner {
  public:
-  TaskRunner(const LoadedScenario& loaded, Executor& exec, Progress& progress,
-             InvocationReport& report, std::set<std::pair<std::string, std::string>> fallbacks)
+  TaskRunner(const LoadedScenario& loaded, const CorunPlan& coruns, Executor& exec,
+             Progress& progress, InvocationReport& report,
+             std::set<std::pair<std::string, std::string>> fallbacks)
       : loaded_(loaded),
+        coruns_(coruns),
         exec_(exec),
         progress_(progress),
         report_(report),
@@ -182,9 +243,12 @@ class TaskRunner {
       if (!exec_.busy()) break;
       auto [id, r] = exec_.wait_one();
       const Task& t = tasks[id];
+      const bool corun = t.kind == Task::Kind::Point && coruns_.is_corun(t.point);
       const std::string label = t.kind == Task::Kind::Isolation
                                     ? "isolation " + t.iso_key + " #" + std::to_string(t.rep)
-                                    : point_label(loaded_.points[t.point].sweep, t.rep);
+                                : corun ? "unregulated co-run " + loaded_.points[t.point].sweep.id +
+                                              " #" + std::to_string(t.rep)
+                                        : point_label(loaded_.points[t.point].sweep, t.rep);
       if (r.interrupted || (stop_signal() && !r.ok)) {
         interrupted_ = true;
         continue;
@@ -195,7 +259,7 @@ class TaskRunner {
       }
       absorb(r);
       on_result(t, r);
-      if (t.kind == Task::Kind::Point) ++runs_done_;
+      if (t.kind == Task::Kind::Point && !corun) ++runs_done_;
       progress_.update(runs_done_, label);
     }
   }
@@ -216,6 +280,7 @@ class TaskRunner {
   }
 
   const LoadedScenario& loaded_;
+  const CorunPlan& coruns_;
   Executor& exec_;
   Progress& progress_;
   InvocationReport& report_;
@@ -225,14 +290,16 @@ class TaskRunner {
   std::size_t runs_done_ = 0;  // point runs finished (progress counts runs, not baselines)
 };
 
-// The phases in order; after each phase of baselines they are saved (for resumed runs and other
-// shards); each point run's samples and row are appended as it finishes, with the baselines
-// measured so far (the rows are refreshed with all of them when the run finishes).
-void run_tasks(const TaskPlan& plan, RunState& st, const ResultsStore& store, TaskRunner& runner,
+// The phases in order; after each phase of baselines (or co-runs) they are saved (for resumed
+// runs and other shards); each point run's samples and row are appended as it finishes, with the
+// baselines and co-runs measured so far (the rows are refreshed with all of them when the run
+// finishes).
+void run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
+               UnregulatedCoruns& coruns, const ResultsStore& store, TaskRunner& runner,
                InvocationReport& report, json& trace_events) {
   const std::vector<std::string> header = header_of(*st.loaded);
   for (const auto& phase : plan.phases) {
-    bool measured = false;
+    bool measured = false, corun_measured = false;
     runner.run(phase, [&](const Task& t, const TaskResult& r) {
       if (t.kind == Task::Kind::Isolation) {
         st.baselines.put(t.iso_key, r.iso, t.rep);
@@ -240,13 +307,26 @@ void run_tasks(const TaskPlan& plan, RunState& st, const ResultsStore& store, Ta
         return;
       }
       const LoadedPoint& lp = st.loaded->points[t.point];
-      store.append_run(samples_rows(lp.sweep.id, t.rep, r.outcome),
-                       points_row(header, lp.sweep, lp.scenario, t.rep, r.outcome, st.baselines));
+      if (corun_plan.is_corun(t.point)) {
+        CorunResult c;
+        for (const auto& n : r.outcome.rt)
+          c.rt_time_us.push_back(n.time_us);
+        for (const auto& n : r.outcome.nrt)
+          c.nrt_time_us.push_back(n.time_us);
+        coruns.put(lp.sweep.id, std::move(c), t.rep);
+        corun_measured = true;
+        return;
+      }
+      std::string row = points_row(header, lp.sweep, lp.scenario, t.rep, r.outcome, st.baselines);
+      row.pop_back();  // the newline
+      row = fill_unregulated_cells(header, row, lp.scenario, coruns, st.baselines) + "\n";
+      store.append_run(samples_rows(lp.sweep.id, t.rep, r.outcome), row);
       ++report.rows;
       for (const auto& e : r.trace)
         trace_events.push_back(e);
     });
     if (measured) store.save_baselines(st.baselines);
+    if (corun_measured) coruns.save(store.dir());
     if (!runner.failure().empty() || stop_signal()) return;
   }
 }
@@ -261,16 +341,22 @@ void warn_noisy_baselines(const TaskPlan& plan, const Baselines& baselines) {
   }
 }
 
-// Brings a row's baseline cells up to date from the folder's baselines.
-RowRefresher row_refresher(const LoadedScenario& loaded) {
+// Brings a row's baseline and unregulated co-run cells up to date from the folder's baselines
+// and co-runs (DIR/unregulated.json as it is now: read here, not under the store's lock).
+RowRefresher row_refresher(const LoadedScenario& loaded, const std::filesystem::path& dir) {
   std::map<std::string, const LoadedPoint*> by_id;
   for (const auto& p : loaded.points)
     by_id.emplace(p.sweep.id, &p);
-  return [by_id, header = header_of(loaded)](const std::string& id, const std::string& line,
-                                             const Baselines& b) -> std::optional<std::string> {
+  return [by_id, header = header_of(loaded), coruns = UnregulatedCoruns::read(dir)](
+             const std::string& id, const std::string& line,
+             const Baselines& b) -> std::optional<std::string> {
     const auto it = by_id.find(id);
     if (it == by_id.end()) return std::nullopt;
-    return refresh_isolation_cells(header, line, it->second->scenario, b);
+    const auto fresh = refresh_isolation_cells(header, line, it->second->scenario, b);
+    const std::string current = fresh.value_or(line);
+    std::string filled = fill_unregulated_cells(header, current, it->second->scenario, coruns, b);
+    if (!fresh && filled == line) return std::nullopt;
+    return filled;
   };
 }
 
@@ -322,15 +408,26 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   ResultsStore store(results_folder(opt, loaded), join(header_of(loaded), ","), order,
                      first.repetitions);
   store.prepare(opt.overwrite, opt.resume || opt.shard_count > 1, scenario_hash(loaded));
+  std::error_code ec;
+  if (opt.overwrite) fs::remove(store.dir() / "unregulated.json", ec);
   const ResultsStore::Opened opened =
       store.open(describe_run(loaded, first.backend, opt.command_line),
                  std::to_string(opt.shard_index) + "/" + std::to_string(opt.shard_count));
+  const int repetitions = first.repetitions;
+  const std::size_t point_count = loaded.points.size();
 
   // 3. Tasks of this shard; 4. run them; 5. sort the rows (so --jobs and shards do not change
   // the bytes) and finish the manifest, also when something throws.
   InvocationReport report;
   try {
-    const TaskPlan plan = plan_tasks(loaded, opt, opened, *backend);
+    // The co-run points are appended: `first` and other references into the points are stale.
+    const CorunPlan corun_plan = add_corun_points(loaded, opt, *backend);
+    UnregulatedCoruns coruns = UnregulatedCoruns::read(store.dir());
+    const TaskPlan plan = plan_tasks(loaded, opt, opened, *backend, corun_plan, coruns);
+    report.facts["unregulated_corun"] =
+        opt.unregulated ? "measured once per co-run of the nodes with policy none "
+                          "(unregulated.json)"
+                        : "off (rosguard run --no-unregulated)";
     report.skipped_on_resume = plan.skipped;
     if (plan.skipped > 0 && !opt.quiet)
       std::cerr << "resume: " << plan.skipped << " run(s) already in "
@@ -339,9 +436,9 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     auto exec = make_executor(st, backend->process_per_task(), worker_count(opt, *backend));
     StopSignalGuard signals;
     Progress progress(plan.runs, !opt.quiet);
-    TaskRunner runner(loaded, *exec, progress, report, opened.fallbacks);
+    TaskRunner runner(loaded, corun_plan, *exec, progress, report, opened.fallbacks);
     json trace_events = json::array();
-    run_tasks(plan, st, store, runner, report, trace_events);
+    run_tasks(plan, corun_plan, st, coruns, store, runner, report, trace_events);
     progress.finish();
     warn_noisy_baselines(plan, st.baselines);
     if (opt.trace && !trace_events.empty()) store.add_trace(trace_events);
@@ -354,13 +451,13 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     report.status = "failed";
     report.error = e.what();
     try {
-      store.finish(report, row_refresher(loaded));
+      store.finish(report, row_refresher(loaded, store.dir()));
     } catch (const std::exception&) {  // the first error is the one to report
     }
     throw;
   }
-  store.finish(report, row_refresher(loaded));
-  return report_to_user(opt, report, store.dir(), loaded.points.size(), first.repetitions);
+  store.finish(report, row_refresher(loaded, store.dir()));
+  return report_to_user(opt, report, store.dir(), point_count, repetitions);
 }
 
 }  // namespace rosguard

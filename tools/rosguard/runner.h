@@ -1,6 +1,7 @@
 // `rosguard run`: the named lifecycle of a run, the same for every backend.
 //   load + validate (nothing written on error) -> prepare the results folder (resume, shards)
-//   -> isolation baselines -> every point x repetition -> sort rows, finish the manifest.
+//   -> isolation baselines -> unregulated co-runs (once per distinct co-run of the nodes with
+//   policy none, unregulated.h) -> every point x repetition -> sort rows, finish the manifest.
 // Tasks of a process_per_task backend run in forked workers (--jobs at a time); others run one
 // at a time in this process. SIGINT / SIGTERM stop dispatching, let the backend return its
 // nodes to nominal, keep complete rows, and give exit code 130 / 143.
@@ -26,6 +27,9 @@ struct RunOptions {
   bool overwrite = false;
   bool trace = false;
   bool quiet = false;
+  // Measure the unregulated co-run of every regulated point, once per co-run key
+  // (unregulated.h); off: rosguard run --no-unregulated.
+  bool unregulated = true;
   std::string command_line;  // recorded in the manifest
 };
 

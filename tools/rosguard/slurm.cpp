@@ -162,6 +162,7 @@ std::string sbatch_script(const SbatchScriptInputs& in) {
     s << " --jobs \"${SLURM_CPUS_PER_TASK:-1}\"";
   if (in.backend) s << " --backend " << shell_quote(*in.backend);
   if (in.trace) s << " --trace";
+  if (!in.unregulated) s << " --no-unregulated";
   s << "\n";
   return s.str();
 }
@@ -209,6 +210,7 @@ int submit_to_slurm(const RunOptions& run, const SlurmOptions& slurm, Loader& lo
   if (run.jobs > 0) in.jobs = run.jobs;
   in.backend = run.backend;
   in.trace = run.trace;
+  in.unregulated = run.unregulated;
   in.sbatch_args = slurm.sbatch_args;
   in.summary = "run " + first.name + " (" + plural(points, "point") + " x " +
                plural(static_cast<std::size_t>(first.repetitions), "repetition") + ") as " +

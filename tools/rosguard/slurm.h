@@ -40,6 +40,7 @@ struct SbatchScriptInputs {
   std::optional<int> jobs;  // --jobs for each task; empty: the task's CPUs
   std::optional<std::string> backend;
   bool trace = false;
+  bool unregulated = true;  // false: --no-unregulated
   std::vector<std::string> sbatch_args;
   std::string summary;  // one comment line: what the job runs
 };

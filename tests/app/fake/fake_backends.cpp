@@ -5,10 +5,13 @@
 //   ROSGUARD_FAKE_FAIL_AT    threshold_pct at which run_point throws RunError
 //   ROSGUARD_FAKE_ISO_SPREAD a baseline's successive measurements scaled by 1 - s, 1, 1 + s, ...
 //                            (a noisy host, for the baseline spread and its warning)
+//   ROSGUARD_FAKE_CALLS      append one line per run_point call to this file: the policy
+//                            (what a test counts to see which runs an invocation made)
 // Registered as "sim" (a worker process per task, like SystemC) and "hw" (in-process, polling
 // stop_requested() like the real hw backend).
 #include <chrono>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 #include <random>
 #include <thread>
@@ -43,6 +46,8 @@ class FakeBackend : public Backend {
   PointOutcome run_point(const Scenario& s, const Baselines& b, int rep, std::uint64_t seed,
                          RunContext& ctx) override {
     nap(ctx);
+    if (const char* calls = std::getenv("ROSGUARD_FAKE_CALLS"))
+      std::ofstream(calls, std::ios::app) << s.regulation.policy << "\n";
     if (const char* fail = std::getenv("ROSGUARD_FAKE_FAIL_AT");
         fail && std::atof(fail) == s.regulation.threshold_pct)
       throw RunError("fake failure at threshold " + std::string(fail));

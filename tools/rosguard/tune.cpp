@@ -918,7 +918,7 @@ int Tuner::run() {
   const auto line = [&](const char* what, const Eval* e) {
     std::cout << "  " << std::left << std::setw(13) << what;
     if (!e) {
-      std::cout << "none\n";
+      std::cout << "none (no other simulated setting meets the bound)\n";
       return;
     }
     std::cout << setting_label(e->setting) << "\n"
@@ -975,6 +975,10 @@ int Tuner::run() {
                                   : json(nullptr);
     doc["configurations"].push_back(c);
   }
+  // Every simulated setting (the trade-off figure draws one point per setting).
+  doc["settings"] = json::array();
+  for (const auto& k : evals_order_)
+    if (evals_.at(k).rung >= 0) doc["settings"].push_back(setting_json(evals_.at(k)));
   doc["cases"] = json::array();
   for (const auto& c : cases_)
     doc["cases"].push_back(c.label);

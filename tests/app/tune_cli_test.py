@@ -105,7 +105,7 @@ def check_tune(scenario, x, extra=()):
     if t["unregulated"]["policy"] != "none":
         fail(f"unregulated is not a policy none run: {t['unregulated']}")
     n, grid = t["simulated_points"], t["grid_points"]
-    if f"{n} point(s) of the full grid's {grid}" not in text:
+    if f"{n} point(s) in " not in text or f"of the full grid's {grid}" not in text:
         fail("the printed summary does not give simulated and grid points")
     if not n < grid:
         fail(f"simulated {n} points, not fewer than the grid's {grid}")

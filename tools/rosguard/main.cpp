@@ -30,6 +30,8 @@ Start here:
   rosguard run scenarios/quickstart.json      sweep it on the sim backend
   rosguard status results/quickstart          how far a run (or a Slurm job) is
   rosguard plot results/quickstart            draw its figures
+  rosguard tune scenarios/examples/tune.json --rt-slowdown-max 1.2
+                                              the setting that keeps RT within 1.2x
 Run 'rosguard <command> --help' for the options of a command.)";
 
 // "I/N" with 0 <= I < N <= INT_MAX, digits only; throws InputError otherwise.
@@ -172,7 +174,7 @@ int main(int argc, char** argv) {
   tune->add_option("--jobs", tune_opt.jobs, "Worker processes for sim (default: all CPUs)")
       ->check(CLI::Range(1, 65536));
   tune->add_flag("--overwrite", tune_opt.overwrite, "Replace an earlier tune in --out");
-  tune->add_flag("--quiet", tune_opt.quiet, "No progress or notes on stderr");
+  tune->add_flag("--quiet", tune_opt.quiet, "No progress on stderr");
   tune->footer(
       "The space: the scenario's swept regulation keys (policy, sampling, periods, ...); when it "
       "sweeps none but the threshold, the policies that throttle x sampling self, external x "

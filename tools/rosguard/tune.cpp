@@ -736,8 +736,11 @@ void Tuner::merge_results() {
   m["command"] = opt_.command_line;
   m["status"] = "complete";
   m["tune"] = {{"file", "tune.json"}, {"batches", batch_dirs_.size()}};
-  m["scenario"]["given"] = src_.given;
-  m["scenario"]["file"] = opt_.scenario_file;
+  // The folder holds the batches' points, not one scenario's sweep: the scenario as given and
+  // expanded, without the per-point list and hash of the last batch.
+  m["scenario"] = {
+      {"given", src_.given}, {"expanded", src_.expanded}, {"file", opt_.scenario_file}};
+  m.erase("scenario_hash");
   m.erase("shards");
   m["counts"] = {{"rows", std::count(points.begin(), points.end(), '\n')},
                  {"points", simulated_points_}};
@@ -911,10 +914,12 @@ int Tuner::run() {
   std::cout << "  space        " << searches_.size() << " configuration(s) x " << ladder_.size()
             << " thresholds (" << compact_number(ladder_.front()) << " .. "
             << compact_number(ladder_.back()) << " %) x " << cases_.size() << " case(s)\n";
-  std::cout << "  simulated    " << simulated_points_ << " point(s) of the full grid's " << grid
-            << " (" << step_ << " batches"
-            << (unregulated ? ", " + std::to_string(cases_.size()) + " of them unregulated" : "")
-            << ")\n";
+  const std::size_t unregulated_points = unregulated ? unregulated->cases.size() : 0;
+  std::cout << "  simulated    " << simulated_points_ << " point(s) in " << step_
+            << " batches: " << simulated_points_ - unregulated_points << " of the full grid's "
+            << grid;
+  if (unregulated) std::cout << ", and " << unregulated_points << " unregulated";
+  std::cout << "\n";
   const auto line = [&](const char* what, const Eval* e) {
     std::cout << "  " << std::left << std::setw(13) << what;
     if (!e) {

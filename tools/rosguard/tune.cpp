@@ -51,7 +51,7 @@ const std::string kRegulationPeriod = "regulation.regulation_period_us";
 const std::string kThreshold = "regulation.threshold_pct";
 const std::string kBudget = "regulation.budget_mbps";
 
-std::string fmt(double v, int precision = 3) {
+std::string fmt(double v, int precision = 4) {
   if (std::isnan(v)) return "n/a";
   std::ostringstream os;
   os << std::fixed << std::setprecision(precision) << v;
@@ -844,7 +844,8 @@ int Tuner::run() {
     batch_dirs_.push_back(out);
     if (rc != 0) {
       std::cerr << "rosguard: tune interrupted; the batches so far are in "
-                << (dir_ / "probes").string() << "\n";
+                << (dir_ / "probes").string()
+                << " (tune does not resume: run it again with --overwrite)\n";
       return rc;
     }
     for (auto& [k, e] : got) {
@@ -920,10 +921,10 @@ int Tuner::run() {
             << grid;
   if (unregulated) std::cout << ", and " << unregulated_points << " unregulated";
   std::cout << "\n";
-  const auto line = [&](const char* what, const Eval* e) {
+  const auto line = [&](const char* what, const Eval* e, const char* if_none) {
     std::cout << "  " << std::left << std::setw(13) << what;
     if (!e) {
-      std::cout << "none (no other simulated setting meets the bound)\n";
+      std::cout << if_none << "\n";
       return;
     }
     std::cout << setting_label(e->setting) << "\n"
@@ -931,8 +932,8 @@ int Tuner::run() {
               << "RT slowdown " << fmt(e->rt) << " (worst), nRT slowdown " << fmt(e->nrt)
               << " (mean)\n";
   };
-  line("best", best);
-  line("runner-up", runner_up);
+  line("best", best, "none: no simulated setting meets the bound");
+  line("runner-up", runner_up, "none: no other simulated setting meets the bound");
   if (unregulated) {
     std::cout << "  " << std::left << std::setw(13) << "unregulated"
               << "RT slowdown " << fmt(unregulated->rt) << " (worst), nRT slowdown "

@@ -114,11 +114,8 @@ struct Eval {
 struct Search {
   json config;  // values of the config paths
   std::string label;
-  int lo = -1, hi = 0;  // ladder indexes: lo meets the bound (-1: none known), hi does not
-  enum class Mode { Bisect, Scan, Done } mode = Mode::Bisect;
-  bool verified = false;
-  bool scanned = false;               // monotonicity failed: every rung simulated
-  std::map<int, std::size_t> probed;  // rung -> index into evals
+  ThresholdSearch search;
+  std::map<int, std::string> evals;  // rung -> key into Tuner::evals_
 };
 
 struct Case {
@@ -159,7 +156,6 @@ class Tuner {
   // of the run (0, or 130 / 143 when interrupted) and adds the evaluations.
   int run_batch(const std::string& name, const std::vector<json>& settings,
                 const std::string& backend, const fs::path& out, std::map<std::string, Eval>& into);
-  void step_search(std::size_t s);
   json setting_json(const Eval& e) const;
   std::string setting_label(const json& setting) const;
   std::optional<double> budget_mbps(const json& setting) const;
@@ -392,10 +388,7 @@ void Tuner::build_space() {
       collapsed = true;
     }
     if (!seen.insert(config.dump()).second) continue;
-    Search s;
-    s.config = config;
-    s.hi = static_cast<int>(ladder_.size());
-    searches_.push_back(std::move(s));
+    searches_.push_back({config, "", ThresholdSearch(static_cast<int>(ladder_.size())), {}});
   }
   for (const auto& p : dropped_policies)
     note("policy " + p + " is left out of the space: it does not throttle" +
@@ -639,42 +632,6 @@ int Tuner::run_batch(const std::string& name, const std::vector<json>& settings,
   return 0;
 }
 
-// Updates one configuration's search after a batch: the bisection bounds, then monotonicity
-// over every probe it has (a contradiction switches it to a scan).
-void Tuner::step_search(std::size_t index) {
-  Search& s = searches_[index];
-  if (s.mode == Search::Mode::Scan) {
-    s.mode = Search::Mode::Done;
-    return;
-  }
-  if (s.mode != Search::Mode::Bisect) return;
-  for (const auto& [rung, ei] : s.probed) {
-    const Eval& e = evals_.at(evals_order_[ei]);
-    if (rung > s.lo && rung < s.hi) (e.feasible ? s.lo : s.hi) = rung;
-  }
-  // Monotonicity: at a higher threshold RT slowdown does not fall (which makes the rungs that
-  // meet the bound the lowest ones) and, among those, nRT slowdown does not rise (which makes the
-  // highest of them the best); beyond the tolerance.
-  for (auto a = s.probed.begin(); a != s.probed.end(); ++a)
-    for (auto b = std::next(a); b != s.probed.end(); ++b) {
-      const Eval& lo = evals_.at(evals_order_[a->second]);
-      const Eval& hi = evals_.at(evals_order_[b->second]);
-      std::string why;
-      if (lo.rt > hi.rt + tolerance(lo.rt, hi.rt) || (std::isnan(lo.rt) && !std::isnan(hi.rt)))
-        why = "RT slowdown " + fmt(lo.rt) + " at " + compact_number(ladder_[a->first]) + " % but " +
-              fmt(hi.rt) + " at " + compact_number(ladder_[b->first]) + " %";
-      else if (lo.feasible && hi.feasible && lo.nrt < hi.nrt - tolerance(lo.nrt, hi.nrt))
-        why = "nRT slowdown " + fmt(lo.nrt) + " at " + compact_number(ladder_[a->first]) +
-              " % but " + fmt(hi.nrt) + " at " + compact_number(ladder_[b->first]) + " %";
-      if (why.empty()) continue;
-      note(s.label + ": not monotone in the threshold (" + why +
-           "): bisection abandoned, every threshold of this configuration is simulated");
-      s.mode = Search::Mode::Scan;
-      s.scanned = true;
-      return;
-    }
-}
-
 json Tuner::setting_json(const Eval& e) const {
   json j = json::object();
   j["policy"] = e.setting[0];
@@ -803,26 +760,11 @@ int Tuner::run() {
     std::vector<json> settings;
     std::vector<std::pair<std::size_t, int>> owners;  // (search, rung) per setting
     if (step_ == 0 && unregulated_setting_) settings.push_back(*unregulated_setting_);
-    std::size_t bisect = 0, verify = 0, scan = 0;
+    std::size_t searching = 0, scanning = 0;
     for (std::size_t i = 0; i < searches_.size(); ++i) {
       Search& s = searches_[i];
-      std::vector<int> rungs;
-      if (s.mode == Search::Mode::Bisect) {
-        if (s.hi - s.lo > 1) {
-          rungs.push_back((s.lo + s.hi) / 2);
-          ++bisect;
-        } else if (!s.verified && s.lo >= 1 && !s.probed.count(s.lo - 1)) {
-          rungs.push_back(s.lo - 1);  // the rung below the pick: does nRT slowdown fall?
-          s.verified = true;
-          ++verify;
-        } else {
-          s.mode = Search::Mode::Done;
-        }
-      } else if (s.mode == Search::Mode::Scan) {
-        for (int r = 0; r < static_cast<int>(ladder_.size()); ++r)
-          if (!s.probed.count(r)) rungs.push_back(r);
-        scan += rungs.size();
-      }
+      const std::vector<int> rungs = s.search.next();
+      if (!rungs.empty()) ++(s.search.scanning() ? scanning : searching);
       for (int r : rungs) {
         json setting = s.config;
         setting.push_back(number_json(ladder_[static_cast<std::size_t>(r)]));
@@ -836,8 +778,9 @@ int Tuner::run() {
     const fs::path out = dir_ / "probes" / name;
     if (!opt_.quiet)
       std::cerr << "tune: " << name << ": " << settings.size() << " setting(s) x " << case_count
-                << " case(s) (bisection " << bisect << ", verification " << verify << ", scan "
-                << scan << (step_ == 0 && unregulated_setting_ ? ", unregulated 1" : "") << "); "
+                << " case(s) (" << searching << " configuration(s) bisected, " << scanning
+                << " scanned"
+                << (step_ == 0 && unregulated_setting_ ? ", the unregulated co-run" : "") << "); "
                 << simulated_points_ << " point(s) simulated so far\n";
     std::map<std::string, Eval> got;
     const int rc = run_batch(name, settings, "sim", out, got);
@@ -859,12 +802,16 @@ int Tuner::run() {
       Eval& e = evals_.at(k);
       e.config = i;
       e.rung = r;
-      const auto pos =
-          std::find(evals_order_.begin(), evals_order_.end(), k) - evals_order_.begin();
-      searches_[i].probed[r] = static_cast<std::size_t>(pos);
+      searches_[i].evals[r] = k;
+      searches_[i].search.record(r, {e.rt, e.nrt, e.feasible});
     }
-    for (std::size_t i = 0; i < searches_.size(); ++i)
-      step_search(i);
+    const auto rung_text = [&](int r) {
+      return compact_number(ladder_[static_cast<std::size_t>(r)]) + " %";
+    };
+    for (auto& s : searches_)
+      if (const std::string why = s.search.update(rung_text); !why.empty())
+        note(s.label + ": not monotone in the threshold (" + why +
+             "): bisection abandoned, every threshold of this configuration is simulated");
     ++step_;
   }
 
@@ -876,13 +823,13 @@ int Tuner::run() {
     return a->rt < b->rt;
   };
   std::vector<const Eval*> per_config(searches_.size(), nullptr);
+  for (std::size_t i = 0; i < searches_.size(); ++i)
+    if (const auto rung = searches_[i].search.pick())
+      per_config[i] = &evals_.at(searches_[i].evals.at(*rung));
   const Eval* closest = nullptr;
   for (const auto& k : evals_order_) {
     const Eval& e = evals_.at(k);
-    if (e.rung < 0) continue;  // unregulated
-    if (!std::isnan(e.rt) && (!closest || e.rt < closest->rt)) closest = &e;
-    if (e.feasible && !std::isnan(e.nrt) && better(&e, per_config[e.config]))
-      per_config[e.config] = &e;
+    if (e.rung >= 0 && !std::isnan(e.rt) && (!closest || e.rt < closest->rt)) closest = &e;
   }
   const Eval* best = nullptr;
   for (const Eval* e : per_config)
@@ -974,8 +921,8 @@ int Tuner::run() {
   doc["configurations"] = json::array();
   for (const auto& s : searches_) {
     json c = {{"label", s.label},
-              {"searched", s.scanned ? "scan" : "bisection"},
-              {"probes", s.probed.size()}};
+              {"searched", s.search.scanned() ? "scan" : "bisection"},
+              {"probes", s.search.probes().size()}};
     c["best_threshold_pct"] = per_config[&s - searches_.data()]
                                   ? per_config[&s - searches_.data()]->setting.back()
                                   : json(nullptr);
@@ -1010,6 +957,70 @@ int Tuner::run() {
 }
 
 }  // namespace
+
+ThresholdSearch::ThresholdSearch(int rungs) : rungs_(rungs), hi_(rungs) {
+  if (rungs < 1) throw ContractError("ThresholdSearch: a ladder needs at least one rung");
+}
+
+std::vector<int> ThresholdSearch::next() {
+  std::vector<int> rungs;
+  if (mode_ == Mode::Bisect) {
+    if (hi_ - lo_ > 1) {
+      rungs.push_back(lo_ + (hi_ - lo_) / 2);
+    } else if (!verified_ && lo_ >= 1 && !probes_.count(lo_ - 1)) {
+      rungs.push_back(lo_ - 1);  // the rung below the pick: does nRT slowdown fall?
+      verified_ = true;
+    } else {
+      mode_ = Mode::Done;
+    }
+  } else if (mode_ == Mode::Scan) {
+    for (int r = 0; r < rungs_; ++r)
+      if (!probes_.count(r)) rungs.push_back(r);
+    mode_ = Mode::Done;  // the scan is one batch
+  }
+  return rungs;
+}
+
+void ThresholdSearch::record(int rung, const Probe& probe) {
+  if (rung < 0 || rung >= rungs_)
+    throw ContractError("ThresholdSearch: no rung " + std::to_string(rung));
+  probes_[rung] = probe;
+}
+
+std::string ThresholdSearch::update(const std::function<std::string(int)>& rung_text) {
+  if (mode_ != Mode::Bisect) return "";
+  for (const auto& [rung, p] : probes_)
+    if (rung > lo_ && rung < hi_) (p.feasible ? lo_ : hi_) = rung;
+  // At a higher threshold RT slowdown does not fall (so the rungs that meet the bound are the
+  // lowest ones) and, among those, nRT slowdown does not rise (so the highest is the best).
+  for (auto a = probes_.begin(); a != probes_.end(); ++a)
+    for (auto b = std::next(a); b != probes_.end(); ++b) {
+      const Probe& lo = a->second;
+      const Probe& hi = b->second;
+      std::string why;
+      if (lo.rt > hi.rt + tolerance(lo.rt, hi.rt) || (std::isnan(lo.rt) && !std::isnan(hi.rt)))
+        why = "RT slowdown " + fmt(lo.rt) + " at " + rung_text(a->first) + " but " + fmt(hi.rt) +
+              " at " + rung_text(b->first);
+      else if (lo.feasible && hi.feasible && lo.nrt < hi.nrt - tolerance(lo.nrt, hi.nrt))
+        why = "nRT slowdown " + fmt(lo.nrt) + " at " + rung_text(a->first) + " but " + fmt(hi.nrt) +
+              " at " + rung_text(b->first);
+      if (why.empty()) continue;
+      mode_ = Mode::Scan;
+      scanned_ = true;
+      return why;
+    }
+  return "";
+}
+
+std::optional<int> ThresholdSearch::pick() const {
+  std::optional<int> best;
+  for (const auto& [rung, p] : probes_) {
+    if (!p.feasible || std::isnan(p.nrt)) continue;
+    const Probe* b = best ? &probes_.at(*best) : nullptr;
+    if (!b || p.nrt < b->nrt || (p.nrt == b->nrt && p.rt < b->rt)) best = rung;
+  }
+  return best;
+}
 
 int tune_scenario(const TuneOptions& options, Loader& loader, const BackendRegistry& backends,
                   const PolicyRegistry& policies) {

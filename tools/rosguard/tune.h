@@ -22,13 +22,59 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
+#include <map>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "backend/backend.h"
 #include "loader.h"
 #include "policy/policy.h"
 
 namespace rosguard {
+
+// One configuration's search over a threshold ladder of `rungs` ascending rungs.
+//
+// Contract: call next() for the rungs to simulate in the next batch, record() each one's
+// result, then update(); repeat until next() returns nothing. While the probes agree with
+// monotonicity (RT slowdown does not fall as the threshold rises; among the probes that meet
+// the bound, nRT slowdown does not rise; within max(0.005, 1 % of the larger value)) it
+// bisects for the highest rung that meets the bound and then probes the rung below it once;
+// after a contradiction it scans: every rung not yet probed, in one batch. pick() is then the
+// probed rung that meets the bound with the lowest nRT slowdown (ties: the lower RT slowdown).
+class ThresholdSearch {
+ public:
+  struct Probe {
+    double rt = 0.0;   // worst RT slowdown (NaN: not measured, never meets the bound)
+    double nrt = 0.0;  // the objective: mean nRT slowdown
+    bool feasible = false;
+  };
+
+  explicit ThresholdSearch(int rungs);
+
+  std::vector<int> next();
+  void record(int rung, const Probe& probe);
+  // Moves the bounds and checks monotonicity over every probe so far. Returns the
+  // contradiction found ("RT slowdown 1.2 at rung 3 but 1.1 at rung 5"; `rung_text` names a
+  // rung), after which the search scans; "" otherwise.
+  std::string update(const std::function<std::string(int)>& rung_text);
+
+  bool scanning() const { return mode_ == Mode::Scan || scanned_; }
+  bool scanned() const { return scanned_; }  // a contradiction was found
+  const std::map<int, Probe>& probes() const { return probes_; }
+  std::optional<int> pick() const;
+
+ private:
+  enum class Mode { Bisect, Scan, Done };
+  int rungs_;
+  int lo_ = -1;  // highest rung known to meet the bound (-1: none)
+  int hi_;       // lowest rung known not to (rungs_: none)
+  Mode mode_ = Mode::Bisect;
+  bool verified_ = false;
+  bool scanned_ = false;
+  std::map<int, Probe> probes_;
+};
 
 struct TuneOptions {
   std::string scenario_file;

@@ -107,8 +107,7 @@ struct Eval {
   double rt = kNaN;                         // worst over the cases
   double nrt = kNaN;                        // objective: mean over the cases
   bool feasible = false;
-  std::size_t config = 0;  // index into the searches (unregulated: npos)
-  int rung = -1;           // ladder index
+  int rung = -1;  // ladder index (-1: the unregulated co-run)
 };
 
 struct Search {
@@ -148,6 +147,14 @@ class Tuner {
   int run();
 
  private:
+  struct Outcome {
+    const Eval* best = nullptr;
+    const Eval* runner_up = nullptr;
+    const Eval* unregulated = nullptr;
+    const Eval* closest = nullptr;  // the lowest RT slowdown, when nothing meets the bound
+    std::vector<const Eval*> per_config;
+  };
+
   void load_source();
   void build_space();
   void prepare_folder();
@@ -160,6 +167,10 @@ class Tuner {
   std::string setting_label(const json& setting) const;
   std::optional<double> budget_mbps(const json& setting) const;
   void merge_results();
+  int search();
+  Outcome choose();
+  void print_summary(const Outcome& o) const;
+  nlohmann::json tune_json(const Outcome& o) const;
   int confirm_hw(const Eval& best, const Eval* unregulated, json& doc);
   void note(const std::string& text) { notes_.push_back(text); }
 
@@ -186,6 +197,8 @@ class Tuner {
   std::vector<std::string> notes_;
   std::vector<fs::path> batch_dirs_;
   std::size_t simulated_points_ = 0;
+  std::size_t case_count_ = 1;
+  std::size_t grid_points_ = 0;
   int step_ = 0;
 };
 
@@ -416,7 +429,7 @@ void Tuner::build_space() {
   for (auto& s : searches_) {
     s.label = setting_label(s.config);
     json doc = base_;
-    doc["name"] = name_ + "-tune-check";
+    doc["name"] = name_.substr(0, 100) + "-tune-check";
     doc["backend"] = "sim";
     for (std::size_t c = 0; c < config_paths_.size(); ++c)
       set_at_path(doc, parse_sweep_path(config_paths_[c]), s.config[c]);
@@ -511,7 +524,7 @@ int Tuner::run_batch(const std::string& name, const std::vector<json>& settings,
                      const std::string& backend, const fs::path& out,
                      std::map<std::string, Eval>& into) {
   json doc = batch_document(settings, backend);
-  doc["name"] = name_ + "-" + name;
+  doc["name"] = name_.substr(0, 100) + "-" + name;  // names have at most 128 characters
   const fs::path file = out.string() + ".json";
   write_file_atomic(file, doc.dump(2) + "\n");
 
@@ -742,42 +755,39 @@ int Tuner::confirm_hw(const Eval& best, const Eval* unregulated, json& doc) {
   return 0;
 }
 
-int Tuner::run() {
-  load_source();
-  build_space();
-  prepare_folder();
-
-  std::size_t case_count = 1;
-  for (const auto& [key, values] : case_keys_)
-    case_count *= values.size();
-  const std::size_t grid = searches_.size() * ladder_.size() * case_count;
+// The search: one batch per step, every configuration's next probes together. Returns the
+// exit code of an interrupted batch, else 0.
+int Tuner::search() {
   if (!opt_.quiet)
     std::cerr << "tune: " << searches_.size() << " configuration(s) x " << ladder_.size()
-              << " thresholds; full grid " << grid << " point(s)\n";
-
-  // The search: one batch per step, every configuration's next probes together.
+              << " thresholds; full grid " << grid_points_ << " point(s)\n";
+  const auto rung_text = [&](int r) {
+    return compact_number(ladder_[static_cast<std::size_t>(r)]) + " %";
+  };
+  const auto setting_at = [&](const Search& s, int r) {
+    json setting = s.config;
+    setting.push_back(number_json(ladder_[static_cast<std::size_t>(r)]));
+    return setting;
+  };
   while (true) {
     std::vector<json> settings;
     std::vector<std::pair<std::size_t, int>> owners;  // (search, rung) per setting
     if (step_ == 0 && unregulated_setting_) settings.push_back(*unregulated_setting_);
     std::size_t searching = 0, scanning = 0;
     for (std::size_t i = 0; i < searches_.size(); ++i) {
-      Search& s = searches_[i];
-      const std::vector<int> rungs = s.search.next();
-      if (!rungs.empty()) ++(s.search.scanning() ? scanning : searching);
+      const std::vector<int> rungs = searches_[i].search.next();
+      if (!rungs.empty()) ++(searches_[i].search.scanning() ? scanning : searching);
       for (int r : rungs) {
-        json setting = s.config;
-        setting.push_back(number_json(ladder_[static_cast<std::size_t>(r)]));
-        settings.push_back(setting);
+        settings.push_back(setting_at(searches_[i], r));
         owners.emplace_back(i, r);
       }
     }
-    if (owners.empty() && step_ > 0) break;
+    if (owners.empty()) return 0;
     char name[32];
     std::snprintf(name, sizeof name, "step-%02d", step_);
     const fs::path out = dir_ / "probes" / name;
     if (!opt_.quiet)
-      std::cerr << "tune: " << name << ": " << settings.size() << " setting(s) x " << case_count
+      std::cerr << "tune: " << name << ": " << settings.size() << " setting(s) x " << case_count_
                 << " case(s) (" << searching << " configuration(s) bisected, " << scanning
                 << " scanned"
                 << (step_ == 0 && unregulated_setting_ ? ", the unregulated co-run" : "") << "); "
@@ -796,77 +806,72 @@ int Tuner::run() {
       evals_[k] = e;
     }
     for (const auto& [i, r] : owners) {
-      json setting = searches_[i].config;
-      setting.push_back(number_json(ladder_[static_cast<std::size_t>(r)]));
-      const std::string k = setting.dump();
+      const std::string k = setting_at(searches_[i], r).dump();
       Eval& e = evals_.at(k);
-      e.config = i;
       e.rung = r;
       searches_[i].evals[r] = k;
       searches_[i].search.record(r, {e.rt, e.nrt, e.feasible});
     }
-    const auto rung_text = [&](int r) {
-      return compact_number(ladder_[static_cast<std::size_t>(r)]) + " %";
-    };
     for (auto& s : searches_)
       if (const std::string why = s.search.update(rung_text); !why.empty())
         note(s.label + ": not monotone in the threshold (" + why +
              "): bisection abandoned, every threshold of this configuration is simulated");
     ++step_;
   }
+}
 
-  // The pick: per configuration its best probe that meets the bound; overall the lowest
-  // objective (ties: the lower RT slowdown).
+// Per configuration its pick; overall the lowest objective (ties: the lower RT slowdown); the
+// runner-up from another configuration, else another setting that meets the bound.
+Tuner::Outcome Tuner::choose() {
+  Outcome o;
   const auto better = [](const Eval* a, const Eval* b) {
     if (!b) return true;
     if (a->nrt != b->nrt) return a->nrt < b->nrt;
     return a->rt < b->rt;
   };
-  std::vector<const Eval*> per_config(searches_.size(), nullptr);
+  o.per_config.assign(searches_.size(), nullptr);
   for (std::size_t i = 0; i < searches_.size(); ++i)
     if (const auto rung = searches_[i].search.pick())
-      per_config[i] = &evals_.at(searches_[i].evals.at(*rung));
-  const Eval* closest = nullptr;
+      o.per_config[i] = &evals_.at(searches_[i].evals.at(*rung));
   for (const auto& k : evals_order_) {
     const Eval& e = evals_.at(k);
-    if (e.rung >= 0 && !std::isnan(e.rt) && (!closest || e.rt < closest->rt)) closest = &e;
+    if (e.rung >= 0 && !std::isnan(e.rt) && (!o.closest || e.rt < o.closest->rt)) o.closest = &e;
   }
-  const Eval* best = nullptr;
-  for (const Eval* e : per_config)
-    if (e && better(e, best)) best = e;
-  const Eval* runner_up = nullptr;
-  for (const Eval* e : per_config)
-    if (e && e != best && better(e, runner_up)) runner_up = e;
-  if (best && !runner_up) {  // a single configuration meets the bound: its next best probe
+  for (const Eval* e : o.per_config)
+    if (e && better(e, o.best)) o.best = e;
+  for (const Eval* e : o.per_config)
+    if (e && e != o.best && better(e, o.runner_up)) o.runner_up = e;
+  if (o.best && !o.runner_up) {  // a single configuration meets the bound: its next best probe
     for (const auto& k : evals_order_) {
       const Eval& e = evals_.at(k);
-      if (e.rung >= 0 && &e != best && e.feasible && !std::isnan(e.nrt) && better(&e, runner_up))
-        runner_up = &e;
+      if (e.rung >= 0 && &e != o.best && e.feasible && !std::isnan(e.nrt) &&
+          better(&e, o.runner_up))
+        o.runner_up = &e;
     }
-    if (runner_up)
+    if (o.runner_up)
       note("only one configuration meets the bound: the runner-up is another threshold of it");
   }
-  const Eval* unregulated =
-      unregulated_setting_ ? &evals_.at(unregulated_setting_->dump()) : nullptr;
-  if (unregulated && unregulated->feasible)
+  if (unregulated_setting_) o.unregulated = &evals_.at(unregulated_setting_->dump());
+  if (o.unregulated && o.unregulated->feasible)
     note(
         "the unregulated co-run already keeps every RT node within the bound: regulation costs "
         "the nRT nodes progress without being needed");
-  merge_results();
+  return o;
+}
 
-  // Output.
+void Tuner::print_summary(const Outcome& o) const {
   const std::string x = compact_number(opt_.rt_slowdown_max);
   std::cout << "tune " << name_ << ": every RT node's slowdown <= " << x
             << "; objective nrt-throughput (lowest nRT slowdown: mean over nRT nodes, "
                "repetitions and cases)\n";
   std::cout << "  space        " << searches_.size() << " configuration(s) x " << ladder_.size()
             << " thresholds (" << compact_number(ladder_.front()) << " .. "
-            << compact_number(ladder_.back()) << " %) x " << cases_.size() << " case(s)\n";
-  const std::size_t unregulated_points = unregulated ? unregulated->cases.size() : 0;
+            << compact_number(ladder_.back()) << " %) x " << case_count_ << " case(s)\n";
+  const std::size_t unregulated_points = o.unregulated ? o.unregulated->cases.size() : 0;
   std::cout << "  simulated    " << simulated_points_ << " point(s) in " << step_
             << " batches: " << simulated_points_ - unregulated_points << " of the full grid's "
-            << grid;
-  if (unregulated) std::cout << ", and " << unregulated_points << " unregulated";
+            << grid_points_;
+  if (o.unregulated) std::cout << ", and " << unregulated_points << " unregulated";
   std::cout << "\n";
   const auto line = [&](const char* what, const Eval* e, const char* if_none) {
     std::cout << "  " << std::left << std::setw(13) << what;
@@ -879,54 +884,55 @@ int Tuner::run() {
               << "RT slowdown " << fmt(e->rt) << " (worst), nRT slowdown " << fmt(e->nrt)
               << " (mean)\n";
   };
-  line("best", best, "none: no simulated setting meets the bound");
-  line("runner-up", runner_up, "none: no other simulated setting meets the bound");
-  if (unregulated) {
+  line("best", o.best, "none: no simulated setting meets the bound");
+  line("runner-up", o.runner_up, "none: no other simulated setting meets the bound");
+  if (o.unregulated)
     std::cout << "  " << std::left << std::setw(13) << "unregulated"
-              << "RT slowdown " << fmt(unregulated->rt) << " (worst), nRT slowdown "
-              << fmt(unregulated->nrt) << " (mean)\n";
-  }
-  if (cases_.size() > 1 && best) {
+              << "RT slowdown " << fmt(o.unregulated->rt) << " (worst), nRT slowdown "
+              << fmt(o.unregulated->nrt) << " (mean)\n";
+  if (cases_.size() > 1 && o.best) {
     std::cout << "  per case (best / unregulated: RT, nRT slowdown):\n";
     for (const auto& c : cases_) {
-      const CaseResult& b = best->cases.at(c.key);
+      const CaseResult& b = o.best->cases.at(c.key);
       std::cout << "    " << c.label << ": " << fmt(b.rt) << ", " << fmt(b.nrt);
-      if (unregulated && unregulated->cases.count(c.key))
-        std::cout << " / " << fmt(unregulated->cases.at(c.key).rt) << ", "
-                  << fmt(unregulated->cases.at(c.key).nrt);
+      if (o.unregulated && o.unregulated->cases.count(c.key))
+        std::cout << " / " << fmt(o.unregulated->cases.at(c.key).rt) << ", "
+                  << fmt(o.unregulated->cases.at(c.key).nrt);
       std::cout << "\n";
     }
   }
-  if (!best) {
+  if (!o.best) {
     std::cout << "  no simulated setting keeps every RT node within " << x;
-    if (closest)
-      std::cout << "; the closest: " << setting_label(closest->setting) << " (RT slowdown "
-                << fmt(closest->rt) << ", nRT slowdown " << fmt(closest->nrt) << ")";
+    if (o.closest)
+      std::cout << "; the closest: " << setting_label(o.closest->setting) << " (RT slowdown "
+                << fmt(o.closest->rt) << ", nRT slowdown " << fmt(o.closest->nrt) << ")";
     std::cout << "\n";
   }
+}
 
+json Tuner::tune_json(const Outcome& o) const {
   json doc;
   doc["rt_slowdown_max"] = opt_.rt_slowdown_max;
   doc["objective"] = opt_.objective;
-  doc["best"] = best ? setting_json(*best) : json(nullptr);
-  doc["runner_up"] = runner_up ? setting_json(*runner_up) : json(nullptr);
-  doc["unregulated"] = unregulated ? setting_json(*unregulated) : json(nullptr);
+  doc["best"] = o.best ? setting_json(*o.best) : json(nullptr);
+  doc["runner_up"] = o.runner_up ? setting_json(*o.runner_up) : json(nullptr);
+  doc["unregulated"] = o.unregulated ? setting_json(*o.unregulated) : json(nullptr);
   doc["simulated_points"] = simulated_points_;
-  doc["grid_points"] = grid;
-  doc["closest"] = !best && closest ? setting_json(*closest) : json(nullptr);
+  doc["grid_points"] = grid_points_;
+  doc["notes"] = notes_;
+  doc["closest"] = !o.best && o.closest ? setting_json(*o.closest) : json(nullptr);
   doc["scenario"] = opt_.scenario_file;
   doc["ladder_pct"] = json::array();
   for (double t : ladder_)
     doc["ladder_pct"].push_back(number_json(t));
   doc["configurations"] = json::array();
-  for (const auto& s : searches_) {
-    json c = {{"label", s.label},
-              {"searched", s.search.scanned() ? "scan" : "bisection"},
-              {"probes", s.search.probes().size()}};
-    c["best_threshold_pct"] = per_config[&s - searches_.data()]
-                                  ? per_config[&s - searches_.data()]->setting.back()
-                                  : json(nullptr);
-    doc["configurations"].push_back(c);
+  for (std::size_t i = 0; i < searches_.size(); ++i) {
+    const Search& s = searches_[i];
+    doc["configurations"].push_back(
+        {{"label", s.label},
+         {"searched", s.search.scanned() ? "scan" : "bisection"},
+         {"probes", s.search.probes().size()},
+         {"best_threshold_pct", o.per_config[i] ? o.per_config[i]->setting.back() : json()}});
   }
   // Every simulated setting (the trade-off figure draws one point per setting).
   doc["settings"] = json::array();
@@ -935,14 +941,30 @@ int Tuner::run() {
   doc["cases"] = json::array();
   for (const auto& c : cases_)
     doc["cases"].push_back(c.label);
+  return doc;
+}
+
+int Tuner::run() {
+  load_source();
+  build_space();
+  prepare_folder();
+  case_count_ = 1;
+  for (const auto& [key, values] : case_keys_)
+    case_count_ *= values.size();
+  grid_points_ = searches_.size() * ladder_.size() * case_count_;
+
+  if (const int rc = search(); rc != 0) return rc;
+  const Outcome o = choose();
+  merge_results();
+  print_summary(o);
+  json doc = tune_json(o);
+  write_file_atomic(dir_ / "tune.json", doc.dump(2) + "\n");
   int rc = 0;
-  if (best && opt_.confirm == "hw") {
+  if (o.best && opt_.confirm == "hw") {
+    rc = confirm_hw(*o.best, o.unregulated, doc);
     doc["notes"] = notes_;
     write_file_atomic(dir_ / "tune.json", doc.dump(2) + "\n");
-    rc = confirm_hw(*best, unregulated, doc);
   }
-  doc["notes"] = notes_;
-  write_file_atomic(dir_ / "tune.json", doc.dump(2) + "\n");
   if (!notes_.empty()) {
     std::cout << "  notes:\n";
     for (const auto& n : notes_)
@@ -951,9 +973,9 @@ int Tuner::run() {
   std::cout << "  results      " << dir_.string() << " (tune.json, points.csv; rosguard plot "
             << dir_.string() << ")\n";
   if (rc != 0) return rc;
-  if (!best && opt_.confirm == "hw")
+  if (!o.best && opt_.confirm == "hw")
     std::cerr << "note: nothing to confirm on hw: no setting meets the bound\n";
-  return best ? 0 : 1;
+  return o.best ? 0 : 1;
 }
 
 }  // namespace

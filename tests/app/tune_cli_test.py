@@ -185,7 +185,14 @@ elif CASE == "errors":
                      expect=2)
     if "hw.json: /backend:" not in text or "--confirm hw" not in text:
         fail("hw scenario without --confirm hw: unclear message:\n" + text)
-    for folder in ("a", "b", "c"):
+    # --confirm hw with a scenario this machine cannot run: refused before the search.
+    if os.cpu_count() < 12:
+        code, text = cli("tune", "scenarios/paper/exp4-setpoint.json", "--rt-slowdown-max",
+                         "1.2", "--confirm", "hw", "--out", f"{TMP}/e")
+        if code not in (1, 2) or "exp4-setpoint.json: /nodes/" not in text \
+                and "not built" not in text:
+            fail(f"--confirm hw on a machine without the scenario's cores: exit {code}:\n{text}")
+    for folder in ("a", "b", "c", "e"):
         if os.path.exists(f"{TMP}/{folder}"):
             fail(f"an input error left {folder}/ behind")
     # A bound nothing meets: exit 1, the closest printed and in tune.json.

@@ -448,6 +448,22 @@ void Tuner::build_space() {
   searches_ = std::move(valid);
   if (searches_.empty())
     throw InputError(file, "/sweep", "no valid regulation setting to search (see the notes)");
+  // --confirm hw: the scenario must run on this machine before the search spends its time.
+  if (opt_.confirm == "hw") {
+    json setting = searches_.front().config;
+    setting.push_back(number_json(ladder_.back()));
+    json doc = batch_document({setting}, "hw");
+    doc["name"] = name_.substr(0, 100) + "-confirm-check";
+    const fs::path f = check_dir / "confirm.json";
+    write_file_atomic(f, doc.dump(2) + "\n");
+    try {
+      RunOptions ro;
+      ro.scenario_file = f.string();
+      load_for_run(ro, loader_, backends_);
+    } catch (const InputError& e) {
+      throw InputError(file, e.json_path(), "--confirm hw: on this machine " + e.message());
+    }
+  }
 
   // Unregulated: the policy that does not regulate, at the scenario's other values.
   for (const auto& p : policies_.all())

@@ -93,16 +93,16 @@ bool is_ref_path(const std::string& path) {
          (path.size() >= 9 && path.compare(path.size() - 9, 9, ".workload") == 0);
 }
 
-// One point of the regulation space: the values of the setting paths (config paths, then the
-// threshold).
+// One setting in one case (one point of a batch).
 struct CaseResult {
   std::string point;
   double rt = kNaN;   // worst RT slowdown over the RT nodes and repetitions
   double nrt = kNaN;  // mean nRT slowdown over the nRT nodes and repetitions
 };
 
+// One setting of the regulation space over every case.
 struct Eval {
-  json setting;                             // tuple in setting-path order
+  json setting;                             // values of the config paths, then the threshold
   std::map<std::string, CaseResult> cases;  // by case key
   double rt = kNaN;                         // worst over the cases
   double nrt = kNaN;                        // objective: mean over the cases
@@ -212,7 +212,7 @@ void Tuner::load_source() {
   if (opt_.objective != "nrt-throughput")
     throw InputError("", "", "--objective: only nrt-throughput is known");
   const json given = read_json_file(opt_.scenario_file, opt_.scenario_file);
-  if (given.is_object() && given.value("backend", std::string("sim")) == "hw" &&
+  if (given.is_object() && given.contains("backend") && given["backend"] == "hw" &&
       opt_.confirm != "hw")
     throw InputError(opt_.scenario_file, "/backend",
                      "this scenario runs on hw, and tune searches in sim: pass --confirm hw to "

@@ -60,6 +60,7 @@ def nrt_slowdowns(row):
 
 
 def rerun(scenario, setting, name):
+    name = f"{name}-{len(os.listdir(TMP))}"
     """Runs `setting` on every case of `scenario` (its non-regulation sweep keys) with
     `rosguard run`; returns (worst RT slowdown, mean nRT slowdown) over cases and repetitions."""
     doc = json.load(open(scenario))
@@ -87,8 +88,8 @@ def rerun(scenario, setting, name):
     return rt, sum(nrt) / len(nrt)
 
 
-def check_tune(scenario, x, extra=()):
-    out = os.path.join(TMP, "tune")
+def check_tune(scenario, x, extra=(), name="tune"):
+    out = os.path.join(TMP, name)
     code, text = cli("tune", scenario, "--rt-slowdown-max", str(x), "--out", out, "--jobs", "2",
                      *extra, expect=0)
     print(text)
@@ -157,6 +158,15 @@ if CASE == "paper":
     t, out = check_tune("scenarios/paper/exp4-setpoint.json", 1.2)
     if len(t["cases"]) != 2:
         fail(f"exp4 has two workload pairs, tune saw {t['cases']}")
+    # A finer ladder than the figure's (--thresholds): well below the grid.
+    ladder = list(range(1, 11)) + list(range(12, 31, 2))
+    t, out = check_tune("scenarios/paper/exp4-setpoint.json", 1.1,
+                        ("--thresholds", ",".join(map(str, ladder))), name="fine")
+    if t["ladder_pct"] != ladder or t["grid_points"] != 2 * len(ladder) * 2:
+        fail(f"--thresholds: ladder {t['ladder_pct']}, grid {t['grid_points']}")
+    if not t["simulated_points"] * 2 < t["grid_points"]:
+        fail(f"{t['simulated_points']} points simulated: not well below the grid's "
+             f"{t['grid_points']}")
 elif CASE == "default-space":
     t, out = check_tune("scenarios/examples/tune.json", 1.2)
     if not t["simulated_points"] * 2 < t["grid_points"]:

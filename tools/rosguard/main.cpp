@@ -170,6 +170,10 @@ int main(int argc, char** argv) {
                    "hw: re-measure the winner and the unregulated co-run on this machine and "
                    "print them beside the sim prediction")
       ->check(CLI::IsMember({"hw"}));
+  tune->add_option("--thresholds", tune_opt.thresholds,
+                   "The threshold ladder to search, in % (e.g. 1,2,4,8,16,32), instead of the "
+                   "scenario's regulation.threshold_pct list or the default 1 .. 100 %")
+      ->delimiter(',');
   tune->add_option("--out", tune_opt.out, "Results folder (default: results/<scenario name>/tune)");
   tune->add_option("--jobs", tune_opt.jobs, "Worker processes for sim (default: all CPUs)")
       ->check(CLI::Range(1, 65536));

@@ -307,7 +307,15 @@ void Tuner::build_space() {
     throw InputError(file, "/sweep",
                      "the sweep has both regulation.threshold_pct and regulation.budget_mbps: "
                      "tune searches one of them");
-  if (threshold_values) {
+  if (!opt_.thresholds.empty()) {
+    for (double t : opt_.thresholds)
+      if (!(t > 0.0 && t <= 100.0))
+        throw InputError(
+            "", "", "--thresholds: " + compact_number(t) + " is not a threshold in (0, 100] %");
+    ladder_ = opt_.thresholds;
+    if (threshold_values || budget_values)
+      note("the thresholds come from --thresholds, not from the scenario's sweep");
+  } else if (threshold_values) {
     for (const auto& v : *threshold_values)
       ladder_.push_back(v.get<double>());
   } else if (budget_values) {

@@ -81,6 +81,7 @@ struct TuneOptions {
   double rt_slowdown_max = 0.0;              // X: every RT node's slowdown must be <= X (>= 1)
   std::string objective = "nrt-throughput";  // the only one: lowest mean nRT slowdown
   std::string confirm;                       // "" or "hw"
+  std::vector<double> thresholds;            // the ladder (%, in (0, 100]); empty: the sweep's
   std::filesystem::path out;                 // empty: results/<scenario name>/tune
   int jobs = 0;                              // sim workers per batch; 0: one per online CPU
   bool quiet = false;

@@ -160,7 +160,8 @@ if CASE == "paper":
         fail(f"exp4 has two workload pairs, tune saw {t['cases']}")
     # A finer ladder than the figure's (--thresholds): well below the grid.
     ladder = list(range(1, 11)) + list(range(12, 31, 2))
-    t, out = check_tune("scenarios/paper/exp4-setpoint.json", 1.1,
+    # 1.125: halfway between rungs 4 % (RT 1.11) and 5 % (1.14), away from both.
+    t, out = check_tune("scenarios/paper/exp4-setpoint.json", 1.125,
                         ("--thresholds", ",".join(map(str, ladder))), name="fine")
     if t["ladder_pct"] != ladder or t["grid_points"] != 2 * len(ladder) * 2:
         fail(f"--thresholds: ladder {t['ladder_pct']}, grid {t['grid_points']}")

@@ -19,7 +19,7 @@ _rosguard() {
     --backend) COMPREPLY=($(compgen -W "sim hw" -- "$cur")); return ;;
     --confirm) COMPREPLY=($(compgen -W "hw" -- "$cur")); return ;;
     --objective) COMPREPLY=($(compgen -W "nrt-throughput" -- "$cur")); return ;;
-    --rt-slowdown-max) return ;;
+    --rt-slowdown-max | --thresholds) return ;;
     --jobs | --shard | --array | --sbatch-arg | --name | --slice-instructions | --skip-instructions | --max-instructions) return ;;
   esac
   if [[ $cur == -* ]]; then

@@ -182,8 +182,9 @@ int main(int argc, char** argv) {
   tune->footer(
       "The space: the scenario's swept regulation keys (policy, sampling, periods, ...); when it "
       "sweeps none but the threshold, the policies that throttle x sampling self, external x "
-      "periods 100/1000, 500/2500, 1000/5000 us. Thresholds: the swept regulation.threshold_pct, "
-      "else 1 .. 100 % (17 rungs). Other sweep keys are cases the setting must meet together. "
+      "periods 100/1000, 500/2500, 1000/5000 us. Thresholds: --thresholds, else the swept "
+      "regulation.threshold_pct, else 1 .. 100 % (17 rungs). Other sweep keys are cases the "
+      "setting must meet together. "
       "Per configuration the threshold is bisected (RT slowdown grows, nRT slowdown falls with "
       "it); a configuration whose probes contradict that is scanned, with a note.\n"
       "Writes OUT/tune.json, OUT/points.csv (every simulated setting; rosguard plot OUT) and "

@@ -196,6 +196,21 @@ elif CASE == "errors":
                      expect=2)
     if "hw.json: /backend:" not in text or "--confirm hw" not in text:
         fail("hw scenario without --confirm hw: unclear message:\n" + text)
+    # A sweep key tying regulation to other paths; a space with no policy that throttles.
+    exp4 = json.load(open("scenarios/paper/exp4-setpoint.json"))
+    exp4["sweep"] = {"nodes.rt[0].workload+regulation.threshold_pct": [["mser", 5],
+                                                                       ["bandwidth_read", 10]]}
+    json.dump(exp4, open(f"{TMP}/mixed.json", "w"))
+    code, text = cli("tune", f"{TMP}/mixed.json", "--rt-slowdown-max", "1.2", "--out",
+                     f"{TMP}/f", expect=2)
+    if "mixed.json: /sweep/nodes.rt[0].workload+regulation.threshold_pct: " not in text:
+        fail("a key tying regulation to other paths: message does not name it:\n" + text)
+    exp4["sweep"] = {"regulation.policy": ["monitor", "none"]}
+    json.dump(exp4, open(f"{TMP}/nopolicy.json", "w"))
+    code, text = cli("tune", f"{TMP}/nopolicy.json", "--rt-slowdown-max", "1.2", "--out",
+                     f"{TMP}/g", expect=2)
+    if "no regulation setting to search" not in text or "monitor" not in text:
+        fail("no policy that throttles: unclear message:\n" + text)
     # --confirm hw with a scenario this machine cannot run: refused before the search.
     if os.cpu_count() < 12:
         code, text = cli("tune", "scenarios/paper/exp4-setpoint.json", "--rt-slowdown-max",
@@ -203,7 +218,7 @@ elif CASE == "errors":
         if code not in (1, 2) or "exp4-setpoint.json: /nodes/" not in text \
                 and "not built" not in text:
             fail(f"--confirm hw on a machine without the scenario's cores: exit {code}:\n{text}")
-    for folder in ("a", "b", "c", "e"):
+    for folder in ("a", "b", "c", "e", "f", "g"):
         if os.path.exists(f"{TMP}/{folder}"):
             fail(f"an input error left {folder}/ behind")
     # A bound nothing meets: exit 1, the closest printed and in tune.json.

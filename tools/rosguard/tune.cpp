@@ -454,8 +454,12 @@ void Tuner::build_space() {
     }
   }
   searches_ = std::move(valid);
-  if (searches_.empty())
-    throw InputError(file, "/sweep", "no valid regulation setting to search (see the notes)");
+  if (searches_.empty()) {
+    std::string why;
+    for (const auto& n : notes_)
+      why += "; " + n;
+    throw InputError(file, "/sweep", "no regulation setting to search" + why);
+  }
   // --confirm hw: the scenario must run on this machine before the search spends its time.
   if (opt_.confirm == "hw") {
     json setting = searches_.front().config;

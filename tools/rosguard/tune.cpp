@@ -378,7 +378,6 @@ void Tuner::build_space() {
     if (src_.expanded.contains(ptr)) return src_.expanded.at(ptr);
     return nullptr;
   };
-  std::vector<json> configs = {json::array()};
   std::vector<std::map<std::string, json>> assigned = {{}};
   for (const auto& [paths, tuples] : dims) {
     std::vector<std::map<std::string, json>> next;
@@ -420,8 +419,8 @@ void Tuner::build_space() {
         "scenario's " +
         value_text(reg.value("regulation_period_us", json())) + " us");
 
-  // Each configuration must be a valid scenario (policy rules, backend checks): those that are
-  // not are left out, with the reason.
+  // Each configuration must be a valid scenario in every case (policy rules, backend checks):
+  // those that are not are left out, with the reason.
   std::vector<Search> valid;
   std::string tmpl = (fs::temp_directory_path() / "rosguard-tune-XXXXXX").string();
   if (!::mkdtemp(tmpl.data()))
@@ -436,12 +435,10 @@ void Tuner::build_space() {
   } cleanup{check_dir};
   for (auto& s : searches_) {
     s.label = setting_label(s.config);
-    json doc = base_;
+    json setting = s.config;
+    setting.push_back(number_json(ladder_.back()));
+    json doc = batch_document({setting}, "sim");
     doc["name"] = name_.substr(0, 100) + "-tune-check";
-    doc["backend"] = "sim";
-    for (std::size_t c = 0; c < config_paths_.size(); ++c)
-      set_at_path(doc, parse_sweep_path(config_paths_[c]), s.config[c]);
-    set_at_path(doc, parse_sweep_path(kThreshold), number_json(ladder_.back()));
     const fs::path f = check_dir / "check.json";
     write_file_atomic(f, doc.dump(2) + "\n");
     try {

@@ -254,8 +254,13 @@ elif CASE == "confirm-hw":
     if not c or "best" not in c or "unregulated" not in c:
         fail(f"tune.json has no confirm_hw with best and unregulated: {c}")
     for what in ("best", "unregulated"):
-        if c[what]["rt_slowdown"] is None or c[what]["nrt_slowdown"] is None:
-            fail(f"confirm_hw {what} was not measured: {c[what]}")
+        if c[what]["rt_slowdown"] is None:
+            fail(f"confirm_hw {what}: RT slowdown not measured: {c[what]}")
+        # On a busy 2-CPU machine the nRT node may not get through its isolation work while the
+        # RT node runs: then the nRT slowdown is unmeasured, and a note must say so.
+        if c[what]["nrt_slowdown"] is None and \
+                not any("nRT slowdown was not measured" in n for n in t["notes"]):
+            fail(f"confirm_hw {what}: nRT slowdown not measured, and no note says so: {c[what]}")
     m = json.load(open(f"{TMP}/hw/confirm-hw/manifest.json"))
     if m["backend"] != "hw" or m["status"] != "complete":
         fail(f"confirm-hw manifest: backend {m['backend']}, status {m['status']}")

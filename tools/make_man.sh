@@ -9,7 +9,7 @@ include=$(mktemp)
 trap 'rm -f "$include"' EXIT
 {
   echo "[COMMANDS]"
-  for cmd in run check plot compare list calibrate platform profile; do
+  for cmd in run tune check plot compare list calibrate platform profile; do
     echo ".SS \"rosguard $cmd\""
     echo ".nf"
     # roff: a leading dot or quote would be a request; backslashes are escapes.

@@ -17,6 +17,9 @@ _rosguard() {
   case $prev in
     --out | --from | -o) _filedir; return ;;
     --backend) COMPREPLY=($(compgen -W "sim hw" -- "$cur")); return ;;
+    --confirm) COMPREPLY=($(compgen -W "hw" -- "$cur")); return ;;
+    --objective) COMPREPLY=($(compgen -W "nrt-throughput" -- "$cur")); return ;;
+    --rt-slowdown-max | --thresholds) return ;;
     --jobs | --shard | --array | --sbatch-arg | --name | --slice-instructions | --skip-instructions | --max-instructions) return ;;
   esac
   if [[ $cur == -* ]]; then
@@ -28,7 +31,7 @@ _rosguard() {
   case $cmd in
     list) COMPREPLY=($(compgen -W "workloads platforms policies backends pmc-sources columns" -- "$cur")) ;;
     platform) COMPREPLY=($(compgen -W "probe" -- "$cur")) ;;
-    run | check) _filedir json ;;
+    run | check | tune) _filedir json ;;
     status) _filedir -d ;;
     *) _filedir ;;
   esac

@@ -19,6 +19,7 @@
 #include "runner.h"
 #include "slurm.h"
 #include "status.h"
+#include "tune.h"
 #include "version.h"
 
 namespace {
@@ -29,6 +30,8 @@ Start here:
   rosguard run scenarios/quickstart.json      sweep it on the sim backend
   rosguard status results/quickstart          how far a run (or a Slurm job) is
   rosguard plot results/quickstart            draw its figures
+  rosguard tune scenarios/examples/tune.json --rt-slowdown-max 1.2
+                                              the setting that keeps RT within 1.2x
 Run 'rosguard <command> --help' for the options of a command.)";
 
 // "I/N" with 0 <= I < N <= INT_MAX, digits only; throws InputError otherwise.
@@ -152,6 +155,46 @@ int main(int argc, char** argv) {
 
   RunArgs run_args;
   auto* run = add_run_command(app, run_args);
+
+  TuneOptions tune_opt;
+  std::string tune_confirm;
+  auto* tune = app.add_subcommand(
+      "tune",
+      "Search a scenario's regulation space in sim for the setting that keeps every RT node "
+      "within a slowdown bound and gives the nRT nodes the most progress.");
+  tune->add_option("scenario", tune_opt.scenario_file, "Scenario JSON file")->required();
+  tune->add_option("--rt-slowdown-max", tune_opt.rt_slowdown_max,
+                   "The bound X: every RT node's slowdown (co-run time / time alone) <= X, "
+                   "in every case (e.g. 1.05)")
+      ->required();
+  tune->add_option("--objective", tune_opt.objective,
+                   "What the nRT nodes get: nrt-throughput (lowest nRT slowdown, the mean over "
+                   "nRT nodes, repetitions and cases; default)")
+      ->check(CLI::IsMember({"nrt-throughput"}));
+  tune->add_option("--confirm", tune_confirm,
+                   "hw: re-measure the winner and the unregulated co-run on this machine and "
+                   "print them beside the sim prediction")
+      ->check(CLI::IsMember({"hw"}));
+  tune->add_option("--thresholds", tune_opt.thresholds,
+                   "The threshold ladder to search, in % (e.g. 1,2,4,8,16,32), instead of the "
+                   "scenario's regulation.threshold_pct list or the default 1 .. 100 %")
+      ->delimiter(',');
+  tune->add_option("--out", tune_opt.out, "Results folder (default: results/<scenario name>/tune)");
+  tune->add_option("--jobs", tune_opt.jobs, "Worker processes for sim (default: all CPUs)")
+      ->check(CLI::Range(1, 65536));
+  tune->add_flag("--overwrite", tune_opt.overwrite, "Replace an earlier tune in --out");
+  tune->add_flag("--quiet", tune_opt.quiet, "No progress on stderr");
+  tune->footer(
+      "The space: the scenario's swept regulation keys (policy, sampling, periods, ...); when it "
+      "sweeps none but the threshold, the policies that throttle x sampling self, external x "
+      "periods 100/1000, 500/2500, 1000/5000 us. Thresholds: --thresholds, else the swept "
+      "regulation.threshold_pct, else 1 .. 100 % (17 rungs). Other sweep keys are cases the "
+      "setting must meet together. "
+      "Per configuration the threshold is bisected (RT slowdown grows, nRT slowdown falls with "
+      "it); a configuration whose probes contradict that is scanned, with a note.\n"
+      "Writes OUT/tune.json, OUT/points.csv (every simulated setting; rosguard plot OUT) and "
+      "OUT/probes/. Exit 0: a setting meets the bound; 1: none does (the closest is printed); 2: "
+      "invalid input.");
 
   std::string check_file, check_backend;
   bool check_points = false;
@@ -308,6 +351,11 @@ int main(int argc, char** argv) {
 
     if (*run) return run_command(run_args, joined_args(argc, argv), loader, backends);
     if (*status) return results_status(status_dir);
+    if (*tune) {
+      tune_opt.confirm = tune_confirm;
+      tune_opt.command_line = joined_args(argc, argv);
+      return tune_scenario(tune_opt, loader, backends, policies);
+    }
     if (*check)
       return check_scenario(
           loader, backends, check_file,

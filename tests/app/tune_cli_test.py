@@ -1,0 +1,271 @@
+"""`rosguard tune` through the real CLI (sim backend; confirm-hw also on hw).
+
+Usage: tune_cli_test.py ROSGUARD CASE   (from the source root)
+
+Cases:
+  paper         tune scenarios/paper/exp4-setpoint.json; the setting it returns, re-run with
+                `rosguard run`, keeps every RT node within the bound; the next threshold of its
+                configuration and the simulated setting with the lowest nRT slowdown (both
+                better for the nRT node, both rejected) do not; fewer points than the grid.
+  default-space the same on scenarios/examples/tune.json (default space, two cases, --jobs 2),
+                and simulated points well below the grid's; tune.json's contract; points.csv
+                holds every simulated point.
+  errors        bad input exits 2 naming the file and path; no setting meeting the bound exits 1
+                with the closest; an earlier tune is not replaced without --overwrite.
+  confirm-hw    --confirm hw on the 2-core example measures the winner and the unregulated
+                co-run on this machine (SKIPPED where the hw backend cannot run here).
+"""
+import atexit
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+BIN, CASE = sys.argv[1], sys.argv[2]
+TMP = tempfile.mkdtemp(prefix="tune-test-")
+atexit.register(shutil.rmtree, TMP, True)
+
+
+def fail(msg):
+    print("FAIL: " + msg)
+    sys.exit(1)
+
+
+def cli(*args, expect=None):
+    p = subprocess.run([BIN, *args], capture_output=True, text=True)
+    out = p.stdout + p.stderr
+    if expect is not None and p.returncode != expect:
+        fail(f"rosguard {' '.join(args)} exited {p.returncode}, expected {expect}:\n{out}")
+    return p.returncode, out
+
+
+def rows(folder):
+    with open(os.path.join(folder, "points.csv"), newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def rt_slowdowns(row):
+    return [float(v) for k, v in row.items()
+            if v and (k == "rt_slowdown" or (k.startswith("rt") and k.endswith("_slowdown")
+                                              and k[2:-9].isdigit()))]
+
+
+def nrt_slowdowns(row):
+    return [float(v) for k, v in row.items()
+            if v and (k == "nrt_slowdown" or (k.startswith("nrt") and k.endswith("_slowdown")
+                                               and k[3:-9].isdigit()))]
+
+
+def rerun(scenario, setting, name):
+    name = f"{name}-{len(os.listdir(TMP))}"
+    """Runs `setting` on every case of `scenario` (its non-regulation sweep keys) with
+    `rosguard run`; returns (worst RT slowdown, mean nRT slowdown) over cases and repetitions."""
+    doc = json.load(open(scenario))
+    base = os.path.dirname(os.path.abspath(scenario))
+    for k in ("platform",):
+        if isinstance(doc.get(k), str) and "/" in doc[k]:
+            doc[k] = os.path.join(base, doc[k])
+    doc.pop("$schema", None)
+    doc["sweep"] = {k: v for k, v in doc.get("sweep", {}).items()
+                    if not any(p.startswith("regulation.") for p in k.split("+"))}
+    reg = doc.setdefault("regulation", {})
+    for k in ("policy", "sampling", "sampling_period_us", "regulation_period_us",
+              "threshold_pct"):
+        reg[k] = setting[k]
+    doc["name"] = "rerun-" + name
+    f = os.path.join(TMP, name + ".json")
+    json.dump(doc, open(f, "w"))
+    out = os.path.join(TMP, name)
+    cli("run", f, "--out", out, "--quiet", "--jobs", "2", expect=0)
+    rs = rows(out)
+    if not rs:
+        fail(f"re-run of {setting['label']} wrote no rows")
+    rt = max(max(rt_slowdowns(r)) for r in rs)
+    nrt = [s for r in rs for s in nrt_slowdowns(r)]
+    return rt, sum(nrt) / len(nrt)
+
+
+def check_tune(scenario, x, extra=(), name="tune"):
+    out = os.path.join(TMP, name)
+    code, text = cli("tune", scenario, "--rt-slowdown-max", str(x), "--out", out, "--jobs", "2",
+                     *extra, expect=0)
+    print(text)
+    t = json.load(open(os.path.join(out, "tune.json")))
+    for key in ("rt_slowdown_max", "objective", "best", "runner_up", "unregulated",
+                "simulated_points", "grid_points", "notes"):
+        if key not in t:
+            fail(f"tune.json lacks {key}")
+    if t["rt_slowdown_max"] != x or t["objective"] != "nrt-throughput":
+        fail(f"tune.json: rt_slowdown_max {t['rt_slowdown_max']}, objective {t['objective']}")
+    best = t["best"]
+    if not best or not best["meets_bound"] or best["rt_slowdown"] > x:
+        fail(f"no setting within {x}: {best}")
+    if t["unregulated"]["policy"] != "none":
+        fail(f"unregulated is not a policy none run: {t['unregulated']}")
+    n, grid = t["simulated_points"], t["grid_points"]
+    if f"{n} point(s) in " not in text or f"of the full grid's {grid}" not in text:
+        fail("the printed summary does not give simulated and grid points")
+    if not n < grid:
+        fail(f"simulated {n} points, not fewer than the grid's {grid}")
+    # Every simulated point is in points.csv (one row per repetition).
+    reps = json.load(open(scenario)).get("repetitions", 1)
+    got = len(rows(out))
+    if got != n * reps:
+        fail(f"points.csv has {got} rows, expected {n} points x {reps} repetitions")
+
+    # The setting re-run in sim meets the bound.
+    rt, nrt = rerun(scenario, best, "best")
+    print(f"best {best['label']}: re-run RT slowdown {rt:.4f} (tune {best['rt_slowdown']:.4f}), "
+          f"nRT {nrt:.4f}")
+    if rt > x:
+        fail(f"re-run of the best setting: RT slowdown {rt} > {x}")
+
+    # Rejected but better for the nRT node: the next higher threshold of the same configuration
+    # (bisected: the pick is the highest rung that meets the bound).
+    searched = {c["label"]: c["searched"] for c in t["configurations"]}
+    config_label = best["label"].split(", threshold")[0]
+    if searched.get(config_label) != "bisection":
+        fail(f"the best configuration was not bisected here: {searched}")
+    ladder = t["ladder_pct"]
+    i = ladder.index(best["threshold_pct"])
+    if i + 1 < len(ladder):
+        higher = dict(best, threshold_pct=ladder[i + 1])
+        rt_h, nrt_h = rerun(scenario, higher, "higher")
+        print(f"next threshold {ladder[i + 1]} %: re-run RT slowdown {rt_h:.4f}, nRT {nrt_h:.4f}")
+        if rt_h <= x:
+            fail(f"the next threshold {ladder[i + 1]} % meets the bound too (RT {rt_h})")
+        if nrt_h > nrt:
+            fail(f"the next threshold is not better for the nRT node ({nrt_h} > {nrt})")
+    # ... and the simulated setting with the lowest nRT slowdown (another configuration or not).
+    cheaper = [s for s in t["settings"] if s["nrt_slowdown"] is not None
+               and s["nrt_slowdown"] < best["nrt_slowdown"]]
+    if not cheaper:
+        fail("no simulated setting was better for the nRT node than the best: nothing rejected")
+    lowest = min(cheaper, key=lambda s: s["nrt_slowdown"])
+    if lowest["meets_bound"]:
+        fail(f"{lowest['label']} meets the bound with less nRT slowdown than the best")
+    rt_l, nrt_l = rerun(scenario, lowest, "lowest")
+    print(f"lowest nRT slowdown {lowest['label']}: re-run RT {rt_l:.4f}, nRT {nrt_l:.4f}")
+    if rt_l <= x:
+        fail(f"{lowest['label']} was rejected but meets the bound on re-run (RT {rt_l})")
+    return t, out
+
+
+if CASE == "paper":
+    t, out = check_tune("scenarios/paper/exp4-setpoint.json", 1.2)
+    if len(t["cases"]) != 2:
+        fail(f"exp4 has two workload pairs, tune saw {t['cases']}")
+    # A finer ladder than the figure's (--thresholds): well below the grid.
+    ladder = list(range(1, 11)) + list(range(12, 31, 2))
+    # 1.125: halfway between rungs 4 % (RT 1.11) and 5 % (1.14), away from both.
+    t, out = check_tune("scenarios/paper/exp4-setpoint.json", 1.125,
+                        ("--thresholds", ",".join(map(str, ladder))), name="fine")
+    if t["ladder_pct"] != ladder or t["grid_points"] != 2 * len(ladder) * 2:
+        fail(f"--thresholds: ladder {t['ladder_pct']}, grid {t['grid_points']}")
+    if not t["simulated_points"] * 2 < t["grid_points"]:
+        fail(f"{t['simulated_points']} points simulated: not well below the grid's "
+             f"{t['grid_points']}")
+elif CASE == "default-space":
+    t, out = check_tune("scenarios/examples/tune.json", 1.2)
+    if not t["simulated_points"] * 2 < t["grid_points"]:
+        fail(f"{t['simulated_points']} points simulated: not well below the grid's "
+             f"{t['grid_points']}")
+    if t["runner_up"] is None or t["runner_up"]["label"] == t["best"]["label"]:
+        fail(f"runner-up: {t['runner_up']}")
+    if t["runner_up"]["nrt_slowdown"] < t["best"]["nrt_slowdown"]:
+        fail("the runner-up gives the nRT nodes more progress than the best")
+    m = json.load(open(os.path.join(out, "manifest.json")))
+    if m["status"] != "complete" or m["backend"] != "sim":
+        fail(f"manifest: status {m['status']}, backend {m['backend']}")
+elif CASE == "errors":
+    s = "scenarios/examples/tune.json"
+    code, text = cli("tune", s, "--rt-slowdown-max", "0.9", "--out", f"{TMP}/a", expect=2)
+    if "--rt-slowdown-max" not in text:
+        fail("X < 1: message does not name --rt-slowdown-max:\n" + text)
+    code, text = cli("tune", "scenarios/paper/exp1-pmc-callback.json", "--rt-slowdown-max",
+                     "1.1", "--out", f"{TMP}/b", expect=2)
+    if "exp1-pmc-callback.json: /nodes/rt: no RT node" not in text:
+        fail("no RT node: message does not name the file and path:\n" + text)
+    hw = json.load(open("scenarios/examples/two-core-both-backends.json"))
+    hw["backend"] = "hw"
+    json.dump(hw, open(f"{TMP}/hw.json", "w"))
+    code, text = cli("tune", f"{TMP}/hw.json", "--rt-slowdown-max", "1.1", "--out", f"{TMP}/c",
+                     expect=2)
+    if "hw.json: /backend:" not in text or "--confirm hw" not in text:
+        fail("hw scenario without --confirm hw: unclear message:\n" + text)
+    # A sweep key tying regulation to other paths; a space with no policy that throttles.
+    exp4 = json.load(open("scenarios/paper/exp4-setpoint.json"))
+    exp4["sweep"] = {"nodes.rt[0].workload+regulation.threshold_pct": [["mser", 5],
+                                                                       ["bandwidth_read", 10]]}
+    json.dump(exp4, open(f"{TMP}/mixed.json", "w"))
+    code, text = cli("tune", f"{TMP}/mixed.json", "--rt-slowdown-max", "1.2", "--out",
+                     f"{TMP}/f", expect=2)
+    if "mixed.json: /sweep/nodes.rt[0].workload+regulation.threshold_pct: " not in text:
+        fail("a key tying regulation to other paths: message does not name it:\n" + text)
+    exp4["sweep"] = {"regulation.policy": ["monitor", "none"]}
+    json.dump(exp4, open(f"{TMP}/nopolicy.json", "w"))
+    code, text = cli("tune", f"{TMP}/nopolicy.json", "--rt-slowdown-max", "1.2", "--out",
+                     f"{TMP}/g", expect=2)
+    if "no regulation setting to search" not in text or "monitor" not in text:
+        fail("no policy that throttles: unclear message:\n" + text)
+    # --confirm hw with a scenario this machine cannot run: refused before the search.
+    if os.cpu_count() < 12:
+        code, text = cli("tune", "scenarios/paper/exp4-setpoint.json", "--rt-slowdown-max",
+                         "1.2", "--confirm", "hw", "--out", f"{TMP}/e")
+        if code not in (1, 2) or "exp4-setpoint.json: /nodes/" not in text \
+                and "not built" not in text:
+            fail(f"--confirm hw on a machine without the scenario's cores: exit {code}:\n{text}")
+    for folder in ("a", "b", "c", "e", "f", "g"):
+        if os.path.exists(f"{TMP}/{folder}"):
+            fail(f"an input error left {folder}/ behind")
+    # A bound nothing meets: exit 1, the closest printed and in tune.json.
+    code, text = cli("tune", "scenarios/paper/exp4-setpoint.json", "--rt-slowdown-max", "1.0",
+                     "--out", f"{TMP}/d", "--jobs", "2", expect=1)
+    if "no simulated setting keeps every RT node within 1" not in text or "closest" not in text:
+        fail("no setting meets the bound: no closest printed:\n" + text)
+    t = json.load(open(f"{TMP}/d/tune.json"))
+    if t["best"] is not None or t["closest"] is None:
+        fail(f"tune.json with nothing meeting the bound: best {t['best']}, closest {t['closest']}")
+    # An earlier tune stays unless --overwrite.
+    code, text = cli("tune", "scenarios/paper/exp4-setpoint.json", "--rt-slowdown-max", "1.2",
+                     "--out", f"{TMP}/d", expect=2)
+    if "--overwrite" not in text:
+        fail("an earlier tune: message does not mention --overwrite:\n" + text)
+    cli("tune", "scenarios/paper/exp4-setpoint.json", "--rt-slowdown-max", "1.2", "--out",
+        f"{TMP}/d", "--overwrite", "--quiet", expect=0)
+elif CASE == "confirm-hw":
+    if os.cpu_count() < 2:
+        print("SKIPPED: the 2-core example needs 2 CPUs")
+        sys.exit(0)
+    s = "scenarios/examples/two-core-both-backends.json"
+    code, text = cli("tune", s, "--rt-slowdown-max", "1.3", "--confirm", "hw", "--out",
+                     f"{TMP}/hw", "--jobs", "2")
+    print(text)
+    if code != 0:
+        if "hw backend is not built" in text:
+            print("SKIPPED: the hw backend is not built")
+            sys.exit(0)
+        fail(f"tune --confirm hw exited {code}")
+    t = json.load(open(f"{TMP}/hw/tune.json"))
+    c = t.get("confirm_hw")
+    if not c or "best" not in c or "unregulated" not in c:
+        fail(f"tune.json has no confirm_hw with best and unregulated: {c}")
+    for what in ("best", "unregulated"):
+        if c[what]["rt_slowdown"] is None:
+            fail(f"confirm_hw {what}: RT slowdown not measured: {c[what]}")
+        # On a busy 2-CPU machine the nRT node may not get through its isolation work while the
+        # RT node runs: then the nRT slowdown is unmeasured, and a note must say so.
+        if c[what]["nrt_slowdown"] is None and \
+                not any("nRT slowdown was not measured" in n for n in t["notes"]):
+            fail(f"confirm_hw {what}: nRT slowdown not measured, and no note says so: {c[what]}")
+    m = json.load(open(f"{TMP}/hw/confirm-hw/manifest.json"))
+    if m["backend"] != "hw" or m["status"] != "complete":
+        fail(f"confirm-hw manifest: backend {m['backend']}, status {m['status']}")
+    if "RT sim" not in text or "RT hw" not in text:
+        fail("the sim prediction and the hw measurement are not printed side by side")
+else:
+    fail("unknown case " + CASE)
+print("ok: " + CASE)

@@ -9,6 +9,7 @@
 #include "hw/common/clock.h"
 #include "hw/isolation.h"
 #include "hw/topic/dds_topic.h"
+#include "policy/rules.h"
 
 namespace rosguard::hw {
 
@@ -65,17 +66,43 @@ void emit_trace(TraceSink* sink, const TraceLog& log, const char* default_track)
 
 }  // namespace
 
+HwSampling hw_sampling(const Scenario& s) {
+  const RegulationSpec& r = s.regulation;
+  const std::string period = std::to_string(r.sampling_period_us) + " us";
+  switch (r.sampling) {
+    case Sampling::Overflow:
+      return {Sampling::External,
+              "overflow sampling (" + r.policy +
+                  ") is not available on the hw backend: it arms no perf overflow signal "
+                  "(perf_event_attr.sample_period with F_SETSIG), so the controller reads the nRT "
+                  "cores' counters externally every regulation.sampling_period_us (" +
+                  period + ") instead, and exceedance is seen up to one period late, not at once"};
+    case Sampling::Mmio:
+      return {Sampling::External,
+              "mmio sampling (" + r.policy +
+                  ") is not available on the hw backend: it cannot poll the cores' counters "
+                  "through memory-mapped debug registers, so the controller reads them with "
+                  "perf / the PMC source every regulation.sampling_period_us (" +
+                  period + ") instead, and throttles through the nRT nodes' THR callback"};
+    case Sampling::Self:
+    case Sampling::External:
+      break;
+  }
+  return {r.sampling, ""};
+}
+
 std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
                                                 const Baselines& baselines,
                                                 const PolicyRegistry& policies) {
   const RegulationSpec& r = s.regulation;
-  PolicyParams params;
-  params.threshold_pct = r.threshold_pct;
-  params.reference_mbps = r.reference_mbps;
-  params.regulation_period_ns = r.regulation_period_us * kNsPerUs;
+  TimeNs window_ns = 0;
   if (!s.nodes.rt.empty())
-    params.monolithic_window_ns = static_cast<TimeNs>(
+    window_ns = static_cast<TimeNs>(
         baselines.at(s, s.nodes.rt[0].workload, s.nodes.rt[0].core).time_us * 1e3);
+  PolicyParams params = policy_params(s, window_ns);
+  // The metric's events on this machine may differ from the scenario's (metric_plan.h); per-event
+  // budgets follow the scenario's events, so they hold only where the plan kept them.
+  if (plan.spec.events.size() != r.metric.events.size()) params.event_budget_mbps.clear();
   RegulatorConfig rc;
   rc.rt_count = std::max<std::size_t>(1, s.nodes.rt.size());
   rc.account_of_entity = accounts_for_scope(r.scope, s.nodes.nrt.size());
@@ -99,7 +126,7 @@ PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& s
   ControllerConfig cc;
   cc.core = s.nodes.controller_core;
   cc.sched = sched_of(s);
-  cc.sampling = r.sampling;
+  cc.sampling = hw_sampling(s).mode;
   cc.sampling_period_ns = r.sampling_period_us * kNsPerUs;
   cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s.hw.watchdog_ms * kNsPerMs / 4);
   cc.metric_events = plan.metric_events;
@@ -160,7 +187,7 @@ void PointRig::wire_nodes(const PmcSource& source) {
     c.name = n.name;
     c.entity = i;
     c.core = n.core;
-    c.sampling = r.sampling;
+    c.sampling = hw_sampling(s_).mode;
     c.sampling_period_ns = r.sampling_period_us * kNsPerUs;
     c.watchdog_ns = s_.hw.watchdog_ms * kNsPerMs;
     c.mode = n.mode;

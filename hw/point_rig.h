@@ -83,6 +83,16 @@ class PointRig {
 };
 
 // Builds the point's regulator from the run's policy registry.
+// The sampling mode the hw backend runs for a scenario's regulation.sampling, and why when it
+// differs (a fallback for the manifest, "" otherwise). Overflow sampling (memguard) and mmio
+// sampling (mempol) become external sampling every regulation.sampling_period_us: this backend
+// arms no perf overflow signal and has no memory-mapped debug registers to poll.
+struct HwSampling {
+  Sampling mode = Sampling::Self;
+  std::string fallback;
+};
+HwSampling hw_sampling(const Scenario& s);
+
 std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
                                                 const Baselines& baselines,
                                                 const PolicyRegistry& policies);

@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "core/error.h"
+#include "policy/rules.h"
 
 #if !defined(ROSGUARD_SOURCE_DIR) || !defined(ROSGUARD_DATA_FROM_BIN)
 #error "ROSGUARD_SOURCE_DIR and ROSGUARD_DATA_FROM_BIN (bin -> share/rosguard) must be defined"
@@ -500,7 +501,14 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
 
 Scenario Loader::build_point(json document, const std::string& file) {
   const fs::path base = fs::path(file).parent_path();
+  // Before the schema's defaults: sampling and the periods default by policy (memguard samples
+  // by overflow with a 1 ms period), and only where this point does not set them.
+  std::vector<std::string> policy_defaults;
+  if (document.is_object() && document.contains("regulation"))
+    policy_defaults = apply_policy_defaults(document["regulation"]);
   schemas_.apply_defaults(document, SchemaKind::Scenario);
+  if (document.is_object() && document.contains("regulation"))  // "regulation" was absent
+    apply_policy_defaults(document["regulation"]);
   if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
     throw InputError(file, err->first, err->second);
   ResolvedRefs refs;
@@ -513,7 +521,9 @@ Scenario Loader::build_point(json document, const std::string& file) {
   for (std::size_t i = 0; i < nodes["nrt"].size(); ++i)
     refs.nrt_workloads.push_back(resolve_workload(nodes["nrt"][i]["workload"], base, file,
                                                   "/nodes/nrt/" + std::to_string(i) + "/workload"));
-  return build_scenario(document, std::move(refs), file);
+  Scenario s = build_scenario(document, std::move(refs), file);
+  s.regulation.policy_defaults = std::move(policy_defaults);
+  return s;
 }
 
 InputError Loader::attribute_to_sweep(const InputError& e, const SweepPoint& p,

@@ -1,6 +1,8 @@
 #include "backend.h"
 
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 
 #include "core/error.h"
 #include "policy/rules.h"
@@ -26,6 +28,12 @@ WorkloadProfile profile_of(const Scenario& s, const SimPlatform& platform, const
         s.file, node + "/workload",
         "workload '" + w.name + "' (" + w.origin + "): " + e.json_path() + ": " + e.message());
   }
+}
+
+std::string us_text(double us) {
+  std::ostringstream o;
+  o << std::setprecision(3) << us;
+  return o.str();
 }
 
 SimPlatform platform_of(const Scenario& s) {
@@ -77,7 +85,7 @@ void check_feasible(const Scenario& s, const SimPlatform& platform) {
                        "mmio sampling every " + std::to_string(r.sampling_period_us) +
                            " us cannot keep up: polling " + std::to_string(s.nodes.nrt.size()) +
                            " nRT core(s) through their debug registers takes up to " +
-                           std::to_string(poll_us) + " us on platform " + platform.name +
+                           us_text(poll_us) + " us on platform " + platform.name +
                            "; use a longer period");
   }
   if (r.sampling == Sampling::External && !s.nodes.nrt.empty()) {

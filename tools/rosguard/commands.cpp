@@ -83,6 +83,9 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
               << (*hi > *lo ? " to " + seconds_text(*hi) : std::string())
               << " simulated per run (estimate: instructions / (base IPC x frequency), "
                  "without contention or isolation runs)\n";
+  for (const auto& [what, points] : s.policy_defaults)
+    std::cout << "  default      " << what << ", in " << points << " point"
+              << (points == 1 ? "" : "s") << "\n";
   if (s.points.size() < s.point_count)
     std::cout << "  checked      " << s.points.size() << " of the " << s.point_count
               << " points (every value of every sweep key); run checks them all before "

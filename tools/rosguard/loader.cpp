@@ -603,6 +603,15 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
   for (const auto& key : out.sweep_keys)
     for (const auto& path : split_sweep_key(key))
       out.sweep_paths.push_back(path);
+  for (const auto& p : out.points)
+    for (const auto& d : p.scenario.regulation.policy_defaults) {
+      auto it = std::find_if(out.policy_defaults.begin(), out.policy_defaults.end(),
+                             [&](const auto& e) { return e.first == d; });
+      if (it == out.policy_defaults.end())
+        out.policy_defaults.emplace_back(d, 1);
+      else
+        ++it->second;
+    }
   for (auto& w : controller_sharing_warnings(out.points))
     out.warnings.push_back(std::move(w));
   for (auto& w : ineffective_budget_warnings(out.points))

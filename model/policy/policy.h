@@ -63,10 +63,10 @@ struct PolicyParams {
   TimeNs monolithic_window_ns = 0;  // monolithic: the RT node's isolation time
   // Absolute budgets in MB/s of Eq. 1 (MiB/s). Empty: threshold_pct % of reference_mbps for
   // every account; one value: that for every account; one per account: each its own.
-  std::vector<double> budget_mbps;
+  std::vector<double> budget_mbps{};
   // Per metric event (in the metric's order; +inf: not budgeted). Empty: no per-event budgets.
   // Given, they replace the total budget of every account.
-  std::vector<double> event_budget_mbps;
+  std::vector<double> event_budget_mbps{};
   double global_budget_mbps = 0.0;  // MemPol: all accounts together; 0: no global cap
   bool reclaim = false;             // MemGuard: donate the predicted surplus, reclaim on demand
   Sharing sharing = Sharing::Off;   // MemGuard: what happens when every core is exhausted

@@ -116,7 +116,7 @@ TEST_CASE("memguard: a budget per 1 ms period, replenished at every boundary",
 }
 
 TEST_CASE(
-    "memguard: the overflow limit is the budget left from the last reading; crossing it "
+    "memguard: the overflow limit is the budget left from the last reading, and crossing it "
     "stops the core at once",
     "[regulator][memguard][overflow]") {
   Rig rig(make_memguard_policy(mg_params()), 1);

@@ -111,8 +111,12 @@ const std::vector<ColumnInfo>& point_column_dictionary() {
 const std::vector<ColumnInfo>& sample_kind_dictionary() {
   static const std::vector<ColumnInfo> d = {
       {"activation_delay", "us",
-       "one delay from the sample that exhausted a budget to the throttle"},
-      {"pmc_callback", "us", "one PMC sampling callback's duration"},
+       "one delay from the sample that exhausted a budget to the throttle (overflow sampling: "
+       "from the counter crossing the budget)"},
+      {"pmc_callback", "us", "one PMC sampling callback's duration (mmio sampling: one poll)"},
+      {"overflow_irq", "us",
+       "overflow sampling (sim): one PMU overflow interrupt, crossing to the throttle taking "
+       "hold"},
       {"pmc_read", "us", "one read of the counters inside a callback"},
       {"sampling_overhead", "us", "time one self-sampling callback took from its nRT node"},
       {"rt_job", "us", "one job of the first RT node, release to end"},

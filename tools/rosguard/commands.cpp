@@ -144,8 +144,15 @@ int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
       std::cout << "| `" << c.name << "` | " << c.unit << " | " << c.meaning << " |\n";
   } else if (what == "policies") {
     std::cout << "policies:\n";
-    for (const auto& p : policies.all())
-      print(p.name, p.description);
+    for (const auto& p : policies.all()) {
+      std::string how;
+      if (p.traits.regulates) {
+        for (Sampling m : p.traits.samplings)
+          how += (how.empty() ? " (sampling: " : ", ") + std::string(to_string(m));
+        how += ")";
+      }
+      print(p.name, p.description + how);
+    }
   } else if (what == "backends") {
     std::cout << "backends:\n";
     for (const auto& b : backends.all())

@@ -209,15 +209,24 @@ std::vector<std::string> controller_sharing_warnings(const std::vector<LoadedPoi
 std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoint>& points) {
   struct Case {
     double traffic_mib = 0.0, reference = 0.0;
-    std::set<double> thresholds;
+    std::set<double> thresholds, budgets;  // threshold_pct, or budget_mbps where given
   };
   std::map<std::tuple<std::string, std::int64_t, std::int64_t>, Case> cases;
   for (const auto& lp : points) {
     const RegulationSpec& r = lp.scenario.regulation;
-    if (r.policy != "interval" || r.reference_mbps <= 0.0) continue;
-    const double budget_mib = r.threshold_pct / 100.0 * r.reference_mbps *
-                              static_cast<double>(r.regulation_period_us) / 1e6;
-    for (const auto& n : lp.scenario.nodes.nrt) {
+    // Periodic sampling against a budget per regulation period (not overflow sampling, which
+    // sees the crossing itself; not per-event budgets, which this estimate does not cover).
+    const PolicyInfo* info = find_builtin_policy(r.policy);
+    if (!info || !info->traits.throttles || !info->traits.periodic_windows ||
+        r.sampling == Sampling::Overflow || !r.event_budget_mbps.empty() || r.reference_mbps <= 0.0)
+      continue;
+    const auto& nodes = lp.scenario.nodes.nrt;
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const auto& n = nodes[i];
+      const double rate_mbps = r.budget_mbps.empty() ? r.threshold_pct / 100.0 * r.reference_mbps
+                               : r.budget_mbps.size() == 1 ? r.budget_mbps.front()
+                                                           : r.budget_mbps.at(i);
+      const double budget_mib = rate_mbps * static_cast<double>(r.regulation_period_us) / 1e6;
       const auto& ref = n.workload.doc.value("reference", nlohmann::json::object());
       if (!ref.contains("mbps") || !ref["mbps"].is_number()) continue;
       const double mbps = ref["mbps"].get<double>();
@@ -227,7 +236,10 @@ std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoi
           cases[{n.name + "' (" + n.workload.name, r.sampling_period_us, r.regulation_period_us}];
       c.traffic_mib = traffic_mib;
       c.reference = mbps;
-      c.thresholds.insert(r.threshold_pct);
+      if (r.budget_mbps.empty())
+        c.thresholds.insert(r.threshold_pct);
+      else
+        c.budgets.insert(rate_mbps);
     }
   }
   std::vector<std::string> warnings;
@@ -235,15 +247,20 @@ std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoi
     const auto& [node, sampling, regulation] = key;
     std::ostringstream t;
     std::size_t k = 0;
+    if (!c.thresholds.empty()) t << "threshold_pct ";
     for (double th : c.thresholds)
       t << (k++ ? ", " : "") << th;
+    if (!c.budgets.empty()) t << (k ? "; " : "") << "budget_mbps ";
+    k = 0;
+    for (double b : c.budgets)
+      t << (k++ ? ", " : "") << b;
     std::ostringstream w;
     w.precision(3);
     w << "budget below one sampling period's traffic: nRT node '" << node << ") uses about "
       << c.traffic_mib << " MiB per " << sampling << " us sample at its reference " << c.reference
-      << " MiB/s, more than the budget of a " << regulation
-      << " us regulation period at threshold_pct " << t.str()
-      << ": it is throttled at its first sample of every period, so these thresholds act "
+      << " MiB/s, more than the budget of a " << regulation << " us regulation period at "
+      << t.str()
+      << ": it is throttled at its first sample of every period, so these budgets act "
          "alike (a shorter sampling period or a longer regulation period lets them differ)";
     warnings.push_back(w.str());
   }

@@ -68,27 +68,34 @@ void emit_trace(TraceSink* sink, const TraceLog& log, const char* default_track)
 
 HwSampling hw_sampling(const Scenario& s) {
   const RegulationSpec& r = s.regulation;
-  const std::string period = std::to_string(r.sampling_period_us) + " us";
+  const std::int64_t period_us = std::max(r.sampling_period_us, kHwFinestPollUs);
+  const std::string period =
+      std::to_string(period_us) + " us" +
+      (period_us != r.sampling_period_us
+           ? " (regulation.sampling_period_us " + std::to_string(r.sampling_period_us) +
+                 " us raised to the hw controller's finest, " + std::to_string(kHwFinestPollUs) +
+                 " us)"
+           : "");
   switch (r.sampling) {
     case Sampling::Overflow:
-      return {Sampling::External,
+      return {Sampling::External, period_us * kNsPerUs,
               "overflow sampling (" + r.policy +
                   ") is not available on the hw backend: it arms no perf overflow signal "
                   "(perf_event_attr.sample_period with F_SETSIG), so the controller reads the nRT "
-                  "cores' counters externally every regulation.sampling_period_us (" +
-                  period + ") instead, and exceedance is seen up to one period late, not at once"};
+                  "cores' counters externally every " +
+                  period + " instead, and exceedance is seen up to one period late, not at once"};
     case Sampling::Mmio:
-      return {Sampling::External,
+      return {Sampling::External, period_us * kNsPerUs,
               "mmio sampling (" + r.policy +
                   ") is not available on the hw backend: it cannot poll the cores' counters "
                   "through memory-mapped debug registers, so the controller reads them with "
-                  "perf / the PMC source every regulation.sampling_period_us (" +
-                  period + ") instead, and throttles through the nRT nodes' THR callback"};
+                  "the PMC source every " +
+                  period + " instead, and throttles through the nRT nodes' THR callback"};
     case Sampling::Self:
     case Sampling::External:
       break;
   }
-  return {r.sampling, ""};
+  return {r.sampling, r.sampling_period_us * kNsPerUs, ""};
 }
 
 std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
@@ -122,12 +129,12 @@ PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& s
   // The driver's activation accounting reads the nRT nodes through this meter, on the
   // controller thread, at both ends of every activation.
   meter_ = std::make_unique<NodeMeter>(nrts_, plan_);
-  const RegulationSpec& r = s.regulation;
   ControllerConfig cc;
   cc.core = s.nodes.controller_core;
   cc.sched = sched_of(s);
-  cc.sampling = hw_sampling(s).mode;
-  cc.sampling_period_ns = r.sampling_period_us * kNsPerUs;
+  const HwSampling sampling = hw_sampling(s);
+  cc.sampling = sampling.mode;
+  cc.sampling_period_ns = sampling.period_ns;
   cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s.hw.watchdog_ms * kNsPerMs / 4);
   cc.metric_events = plan.metric_events;
   cc.trace = trace;
@@ -451,16 +458,16 @@ void PointRig::signal_samples(PointOutcome& out) const {
 void PointRig::report_external_lag(RunContext& ctx) const {
   const auto& reads = controller_->external_reads_us();
   const std::size_t n_nrt = nrts_.size();
-  const double round_budget_us = static_cast<double>(s_.regulation.sampling_period_us) /
-                                 static_cast<double>(std::max<std::size_t>(n_nrt, 1));
+  const std::int64_t period_us = hw_sampling(s_).period_ns / kNsPerUs;
+  const double round_budget_us =
+      static_cast<double>(period_us) / static_cast<double>(std::max<std::size_t>(n_nrt, 1));
   const auto slow =
       std::count_if(reads.begin(), reads.end(), [&](double v) { return v >= round_budget_us; });
   if (slow > 0)
     ctx.fallback("external_sampling_lag",
                  std::to_string(slow) + " of " + std::to_string(reads.size()) +
                      " counter reads took longer than one sampling period allows (" +
-                     std::to_string(s_.regulation.sampling_period_us) + " us for " +
-                     std::to_string(n_nrt) +
+                     std::to_string(period_us) + " us for " + std::to_string(n_nrt) +
                      " nRT core(s)): samples arrive late and regulation may never act; use a "
                      "longer sampling period");
 }

@@ -49,7 +49,9 @@ struct CommandOut {
 using Commands = std::vector<CommandOut>;
 
 // Where an entity's overflow interrupt must fire: when sum_i(bytes_per_count[i] x counter_i),
-// over its cumulative counters in the metric's event order, exceeds at_bytes. One per budgeted
+// over its cumulative raw counter values in the metric's event order, exceeds at_bytes (no wrap
+// and no multiplexing scaling: an overflow-armed PMU counts every event all the time, and the
+// host re-arms before a counter could wrap). One per budgeted
 // quantity (the total over the metric's events, or each event with a budget of its own).
 struct OverflowLimit {
   std::vector<double> bytes_per_count;

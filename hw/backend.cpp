@@ -200,6 +200,13 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   ctx.fact("pmc_source_choice", plan.why);
   ctx.fact("metric_basis", plan.basis);
   if (!plan.fallback.empty()) ctx.fallback("metric", plan.fallback);
+  if (const HwSampling hs = hw_sampling(s); !hs.fallback.empty())
+    ctx.fallback("sampling", hs.fallback);
+  if (plan.spec.events.size() != s.regulation.metric.events.size() &&
+      !s.regulation.event_budget_mbps.empty())
+    ctx.fallback("event_budget",
+                 "regulation.event_budget_mbps is not applied: the PMC source " + plan.source +
+                     " counts other events than the scenario's metric (" + plan.basis + ")");
   report_shared_core(s, ctx);
   report_transport(s, ctx);
   const auto source = sources_.find(plan.source)->make();

@@ -9,6 +9,7 @@
 #include "hw/common/clock.h"
 #include "hw/isolation.h"
 #include "hw/topic/dds_topic.h"
+#include "policy/rules.h"
 
 namespace rosguard::hw {
 
@@ -65,17 +66,50 @@ void emit_trace(TraceSink* sink, const TraceLog& log, const char* default_track)
 
 }  // namespace
 
+HwSampling hw_sampling(const Scenario& s) {
+  const RegulationSpec& r = s.regulation;
+  const std::int64_t period_us = std::max(r.sampling_period_us, kHwFinestPollUs);
+  const std::string period =
+      std::to_string(period_us) + " us" +
+      (period_us != r.sampling_period_us
+           ? " (regulation.sampling_period_us " + std::to_string(r.sampling_period_us) +
+                 " us raised to the hw controller's finest, " + std::to_string(kHwFinestPollUs) +
+                 " us)"
+           : "");
+  switch (r.sampling) {
+    case Sampling::Overflow:
+      return {Sampling::External, period_us * kNsPerUs,
+              "overflow sampling (" + r.policy +
+                  ") is not available on the hw backend: it arms no perf overflow signal "
+                  "(perf_event_attr.sample_period with F_SETSIG), so the controller reads the nRT "
+                  "cores' counters externally every " +
+                  period + " instead, and exceedance is seen up to one period late, not at once"};
+    case Sampling::Mmio:
+      return {Sampling::External, period_us * kNsPerUs,
+              "mmio sampling (" + r.policy +
+                  ") is not available on the hw backend: it cannot poll the cores' counters "
+                  "through memory-mapped debug registers, so the controller reads them with "
+                  "the PMC source every " +
+                  period + " instead, and throttles through the nRT nodes' THR callback"};
+    case Sampling::Self:
+    case Sampling::External:
+      break;
+  }
+  return {r.sampling, r.sampling_period_us * kNsPerUs, ""};
+}
+
 std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
                                                 const Baselines& baselines,
                                                 const PolicyRegistry& policies) {
   const RegulationSpec& r = s.regulation;
-  PolicyParams params;
-  params.threshold_pct = r.threshold_pct;
-  params.reference_mbps = r.reference_mbps;
-  params.regulation_period_ns = r.regulation_period_us * kNsPerUs;
+  TimeNs window_ns = 0;
   if (!s.nodes.rt.empty())
-    params.monolithic_window_ns = static_cast<TimeNs>(
+    window_ns = static_cast<TimeNs>(
         baselines.at(s, s.nodes.rt[0].workload, s.nodes.rt[0].core).time_us * 1e3);
+  PolicyParams params = policy_params(s, window_ns);
+  // The metric's events on this machine may differ from the scenario's (metric_plan.h); per-event
+  // budgets follow the scenario's events, so they hold only where the plan kept them.
+  if (plan.spec.events.size() != r.metric.events.size()) params.event_budget_mbps.clear();
   RegulatorConfig rc;
   rc.rt_count = std::max<std::size_t>(1, s.nodes.rt.size());
   rc.account_of_entity = accounts_for_scope(r.scope, s.nodes.nrt.size());
@@ -95,12 +129,12 @@ PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& s
   // The driver's activation accounting reads the nRT nodes through this meter, on the
   // controller thread, at both ends of every activation.
   meter_ = std::make_unique<NodeMeter>(nrts_, plan_);
-  const RegulationSpec& r = s.regulation;
   ControllerConfig cc;
   cc.core = s.nodes.controller_core;
   cc.sched = sched_of(s);
-  cc.sampling = r.sampling;
-  cc.sampling_period_ns = r.sampling_period_us * kNsPerUs;
+  const HwSampling sampling = hw_sampling(s);
+  cc.sampling = sampling.mode;
+  cc.sampling_period_ns = sampling.period_ns;
   cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s.hw.watchdog_ms * kNsPerMs / 4);
   cc.metric_events = plan.metric_events;
   cc.trace = trace;
@@ -160,7 +194,7 @@ void PointRig::wire_nodes(const PmcSource& source) {
     c.name = n.name;
     c.entity = i;
     c.core = n.core;
-    c.sampling = r.sampling;
+    c.sampling = hw_sampling(s_).mode;
     c.sampling_period_ns = r.sampling_period_us * kNsPerUs;
     c.watchdog_ns = s_.hw.watchdog_ms * kNsPerMs;
     c.mode = n.mode;
@@ -424,16 +458,16 @@ void PointRig::signal_samples(PointOutcome& out) const {
 void PointRig::report_external_lag(RunContext& ctx) const {
   const auto& reads = controller_->external_reads_us();
   const std::size_t n_nrt = nrts_.size();
-  const double round_budget_us = static_cast<double>(s_.regulation.sampling_period_us) /
-                                 static_cast<double>(std::max<std::size_t>(n_nrt, 1));
+  const std::int64_t period_us = hw_sampling(s_).period_ns / kNsPerUs;
+  const double round_budget_us =
+      static_cast<double>(period_us) / static_cast<double>(std::max<std::size_t>(n_nrt, 1));
   const auto slow =
       std::count_if(reads.begin(), reads.end(), [&](double v) { return v >= round_budget_us; });
   if (slow > 0)
     ctx.fallback("external_sampling_lag",
                  std::to_string(slow) + " of " + std::to_string(reads.size()) +
                      " counter reads took longer than one sampling period allows (" +
-                     std::to_string(s_.regulation.sampling_period_us) + " us for " +
-                     std::to_string(n_nrt) +
+                     std::to_string(period_us) + " us for " + std::to_string(n_nrt) +
                      " nRT core(s)): samples arrive late and regulation may never act; use a "
                      "longer sampling period");
 }

@@ -83,6 +83,23 @@ class PointRig {
 };
 
 // Builds the point's regulator from the run's policy registry.
+// The sampling mode the hw backend runs for a scenario's regulation.sampling, and why when it
+// differs (a fallback for the manifest, "" otherwise). Overflow sampling (memguard) and mmio
+// sampling (mempol) become external sampling every regulation.sampling_period_us, but not
+// faster than kHwFinestPollUs: this backend arms no perf overflow signal and has no
+// memory-mapped debug registers to poll.
+struct HwSampling {
+  Sampling mode = Sampling::Self;
+  TimeNs period_ns = 0;
+  std::string fallback;
+};
+// The finest external sampling period the hw controller is run at in place of overflow / mmio
+// sampling: the floor rosguard guard's schema sets for its external sampling (guard.schema.json,
+// sampling_period_us minimum), below which the controller thread's reads and wake-ups take a
+// shared core from its nodes.
+inline constexpr std::int64_t kHwFinestPollUs = 100;
+HwSampling hw_sampling(const Scenario& s);
+
 std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
                                                 const Baselines& baselines,
                                                 const PolicyRegistry& policies);

@@ -1,6 +1,8 @@
 #include "backend.h"
 
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 
 #include "core/error.h"
 #include "policy/rules.h"
@@ -28,6 +30,12 @@ WorkloadProfile profile_of(const Scenario& s, const SimPlatform& platform, const
   }
 }
 
+std::string us_text(double us) {
+  std::ostringstream o;
+  o << std::setprecision(3) << us;
+  return o.str();
+}
+
 SimPlatform platform_of(const Scenario& s) {
   try {
     return parse_sim_platform(s.platform);
@@ -41,7 +49,7 @@ SimPlatform platform_of(const Scenario& s) {
 // What the model cannot do, refused before it runs: a point longer than the simulated time the
 // sim backend allows one run, and external sampling faster than the controller can read.
 void check_feasible(const Scenario& s, const SimPlatform& platform) {
-  const double limit_s = static_cast<double>(RunConfig{}.limit_ns) / static_cast<double>(kNsPerS);
+  const double limit_s = static_cast<double>(kRunLimitNs) / static_cast<double>(kNsPerS);
   if (const auto need_s = min_simulated_seconds(s); need_s && *need_s > limit_s) {
     const std::string at = s.nodes.rt.empty()             ? "/nodes/nrt/0/workload"
                            : s.nodes.rt[0].iterations > 1 ? "/nodes/rt/0/iterations"
@@ -55,6 +63,31 @@ void check_feasible(const Scenario& s, const SimPlatform& platform) {
                          "shorter workload");
   }
   const RegulationSpec& r = s.regulation;
+  const bool samples = !s.nodes.nrt.empty();
+  if (samples && r.sampling == Sampling::Overflow && !platform.costs.overflow_irq)
+    throw InputError(s.file, "/regulation/sampling",
+                     "overflow sampling needs the interrupt latency of platform " + platform.name +
+                         " (" + platform.origin +
+                         "): it has no costs.overflow_irq_us, from a PMU overflow to the throttle "
+                         "taking hold; add it (with its source) or sample otherwise");
+  if (samples && r.sampling == Sampling::Mmio) {
+    if (!platform.costs.mmio_poll)
+      throw InputError(s.file, "/regulation/sampling",
+                       "mmio sampling needs the cost of polling a core through its debug "
+                       "registers on platform " +
+                           platform.name + " (" + platform.origin +
+                           "): it has no costs.mmio_poll_us; add it (with its source) or sample "
+                           "otherwise");
+    const double poll_us =
+        platform.costs.mmio_poll->upper_bound() * static_cast<double>(s.nodes.nrt.size());
+    if (static_cast<double>(r.sampling_period_us) < poll_us)
+      throw InputError(s.file, "/regulation/sampling_period_us",
+                       "mmio sampling every " + std::to_string(r.sampling_period_us) +
+                           " us cannot keep up: polling " + std::to_string(s.nodes.nrt.size()) +
+                           " nRT core(s) through their debug registers takes up to " +
+                           us_text(poll_us) + " us on platform " + platform.name +
+                           "; use a longer period");
+  }
   if (r.sampling == Sampling::External && !s.nodes.nrt.empty()) {
     const double read_us =
         platform.costs.external_read.upper_bound() * static_cast<double>(s.nodes.nrt.size());
@@ -124,10 +157,7 @@ RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint
   }
   const RegulationSpec& reg = s.regulation;
   cfg.policy = policies.at(reg.policy);
-  cfg.policy_params.threshold_pct = reg.threshold_pct;
-  cfg.policy_params.reference_mbps = reg.reference_mbps;
-  cfg.policy_params.regulation_period_ns = reg.regulation_period_us * kNsPerUs;
-  cfg.policy_params.monolithic_window_ns = monolithic_window_ns;
+  cfg.policy_params = policy_params(s, monolithic_window_ns);
   cfg.sampling = reg.sampling;
   cfg.sampling_period_ns = reg.sampling_period_us * kNsPerUs;
   cfg.scope = reg.scope;

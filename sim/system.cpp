@@ -102,9 +102,9 @@ class Top : public sc_core::sc_module {
                                                     cfg.platform.costs, cfg.seed, core(n.core),
                                                     bus_, *controller_, rt_, rec_));
       NrtNodeModel* node = nrt_.back().get();
-      controller_->add_entity({n.name, n.core,
-                               [node](Command c, TimeNs cause) { node->on_command(c, cause); },
-                               [node]() -> const Pmu& { return node->core().pmu(); }});
+      controller_->add_entity(
+          {n.name, n.core, [node](Command c, TimeNs cause) { node->on_command(c, cause); },
+           [node]() -> const Pmu& { return node->core().pmu(); }, &node->core()});
       nrt_.back()->on_done([this](TimeNs t) { nrt_done(t); });
     }
     for (std::size_t i = 0; i < cfg.rt.size(); ++i) {

@@ -37,6 +37,9 @@ struct NrtSpec {
   bool loop = true;
 };
 
+// The simulated time one run may take by default (RunConfig::limit_ns).
+inline constexpr TimeNs kRunLimitNs = 600LL * kNsPerS;
+
 struct RunConfig {
   SimPlatform platform;
   TimeNs quantum_ns = 10'000;
@@ -54,7 +57,7 @@ struct RunConfig {
   MetricSpec metric;
   TraceSink* trace = nullptr;
   std::function<bool()> stop_requested;  // polled every few ms of simulated time
-  TimeNs limit_ns = 600LL * kNsPerS;     // simulated time after which the run is a failure
+  TimeNs limit_ns = kRunLimitNs;         // simulated time after which the run is a failure
 };
 
 struct SimReport {

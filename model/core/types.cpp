@@ -17,7 +17,17 @@ std::string_view to_string(Command c) {
 }
 
 std::string_view to_string(Sampling s) {
-  return s == Sampling::Self ? "self" : "external";
+  switch (s) {
+    case Sampling::Self:
+      return "self";
+    case Sampling::External:
+      return "external";
+    case Sampling::Overflow:
+      return "overflow";
+    case Sampling::Mmio:
+      return "mmio";
+  }
+  return "?";
 }
 
 std::string_view to_string(Scope s) {
@@ -28,6 +38,18 @@ std::string_view to_string(Scope s) {
       return "node";
     case Scope::Group:
       return "group";
+  }
+  return "?";
+}
+
+std::string_view to_string(Sharing s) {
+  switch (s) {
+    case Sharing::Off:
+      return "off";
+    case Sharing::Last:
+      return "last";
+    case Sharing::All:
+      return "all";
   }
   return "?";
 }

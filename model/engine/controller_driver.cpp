@@ -10,6 +10,7 @@ void DriverOutput::clear() {
   commands.clear();
   reads.clear();
   keepalives.clear();
+  rearm.clear();
   events.clear();
 }
 
@@ -25,9 +26,15 @@ ControllerDriver::ControllerDriver(ControllerDriverConfig config,
   commands_.reserve(16);
 }
 
+// The controller (or, under overflow sampling, the interrupt handler) reads the counters itself:
+// everything but self-sampling.
 bool ControllerDriver::samples_externally() const {
-  return cfg_.sampling == Sampling::External && regulator_->policy().regulates() &&
+  return cfg_.sampling != Sampling::Self && regulator_->policy().regulates() &&
          regulator_->entity_count() > 0;
+}
+
+bool ControllerDriver::periodic_reads() const {
+  return cfg_.sampling == Sampling::External || cfg_.sampling == Sampling::Mmio;
 }
 
 void ControllerDriver::rt_signal(TimeNs t, std::size_t rt, bool started, DriverOutput& out) {
@@ -54,8 +61,15 @@ void ControllerDriver::sample(TimeNs t, std::size_t entity, std::span<const Coun
 
 void ControllerDriver::tick(TimeNs t, DriverOutput& out) {
   commands_.clear();
+  const auto boundary = regulator_->next_tick();
   regulator_->tick(t, commands_);
   after_input(t, -1, out);
+  // Overflow sampling has no periodic reads: each window's usage is measured from a reading at
+  // its start (MemGuard's period timer reads its counter), not spread over the time since the
+  // last interrupt, most of which the core may have spent throttled in the previous window.
+  if (cfg_.sampling == Sampling::Overflow && boundary && t >= *boundary && regulator_->active())
+    for (std::size_t e = 0; e < regulator_->entity_count(); ++e)
+      out.reads.push_back(e);
 }
 
 // Publishes what the regulator decided, then follows the activation edges it caused.
@@ -65,6 +79,9 @@ void ControllerDriver::after_input(TimeNs t, TimeNs cause, DriverOutput& out) {
   commands_.clear();
   if (!was_active_ && regulator_->active()) activation_begin(t, out);
   if (was_active_ && !regulator_->active()) activation_end(t, out);
+  if (cfg_.sampling == Sampling::Overflow && regulator_->policy().regulates())
+    for (std::size_t e = 0; e < regulator_->entity_count(); ++e)
+      out.rearm.push_back(e);
   if (cfg_.keepalive_ns <= 0) return;
   bool any_on = false;
   for (std::size_t e = 0; e < regulator_->entity_count(); ++e)
@@ -127,6 +144,10 @@ void ControllerDriver::read_due(TimeNs t, DriverOutput& out) {
   if (!next_read_ || t < *next_read_) return;
   for (std::size_t e = 0; e < regulator_->entity_count(); ++e)
     out.reads.push_back(e);
+  if (!periodic_reads()) {  // overflow sampling: the baseline only
+    next_read_.reset();
+    return;
+  }
   // A fixed grid from the activation; periods a late host missed are skipped, not made up.
   const TimeNs p = cfg_.sampling_period_ns;
   TimeNs next = *next_read_ + p;

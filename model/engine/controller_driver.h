@@ -6,14 +6,18 @@
 // - One owner calls every method from one thread with non-decreasing times `t` (integer ns). The
 //   driver never reads a clock; counter values come in through sample() and the EntityMeter.
 // - Inputs: rt_signal() (an RT node's enable / disable), sample() (cumulative counters of one
-//   entity, with the time they were measured), and the due wake-ups: tick() at next_tick(),
+//   entity, with the time they were measured; under overflow sampling, the reading the overflow
+//   interrupt took), and the due wake-ups: tick() at next_tick(),
 //   read_due() at next_read(), window_due() at next_window(), keepalive_due() at
 //   next_keepalive() (wake() runs every one of them that is due). A host may serve a wake-up
 //   late (after a simulated callback cost, or a late thread); it must not serve it early.
 // - Outputs go to a DriverOutput the caller owns and clears: commands for the entities (with the
 //   measurement time of the sample that caused them), entities whose counters the host must read
-//   and pass to sample() (external sampling: a baseline read at each activation, then every
-//   sampling period), entities that need a keep-alive, and events for tracing.
+//   and pass to sample() (external and mmio sampling: a baseline read at each activation, then
+//   every sampling period; overflow sampling: the baseline read and one read at every window
+//   boundary, no periodic reads), entities whose overflow
+//   interrupts to re-arm (overflow sampling), entities that need a keep-alive, and events for
+//   tracing.
 // - Accounting: at each activation edge (and regulation-window boundary when windows are
 //   recorded) the driver reads every entity through the EntityMeter, synchronously, and keeps
 //   the increases: regulation-active time, per-entity bytes / cycles / work while active, and
@@ -86,6 +90,9 @@ struct DriverOutput {
   std::vector<DriverCommand> commands;
   std::vector<std::size_t> reads;       // read these entities' counters now, then sample()
   std::vector<std::size_t> keepalives;  // send these entities a keep-alive now
+  // Overflow sampling: entities whose overflow interrupts must be re-armed now, from
+  // regulator().overflow_limits(e) (empty limits: disarm). Every entity, after every input.
+  std::vector<std::size_t> rearm;
   std::vector<EngineEvent> events;
   void clear();
 };
@@ -143,6 +150,7 @@ class ControllerDriver {
   void activation_end(TimeNs t, DriverOutput& out);
   void close_window(TimeNs t, bool complete, DriverOutput& out);
   bool samples_externally() const;
+  bool periodic_reads() const;
 
   ControllerDriverConfig cfg_;
   std::unique_ptr<Regulator> regulator_;

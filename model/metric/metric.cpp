@@ -37,6 +37,20 @@ double Metric::delta_bytes(std::span<const CounterValue> prev,
   return lines * spec_.line_bytes;
 }
 
+double Metric::event_bytes(std::span<const CounterValue> prev, std::span<const CounterValue> cur,
+                           std::span<double> out) const {
+  if (prev.size() != spec_.events.size() || cur.size() != spec_.events.size() ||
+      out.size() != spec_.events.size())
+    throw ContractError("counter group size does not match the metric's events");
+  double sum = 0.0;
+  for (std::size_t i = 0; i < cur.size(); ++i) {
+    out[i] = spec_.events[i].weight * scaled_delta(prev[i], cur[i], spec_.counter_bits) *
+             spec_.line_bytes;
+    sum += out[i];
+  }
+  return sum;
+}
+
 double eq1_mbps(double line_bytes, double freq_hz, double l3_accesses, double cycles) {
   if (cycles <= 0.0) return 0.0;
   return line_bytes * freq_hz * l3_accesses / (cycles * kBytesPerMb);

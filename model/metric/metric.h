@@ -51,6 +51,9 @@ class Metric {
 
   // Bytes moved between two readings of the same event group (same order as spec().events).
   double delta_bytes(std::span<const CounterValue> prev, std::span<const CounterValue> cur) const;
+  // The same per event: out[i] = line_bytes x weight_i x delta_i; returns their sum.
+  double event_bytes(std::span<const CounterValue> prev, std::span<const CounterValue> cur,
+                     std::span<double> out) const;
 
  private:
   MetricSpec spec_;

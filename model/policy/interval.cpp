@@ -12,23 +12,21 @@ namespace {
 
 class IntervalPolicy : public Policy {
  public:
-  explicit IntervalPolicy(const PolicyParams& p)
-      : period_ns_(p.regulation_period_ns),
-        budget_(budget_bytes(p.threshold_pct, p.reference_mbps, p.regulation_period_ns)) {}
+  explicit IntervalPolicy(const PolicyParams& p) : period_ns_(p.regulation_period_ns), params_(p) {}
 
   std::string_view name() const override { return "interval"; }
 
   void open_window(TimeNs start, std::span<Account> accounts) const override {
-    open_accounts(accounts, start, budget_);
+    open_budgeted(accounts, start, params_, period_ns_);
   }
 
-  bool over_budget(const Account& a) const override { return a.used_bytes > a.budget_bytes; }
+  bool over_budget(const Account& a) const override { return exceeds_budget(a); }
 
   std::optional<TimeNs> window_end(TimeNs start) const override { return start + period_ns_; }
 
  private:
   TimeNs period_ns_;
-  double budget_;
+  PolicyParams params_;
 };
 
 }  // namespace

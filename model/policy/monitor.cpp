@@ -13,14 +13,12 @@ namespace {
 
 class MonitorPolicy : public Policy {
  public:
-  explicit MonitorPolicy(const PolicyParams& p)
-      : period_ns_(p.regulation_period_ns),
-        budget_(budget_bytes(p.threshold_pct, p.reference_mbps, p.regulation_period_ns)) {}
+  explicit MonitorPolicy(const PolicyParams& p) : period_ns_(p.regulation_period_ns), params_(p) {}
 
   std::string_view name() const override { return "monitor"; }
 
   void open_window(TimeNs start, std::span<Account> accounts) const override {
-    open_accounts(accounts, start, budget_);
+    open_budgeted(accounts, start, params_, period_ns_);
   }
 
   bool over_budget(const Account&) const override { return false; }
@@ -29,7 +27,7 @@ class MonitorPolicy : public Policy {
 
  private:
   TimeNs period_ns_;
-  double budget_;
+  PolicyParams params_;
 };
 
 }  // namespace

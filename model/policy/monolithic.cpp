@@ -13,21 +13,20 @@ namespace {
 
 class MonolithicPolicy : public Policy {
  public:
-  explicit MonolithicPolicy(const PolicyParams& p)
-      : budget_(budget_bytes(p.threshold_pct, p.reference_mbps, p.monolithic_window_ns)) {}
+  explicit MonolithicPolicy(const PolicyParams& p) : params_(p) {}
 
   std::string_view name() const override { return "monolithic"; }
 
   void open_window(TimeNs start, std::span<Account> accounts) const override {
-    open_accounts(accounts, start, budget_);
+    open_budgeted(accounts, start, params_, params_.monolithic_window_ns);
   }
 
-  bool over_budget(const Account& a) const override { return a.used_bytes > a.budget_bytes; }
+  bool over_budget(const Account& a) const override { return exceeds_budget(a); }
 
   std::optional<TimeNs> window_end(TimeNs) const override { return std::nullopt; }
 
  private:
-  double budget_;
+  PolicyParams params_;
 };
 
 }  // namespace

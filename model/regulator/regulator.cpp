@@ -1,6 +1,7 @@
 #include "regulator/regulator.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -78,7 +79,7 @@ void Regulator::rt_started(TimeNs t, std::size_t rt, Commands& out) {
   rt_running_[rt] = true;
   if (++running_rt_ > 1 || !policy_->regulates()) return;
 
-  policy_->open_window(t, accounts_);
+  open_period(t, true);
   for (Account& a : accounts_)
     a.window = 0;
   next_boundary_ = policy_->window_end(t);
@@ -122,12 +123,81 @@ void Regulator::advance(TimeNs t, Commands& out) {
     ++windows;
   }
   const std::uint64_t index = accounts_.empty() ? 0 : accounts_.front().window + windows;
-  policy_->open_window(start, accounts_);
+  // Boundaries skipped over saw no input: the predictor (MemGuard) learns from the last window
+  // only, as the module's timer does after an overrun.
+  open_period(start, false);
   for (Account& a : accounts_)
     a.window = index;
   next_boundary_ = policy_->window_end(start);
   for (std::size_t e = 0; e < entities_.size(); ++e)
     if (entities_[e].view.state == NodeState::Thr) send(t, e, Command::Replenish, out);
+}
+
+void Regulator::open_period(TimeNs start, bool fresh) {
+  policy_->open_period(start, accounts_, global_, fresh);
+  const std::size_t events = metric_.event_count();
+  for (Account& a : accounts_)
+    if (!a.event_budget_bytes.empty() &&
+        (a.event_budget_bytes.size() != events || a.event_used_bytes.size() != events))
+      throw ContractError("policy '" + std::string(policy_->name()) + "' opened " +
+                          std::to_string(a.event_budget_bytes.size()) +
+                          " per-event budgets; the metric has " + std::to_string(events) +
+                          " events");
+}
+
+void Regulator::apply(Verdict v, TimeNs t, std::size_t account, Commands& out) {
+  switch (v) {
+    case Verdict::Keep:
+      return;
+    case Verdict::ThrottleAccount:
+      accounts_[account].throttled = true;
+      for (std::size_t member : members_[account])
+        if (entities_[member].view.state == NodeState::On) send(t, member, Command::Thr, out);
+      return;
+    case Verdict::ThrottleAll:
+      for (Account& a : accounts_)
+        a.throttled = true;
+      for (std::size_t e = 0; e < entities_.size(); ++e)
+        if (entities_[e].view.state == NodeState::On) send(t, e, Command::Thr, out);
+      return;
+    case Verdict::ReleaseAll:
+      for (Account& a : accounts_)
+        a.throttled = false;
+      for (std::size_t e = 0; e < entities_.size(); ++e)
+        if (entities_[e].view.state == NodeState::Thr) send(t, e, Command::Replenish, out);
+      return;
+  }
+}
+
+std::vector<OverflowLimit> Regulator::overflow_limits(std::size_t entity) const {
+  if (entity >= entities_.size()) throw ContractError("no entity " + std::to_string(entity));
+  std::vector<OverflowLimit> out;
+  const Entity& ent = entities_[entity];
+  if (!active() || !policy_->regulates() || !ent.has_baseline || ent.view.state != NodeState::On ||
+      global_.released || global_.capped)
+    return out;
+  const Account& acc = accounts_[ent.view.account];
+  if (acc.throttled) return out;
+  const MetricSpec& m = metric_.spec();
+  const auto at = [&](const std::vector<double>& per_count, double left) {
+    double now = 0.0;
+    for (std::size_t i = 0; i < per_count.size(); ++i)
+      now += per_count[i] * static_cast<double>(ent.last[i].value);
+    return OverflowLimit{per_count, now + std::max(0.0, left)};
+  };
+  if (std::isfinite(acc.budget_bytes)) {
+    std::vector<double> per_count;
+    for (const MetricEvent& e : m.events)
+      per_count.push_back(e.weight * m.line_bytes);
+    out.push_back(at(per_count, acc.budget_bytes - acc.used_bytes));
+  }
+  for (std::size_t i = 0; i < acc.event_budget_bytes.size(); ++i) {
+    if (!std::isfinite(acc.event_budget_bytes[i])) continue;
+    std::vector<double> per_count(m.events.size(), 0.0);
+    per_count[i] = m.events[i].weight * m.line_bytes;
+    out.push_back(at(per_count, acc.event_budget_bytes[i] - acc.event_used_bytes[i]));
+  }
+  return out;
 }
 
 void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValue> counters,
@@ -162,11 +232,16 @@ void Regulator::sample(TimeNs t, std::size_t entity, std::span<const CounterValu
                     : bytes * static_cast<double>(measured - acc.window_start) /
                           static_cast<double>(measured - ent.last_measured);
     acc.used_bytes += charged;
-    if (!acc.throttled && policy_->over_budget(acc)) {
-      acc.throttled = true;
-      for (std::size_t member : members_[ent.view.account])
-        if (entities_[member].view.state == NodeState::On) send(t, member, Command::Thr, out);
+    global_.used_bytes += charged;
+    if (!acc.event_used_bytes.empty()) {
+      event_scratch_.resize(ent.last.size());
+      metric_.event_bytes(ent.last, counters, event_scratch_);
+      const double share = bytes > 0.0 ? charged / bytes : 0.0;
+      for (std::size_t i = 0; i < event_scratch_.size(); ++i)
+        acc.event_used_bytes[i] += event_scratch_[i] * share;
     }
+    if (!acc.throttled && !global_.capped)
+      apply(policy_->judge(ent.view.account, accounts_, global_), t, ent.view.account, out);
   }
   std::copy(counters.begin(), counters.end(), ent.last.begin());
   ent.last_measured = measured;

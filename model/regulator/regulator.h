@@ -18,6 +18,13 @@
 //   REPLENISH) is not carried into the next one: every window starts fresh.
 // - Boundaries are processed before any input at or after them, so the order in which the host
 //   calls tick() and sample() for the same t does not matter.
+// - After usage is charged the policy judges it (Policy::judge): keep going, throttle the
+//   account's entities, throttle every entity (a global cap), or release every throttled entity
+//   (MemGuard's sharing). The global account (cap, pool of donated budget) is the regulator's,
+//   opened with the accounts at every window.
+// - Overflow sampling (MemGuard): overflow_limits() says at which cumulative counter values an
+//   entity's interrupt must fire; the host arms its PMU with them after every input, and takes
+//   the interrupt's reading to sample().
 #pragma once
 
 #include <memory>
@@ -40,6 +47,16 @@ struct CommandOut {
 };
 
 using Commands = std::vector<CommandOut>;
+
+// Where an entity's overflow interrupt must fire: when sum_i(bytes_per_count[i] x counter_i),
+// over its cumulative raw counter values in the metric's event order, exceeds at_bytes (no wrap
+// and no multiplexing scaling: an overflow-armed PMU counts every event all the time, and the
+// host re-arms before a counter could wrap). One per budgeted
+// quantity (the total over the metric's events, or each event with a budget of its own).
+struct OverflowLimit {
+  std::vector<double> bytes_per_count;
+  double at_bytes = 0.0;
+};
 
 struct RegulatorConfig {
   std::size_t rt_count = 1;
@@ -85,11 +102,17 @@ class Regulator {
 
   // When the host must call tick() next: the next window boundary while active, else nullopt.
   std::optional<TimeNs> next_tick() const;
+  // Overflow sampling: the limits of an entity that is ON with a baseline while active (its
+  // account's remaining budget from the entity's last reading); empty otherwise (nothing to arm:
+  // inactive, throttled, released, or not yet read). With several entities on one account each
+  // gets the account's whole remainder (scope group is refused for overflow sampling).
+  std::vector<OverflowLimit> overflow_limits(std::size_t entity) const;
 
   bool active() const { return running_rt_ > 0; }
   const Policy& policy() const { return *policy_; }
   const Metric& metric() const { return metric_; }
   std::span<const Account> accounts() const { return accounts_; }
+  const GlobalAccount& global() const { return global_; }
   const EntityView& entity(std::size_t e) const { return entities_.at(e).view; }
   std::size_t entity_count() const { return entities_.size(); }
 
@@ -104,11 +127,15 @@ class Regulator {
   void advance(TimeNs t, Commands& out);  // processes every boundary <= t
   void send(TimeNs t, std::size_t entity, Command c, Commands& out);
   void check_time(TimeNs t);
+  void open_period(TimeNs start, bool fresh);
+  void apply(Verdict v, TimeNs t, std::size_t account, Commands& out);
 
   Metric metric_;
   std::unique_ptr<Policy> policy_;
   std::vector<Entity> entities_;
   std::vector<Account> accounts_;
+  GlobalAccount global_;
+  std::vector<double> event_scratch_;
   std::vector<std::vector<std::size_t>> members_;  // account -> entities
   std::vector<bool> rt_running_;
   std::size_t running_rt_ = 0;

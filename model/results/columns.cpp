@@ -48,10 +48,16 @@ std::vector<ColumnInfo> build_points() {
       {"backend", "text", "sim or hw"},
       {"rt_workload", "text", "the first RT node's workload"},
       {"nrt_workload", "text", "the first nRT node's workload"},
-      {"policy", "text", "regulation policy (none, interval, monolithic, ...)"},
-      {"sampling", "text", "self (each nRT node samples its own counters) or external"},
+      {"policy", "text",
+       "regulation policy (none, interval, monolithic, monitor, memguard, mempol)"},
+      {"sampling", "text",
+       "self (each nRT node samples its own counters), external (the controller reads them), "
+       "overflow (a PMU overflow interrupt on the nRT core: memguard) or mmio (the controller "
+       "polls debug registers: mempol)"},
       {"scope", "text", "what one budget covers: core, node or group (all nRT nodes)"},
-      {"threshold_pct", "%", "bandwidth setpoint as a percentage of the reference bandwidth"},
+      {"threshold_pct", "%",
+       "bandwidth setpoint as a percentage of the reference bandwidth (unused where "
+       "regulation.budget_mbps is given: the manifest's scenario has it)"},
       {"sampling_period_us", "us", "PMC sampling period"},
       {"regulation_period_us", "us", "regulation (budget) period"},
   };
@@ -115,8 +121,12 @@ const std::vector<ColumnInfo>& point_column_dictionary() {
 const std::vector<ColumnInfo>& sample_kind_dictionary() {
   static const std::vector<ColumnInfo> d = {
       {"activation_delay", "us",
-       "one delay from the sample that exhausted a budget to the throttle"},
-      {"pmc_callback", "us", "one PMC sampling callback's duration"},
+       "one delay from the sample that exhausted a budget to the throttle (overflow sampling: "
+       "from the counter crossing the budget)"},
+      {"pmc_callback", "us", "one PMC sampling callback's duration (mmio sampling: one poll)"},
+      {"overflow_irq", "us",
+       "overflow sampling (sim): one PMU overflow interrupt, crossing to the throttle taking "
+       "hold"},
       {"pmc_read", "us", "one read of the counters inside a callback"},
       {"sampling_overhead", "us", "time one self-sampling callback took from its nRT node"},
       {"rt_job", "us", "one job of the first RT node, release to end"},

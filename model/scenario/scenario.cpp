@@ -1,6 +1,7 @@
 #include "scenario/scenario.h"
 
 #include <algorithm>
+#include <limits>
 #include <map>
 
 #include "core/error.h"
@@ -10,7 +11,10 @@ namespace rosguard {
 namespace {
 
 Sampling parse_sampling(const std::string& s) {
-  return s == "external" ? Sampling::External : Sampling::Self;
+  if (s == "external") return Sampling::External;
+  if (s == "overflow") return Sampling::Overflow;
+  if (s == "mmio") return Sampling::Mmio;
+  return Sampling::Self;
 }
 
 Scope parse_scope(const std::string& s) {
@@ -244,7 +248,7 @@ std::vector<MetricEvent> build_metric_events(const nlohmann::json& events, const
 }
 
 RegulationSpec build_regulation(const nlohmann::json& reg, const PlatformInfo& plat,
-                                const std::string& file) {
+                                const NodesSpec& nodes, const std::string& file) {
   RegulationSpec r;
   r.policy = reg.at("policy").get<std::string>();
   r.sampling = parse_sampling(reg.at("sampling").get<std::string>());
@@ -259,6 +263,56 @@ RegulationSpec build_regulation(const nlohmann::json& reg, const PlatformInfo& p
   r.metric.line_bytes = metric.at("line_bytes").get<std::uint32_t>();
   r.metric.counter_bits = plat.counter_bits;
   r.metric.events = build_metric_events(metric.at("events"), plat, file);
+
+  if (reg.contains("budget_mbps")) {
+    const auto& b = reg.at("budget_mbps");
+    if (b.is_number()) {
+      r.budget_mbps = {b.get<double>()};
+    } else {
+      // One per nRT node, by name: every nRT node has one, and every name is an nRT node.
+      if (r.scope == Scope::Group)
+        throw InputError(file, "/regulation/budget_mbps",
+                         "budgets per nRT node need scope core or node: scope group has one "
+                         "budget for all nRT nodes (give one number)");
+      for (const auto& [name, value] : b.items()) {
+        const bool known = std::any_of(nodes.nrt.begin(), nodes.nrt.end(),
+                                       [&](const NrtNodeSpec& n) { return n.name == name; });
+        if (!known)
+          throw InputError(file, "/regulation/budget_mbps/" + name,
+                           "'" + name + "' is not an nRT node of this scenario");
+      }
+      for (std::size_t i = 0; i < nodes.nrt.size(); ++i) {
+        if (!b.contains(nodes.nrt[i].name))
+          throw InputError(file, "/regulation/budget_mbps",
+                           "no budget for nRT node '" + nodes.nrt[i].name +
+                               "': give every nRT node one, or one number for all");
+        r.budget_mbps.push_back(b.at(nodes.nrt[i].name).get<double>());
+      }
+    }
+  }
+  if (reg.contains("event_budget_mbps")) {
+    const auto& eb = reg.at("event_budget_mbps");
+    for (const auto& [event, value] : eb.items()) {
+      const bool known =
+          std::any_of(r.metric.events.begin(), r.metric.events.end(),
+                      [&, &event = event](const MetricEvent& e) { return e.name == event; });
+      if (!known) {
+        std::string names;
+        for (const auto& e : r.metric.events)
+          names += (names.empty() ? "" : ", ") + e.name;
+        throw InputError(file, "/regulation/event_budget_mbps/" + event,
+                         "'" + event + "' is not an event of the regulation metric (" + names +
+                             "): a per-event budget counts one of the metric's events");
+      }
+    }
+    for (const auto& e : r.metric.events)
+      r.event_budget_mbps.push_back(eb.contains(e.name) ? eb.at(e.name).get<double>()
+                                                        : std::numeric_limits<double>::infinity());
+  }
+  r.global_budget_mbps = reg.value("global_budget_mbps", 0.0);
+  r.reclaim = reg.value("reclaim", false);
+  const std::string sharing = reg.value("sharing", std::string("off"));
+  r.sharing = sharing == "last" ? Sharing::Last : sharing == "all" ? Sharing::All : Sharing::Off;
   return r;
 }
 
@@ -302,7 +356,7 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
   s.repetitions = doc.at("repetitions").get<int>();
   s.nodes = build_nodes(doc.at("nodes"), refs, s.backend, file);
   s.platform = std::move(refs.platform);
-  s.regulation = build_regulation(doc.at("regulation"), s.platform, file);
+  s.regulation = build_regulation(doc.at("regulation"), s.platform, s.nodes, file);
 
   // Rules of the built-in policies; a policy registered elsewhere is checked by the backends
   // (check_policy with the run's registry).

@@ -86,6 +86,19 @@ struct RegulationSpec {
   bool reference_from_platform = true;
   Scope scope = Scope::Core;
   MetricSpec metric;
+  // Absolute budgets in MB/s of Eq. 1 (regulation.budget_mbps): empty: threshold_pct % of the
+  // reference; one value: for every nRT node; otherwise one per nRT node, in nodes.nrt order.
+  // Where given they replace threshold_pct x reference_mbps (threshold_pct is then unused).
+  std::vector<double> budget_mbps;
+  // Per metric event, in the metric's order (+inf: not budgeted); empty: none
+  // (regulation.event_budget_mbps).
+  std::vector<double> event_budget_mbps;
+  double global_budget_mbps = 0.0;  // MemPol's global cap; 0: none
+  bool reclaim = false;             // MemGuard
+  Sharing sharing = Sharing::Off;   // MemGuard
+  // Keys this point did not set that its policy's defaults filled in ("sampling = overflow
+  // (memguard's default)"), for check and the manifest.
+  std::vector<std::string> policy_defaults;
 };
 
 struct SimSettings {

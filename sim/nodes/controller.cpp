@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "core/error.h"
+
 namespace rosguard::sim {
 
 Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig config,
@@ -13,13 +15,24 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
       callback_cost_(costs.controller_callback, stream_seed(seed, "controller/callback")),
       read_cost_(costs.external_read, stream_seed(seed, "controller/external_read")),
       bus_(bus),
+      rt_(rt),
       rec_(rec),
       costs_(costs),
       seed_(seed),
       done_timer_("done", rt, [this](TimeNs t) { stage_done(t); }),
       tick_timer_("tick", rt,
                   [this](TimeNs t) {
-                    enqueue({Work::Kind::Tick, 0, {}, -1}, t);
+                    if (!direct()) {
+                      enqueue({Work::Kind::Tick, 0, {}, -1}, t);
+                      return;
+                    }
+                    out_.clear();
+                    driver_.tick(t, out_);
+                    const std::vector<std::size_t> reads = out_.reads;
+                    handle_output(t);
+                    rearm_timers();
+                    for (std::size_t e : reads)  // overflow: the period timer's reading
+                      direct_sample(e, t, -1);
                   }),
       poll_timer_("poll", rt,
                   [this](TimeNs t) {
@@ -27,15 +40,38 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
                     driver_.read_due(t, due);
                     rearm(poll_timer_, driver_.next_read());
                     for (std::size_t e : due.reads)
-                      enqueue({Work::Kind::Read, e, {}, -1}, t);
+                      if (cfg_.sampling == Sampling::Overflow)
+                        direct_sample(e, t, -1);  // the baseline: the handler's own read
+                      else
+                        enqueue({Work::Kind::Read, e, {}, -1}, t);
                   }),
       probe_timer_("probe", rt, [this](TimeNs t) {
         DriverOutput due;
         driver_.window_due(t, due);
         rearm(probe_timer_, driver_.next_window());
-      }) {}
+      }) {
+  if (cfg_.sampling == Sampling::Overflow) {
+    if (!costs.overflow_irq)
+      throw ContractError("overflow sampling needs the platform's costs.overflow_irq_us");
+    irq_cost_.emplace(*costs.overflow_irq, stream_seed(seed, "controller/overflow_irq"));
+  }
+  if (cfg_.sampling == Sampling::Mmio) {
+    if (!costs.mmio_poll)
+      throw ContractError("mmio sampling needs the platform's costs.mmio_poll_us");
+    mmio_cost_.emplace(*costs.mmio_poll, stream_seed(seed, "controller/mmio_poll"));
+  }
+}
+
+bool Controller::direct() const {
+  return cfg_.sampling == Sampling::Overflow || cfg_.sampling == Sampling::Mmio;
+}
 
 void Controller::add_entity(ControlledEntity entity) {
+  const std::size_t e = entities_.size();
+  irq_timers_.push_back(
+      std::make_unique<Timer>(("controller_irq" + std::to_string(e)).c_str(), rt_,
+                              [this, e](TimeNs t) { direct_sample(e, t, overflow_at_[e]); }));
+  overflow_at_.push_back(-1);
   links_.push_back(bus_.add_link());
   latency_.emplace_back(costs_.message_latency_between(cfg_.core, entity.core),
                         stream_seed(seed_, "controller->" + entity.name));
@@ -73,7 +109,7 @@ void Controller::start_next(TimeNs now) {
   if (current_.kind == Work::Kind::Read) {
     stage_ = 0;
     read_started_ = now;
-    spend(now, read_cost_.draw_ns());
+    spend(now, mmio_cost_ ? mmio_cost_->draw_ns() : read_cost_.draw_ns());
   } else {
     stage_ = 1;
     spend(now, callback_cost_.draw_ns());
@@ -94,8 +130,11 @@ void Controller::stage_done(TimeNs now) {
     rec_.observe("pmc_callback", now - read_started_);
     current_.origin = now;
     stage_ = 1;
-    spend(now, callback_cost_.draw_ns());
-    return;
+    // A MemPol poll compares and halts within its mmio_poll_us: no callback after it.
+    if (!mmio_cost_) {
+      spend(now, callback_cost_.draw_ns());
+      return;
+    }
   }
   decide(current_, now);
   busy_ = false;
@@ -129,13 +168,58 @@ void Controller::decide(Work& w, TimeNs now) {
       break;
   }
   handle_output(now);
+  rearm_timers();
+}
+
+void Controller::rearm_timers() {
   // Same order as the timers were armed before the engine existed: probe, poll, tick.
   rearm(probe_timer_, driver_.next_window());
   rearm(poll_timer_, driver_.next_read());
   rearm(tick_timer_, driver_.next_tick());
 }
 
-void Controller::handle_output(TimeNs now) {
+// Overflow sampling: the handler on the entity's core reads its counters (at a crossing, or the
+// baseline at ON) and the engine decides at once; `cause` is the crossing (-1: none).
+void Controller::direct_sample(std::size_t entity, TimeNs now, TimeNs cause) {
+  out_.clear();
+  const std::vector<CounterValue> counters = read_counters(entity, now);
+  driver_.sample(now, entity, counters, now, out_);
+  if (cause >= 0)
+    for (DriverCommand& c : out_.commands)
+      if (c.command == Command::Thr) c.cause = cause;
+  handle_output(now, true);
+  rearm_timers();
+}
+
+void Controller::arm_overflow(std::size_t entity) {
+  ControlledEntity& ent = entities_.at(entity);
+  if (!ent.core_model) throw ContractError("overflow sampling needs the entity's core");
+  if (irq_timers_[entity]->pending()) return;  // its handler re-arms when it has run
+  const auto limits = driver_.regulator().overflow_limits(entity);
+  if (limits.empty()) {
+    ent.core_model->disarm_overflow();
+    return;
+  }
+  std::vector<Core::OverflowLimit> arms;
+  for (const OverflowLimit& l : limits) {
+    Core::OverflowLimit a;
+    for (std::size_t i = 0; i < l.bytes_per_count.size(); ++i)
+      a.bytes_per_count[static_cast<std::size_t>(cfg_.metric_events.at(i))] += l.bytes_per_count[i];
+    a.at_bytes = l.at_bytes;
+    arms.push_back(a);
+  }
+  ent.core_model->arm_overflow(std::move(arms),
+                               [this, entity](TimeNs t) { overflow_hit(entity, t); });
+}
+
+// The PMU overflowed: the core works on until the interrupt's handler runs.
+void Controller::overflow_hit(std::size_t entity, TimeNs now) {
+  overflow_at_[entity] = now;
+  irq_timers_[entity]->set(now + irq_cost_->draw_ns());
+  rec_.observe("overflow_irq", irq_timers_[entity]->when() - now);
+}
+
+void Controller::handle_output(TimeNs now, bool from_handler) {
   for (const EngineEvent& ev : out_.events)
     if (ev.kind == EngineEvent::Kind::BudgetUsed && rec_.trace)
       rec_.trace->counter(now, cfg_.core, entities_[ev.entity].name + " budget_used_pct", ev.value);
@@ -144,11 +228,22 @@ void Controller::handle_output(TimeNs now) {
     if (rec_.trace)
       rec_.trace->instant(now, cfg_.core, "controller",
                           std::string(to_string(c.command)) + " -> " + target.name);
-    bus_.send(links_[c.entity], now, latency_[c.entity].draw_ns(),
+    // Mmio: the controller halts / resumes the core itself; overflow: a THR from the handler
+    // takes hold on its own core at once, anything else one interrupt later.
+    if (cfg_.sampling == Sampling::Mmio ||
+        (from_handler && cfg_.sampling == Sampling::Overflow && c.command == Command::Thr)) {
+      target.deliver(c.command, c.cause);
+      continue;
+    }
+    const TimeNs latency =
+        cfg_.sampling == Sampling::Overflow ? irq_cost_->draw_ns() : latency_[c.entity].draw_ns();
+    bus_.send(links_[c.entity], now, latency,
               [deliver = target.deliver, cmd = c.command, cause = c.cause](TimeNs) {
                 deliver(cmd, cause);
               });
   }
+  for (std::size_t e : out_.rearm)
+    arm_overflow(e);
   for (const EngineEvent& ev : out_.events)
     if (ev.kind == EngineEvent::Kind::ActivationEnd && on_inactive_) on_inactive_(now);
 }

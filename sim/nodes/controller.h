@@ -12,6 +12,17 @@
 // The driver's window accounting reads the entities' PMUs at
 // the exact boundary (instrumentation, no cost).
 //
+// Overflow sampling (MemGuard) has no controller in the loop: the baseline read at each
+// activation is free (the handler reads its own PMU), every entity's core is armed with its
+// overflow limits (Core::arm_overflow) after every input, and at a crossing the core keeps
+// working for overflow_irq_us (the interrupt and its handler), after which the handler reads the
+// counters, the engine decides and a THR takes hold at once on that core; period boundaries are
+// served at the boundary, and every other command reaches its core one overflow_irq_us later.
+// Mmio sampling (MemPol): each poll of a core costs mmio_poll_us on the controller (reading its
+// counters through debug registers, comparing, halting it: no callback cost on top), and the
+// commands take hold at once (the controller halts and resumes the core itself); boundaries are
+// served at the boundary.
+//
 // Contract: a SystemC module; wired by the System before the simulation starts (add_entity()).
 // Inputs are called from SystemC processes at the current time.
 #pragma once
@@ -47,6 +58,7 @@ struct ControlledEntity {
   int core = 0;  // where its node runs (the latency of the commands sent to it)
   std::function<void(Command, TimeNs cause)> deliver;
   std::function<const Pmu&()> pmu;  // brought up to the current time
+  Core* core_model = nullptr;       // its core (overflow sampling arms its PMU)
 };
 
 class Controller : public sc_core::sc_module, private EntityMeter {
@@ -86,8 +98,13 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   void start_next(TimeNs now);
   void stage_done(TimeNs now);
   void decide(Work& w, TimeNs now);
-  void handle_output(TimeNs now);
+  void handle_output(TimeNs now, bool from_handler = false);
   void rearm(Timer& timer, std::optional<TimeNs> when);
+  void rearm_timers();
+  bool direct() const;  // overflow / mmio: no messages, no callbacks around the decisions
+  void direct_sample(std::size_t entity, TimeNs now, TimeNs cause);
+  void arm_overflow(std::size_t entity);
+  void overflow_hit(std::size_t entity, TimeNs now);
   void spend(TimeNs now, TimeNs cost);  // the current stage takes `cost`, then stage_done()
   std::vector<CounterValue> read_counters(std::size_t entity, TimeNs now);
 
@@ -95,7 +112,10 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   ControllerDriver driver_;
   CostStream callback_cost_;
   CostStream read_cost_;
+  std::optional<CostStream> irq_cost_;   // overflow sampling
+  std::optional<CostStream> mmio_cost_;  // mmio sampling
   MessageBus& bus_;
+  Runtime& rt_;
   Recorder& rec_;
   std::vector<ControlledEntity> entities_;
   Core* core_ = nullptr;  // a core shared with a node, or null (a core of its own)
@@ -116,6 +136,8 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   Timer tick_timer_;
   Timer poll_timer_;
   Timer probe_timer_;
+  std::vector<std::unique_ptr<Timer>> irq_timers_;  // per entity: overflow -> handler
+  std::vector<TimeNs> overflow_at_;                 // per entity: the crossing being handled
 };
 
 }  // namespace rosguard::sim

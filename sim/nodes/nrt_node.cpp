@@ -48,6 +48,12 @@ void NrtNodeModel::work_ended(TimeNs now) {
 }
 
 void NrtNodeModel::on_command(Command command, TimeNs origin) {
+  // Overflow (the interrupt handler on this core) and mmio (the controller halts the core
+  // through its debug interface) need no CFB callback: the command takes hold as it arrives.
+  if (cfg_.sampling == Sampling::Overflow || cfg_.sampling == Sampling::Mmio) {
+    apply(command, origin, now_ns());
+    return;
+  }
   const TimeNs cost = cfb_cost_.draw_ns();
   core_.post(Core::Prio::Cfb, cost, std::string("CFB ") + std::string(to_string(command)),
              [this, command, origin](TimeNs t) { apply(command, origin, t); });

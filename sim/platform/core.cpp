@@ -33,7 +33,8 @@ Core::Core(const sc_core::sc_module_name& name, int id, const SimPlatform& platf
       idle_ipc_(platform.core.idle_loop_ipc),
       memory_(memory),
       rt_(rt),
-      trace_(trace) {
+      trace_(trace),
+      overflow_timer_("overflow", rt, [this](TimeNs t) { overflow_timer(t); }) {
   SC_METHOD(wake);
   sensitive << wake_ev_;
   dont_initialize();
@@ -184,6 +185,72 @@ void Core::dispatch(TimeNs now) {
 
   wake_at_ = at;
   arm(now);
+  if (overflow_fire_) overflow_rearm(now);
+}
+
+void Core::arm_overflow(std::vector<OverflowLimit> limits, Done fire) {
+  const TimeNs now = now_ns();
+  sync(now);
+  overflow_ = std::move(limits);
+  for (OverflowLimit& l : overflow_) {
+    double slack = 1.0;  // bytes: strictly past the limit
+    for (double b : l.bytes_per_count)
+      slack += b;
+    l.at_bytes += slack;
+  }
+  overflow_fire_ = overflow_.empty() ? Done{} : std::move(fire);
+  if (overflow_fire_)
+    overflow_rearm(now);
+  else
+    overflow_timer_.cancel();
+}
+
+void Core::disarm_overflow() {
+  overflow_.clear();
+  overflow_fire_ = nullptr;
+  overflow_timer_.cancel();
+}
+
+std::optional<TimeNs> Core::overflow_crossing(TimeNs now) const {
+  std::optional<TimeNs> best;
+  for (const OverflowLimit& l : overflow_) {
+    double value = 0.0;
+    for (std::size_t e = 0; e < kPmuEvents; ++e)
+      value += l.bytes_per_count[e] * pmu_.count[e];
+    if (value >= l.at_bytes) return now;
+    if (running_ != Running::Work) continue;  // callbacks and the THR loop move no data
+    const auto per = [&](PmuEvent e) { return l.bytes_per_count[static_cast<std::size_t>(e)]; };
+    const double rate = per(PmuEvent::L2Refill) * rates_.refill_per_ns +
+                        per(PmuEvent::L2Wb) * rates_.wb_per_ns +
+                        per(PmuEvent::L3Access) * (rates_.refill_per_ns + rates_.wb_per_ns) +
+                        per(PmuEvent::L3Refill) * rates_.l3_refill_per_ns;
+    if (rate <= 0.0) continue;
+    const TimeNs at =
+        now + std::max<TimeNs>(1, static_cast<TimeNs>(std::ceil((l.at_bytes - value) / rate)));
+    if (!best || at < *best) best = at;
+  }
+  return best;
+}
+
+// Lazy, as arm() is: an earlier crossing replaces a pending later one; a later one leaves the
+// pending timer, which re-checks when it fires.
+void Core::overflow_rearm(TimeNs now) {
+  const auto at = overflow_crossing(now);
+  if (!at) return;
+  if (!overflow_timer_.pending() || *at < overflow_timer_.when()) overflow_timer_.set(*at);
+}
+
+void Core::overflow_timer(TimeNs now) {  // a Timer's callback: already guarded
+  if (!overflow_fire_) return;
+  sync(now);
+  const auto at = overflow_crossing(now);
+  if (at && *at <= now) {
+    Done fire = std::move(overflow_fire_);
+    disarm_overflow();
+    fire(now);
+    return;
+  }
+  if (at) overflow_timer_.set(*at);
 }
 
 void Core::arm(TimeNs now) {

@@ -16,7 +16,9 @@
 // must outlive the core's use of it.
 #pragma once
 
+#include <array>
 #include <functional>
+#include <optional>
 #include <string>
 #include <systemc>
 #include <vector>
@@ -51,6 +53,19 @@ class Core : public sc_core::sc_module {
   void set_throttle(bool on);
   bool throttled() const { return thr_; }
 
+  // Overflow interrupt (overflow sampling): `fire(t)` is called once, at the first time one of
+  // the limits is crossed: sum_e(bytes_per_count[e] x count_e) > at_bytes, over the PMU's
+  // cumulative counts, with one count per weighted event of slack so that the counters as read
+  // (whole counts) are past the limit too. The rates are constant between dispatches (memory
+  // model changes, callbacks, throttling), so the crossing is computed, not polled: re-computed
+  // at every dispatch. A new arm replaces the old; firing disarms.
+  struct OverflowLimit {
+    std::array<double, kPmuEvents> bytes_per_count{};
+    double at_bytes = 0.0;
+  };
+  void arm_overflow(std::vector<OverflowLimit> limits, Done fire);
+  void disarm_overflow();
+
   // The PMU and the workload's progress, brought up to now.
   const Pmu& pmu();
   double work_retired();
@@ -76,6 +91,9 @@ class Core : public sc_core::sc_module {
   void dispatch(TimeNs now);
   void arm(TimeNs now);
   std::size_t top_callback() const;  // index of the callback to run, or npos
+  std::optional<TimeNs> overflow_crossing(TimeNs now) const;
+  void overflow_rearm(TimeNs now);
+  void overflow_timer(TimeNs now);
 
   int id_;
   int cluster_;
@@ -106,6 +124,10 @@ class Core : public sc_core::sc_module {
   sc_core::sc_event wake_ev_;
   TimeNs wake_at_ = -1;   // when the running callback or workload segment ends (-1: never)
   TimeNs armed_at_ = -1;  // the notification pending in the kernel (-1: none)
+
+  std::vector<OverflowLimit> overflow_;
+  Done overflow_fire_;
+  Timer overflow_timer_;
 };
 
 }  // namespace rosguard::sim

@@ -79,6 +79,13 @@ struct CostParams {
   Distribution controller_callback;
   Distribution throttle_activation;
   Distribution external_read;
+  // Optional (a platform without them refuses the sampling mode that needs them):
+  // overflow sampling: from a PMU counter overflow to the throttle taking hold on that core (the
+  // interrupt and its handler, MemGuard), and from a period boundary to a core's replenish;
+  std::optional<Distribution> overflow_irq;
+  // mmio sampling: one poll of one core by the controller core through memory-mapped debug
+  // registers (read its counters, compare, and halt it when over budget: MemPol).
+  std::optional<Distribution> mmio_poll;
 };
 
 struct SimPlatform {

@@ -128,21 +128,32 @@ def test_high_bandwidth_group_splits_at_the_largest_gap():
 
 # --- experiment 8 -------------------------------------------------------------------------
 
-def memguard_points():
+MECHANISMS = [{"policy": "interval", "sampling": "self"},
+              {"policy": "interval", "sampling": "external"},
+              {"policy": "memguard", "sampling": "overflow"}]
+
+
+def memguard_points(mechanisms=MECHANISMS, nrt=("disparity", "mser", "sift")):
     return resultgen.sweep({"rt_workload": "bandwidth_read", "sampling_period_us": 200,
                             "regulation_period_us": 1000},
-                           {"nodes.nrt[0].workload": ["disparity", "mser", "sift"],
+                           {"nodes.nrt[0].workload": list(nrt),
                             "regulation.threshold_pct": [20, 30, 40],
-                            "regulation.sampling": ["self", "external"]})
+                            "regulation": mechanisms})
+
+
+def toy_exp8(s, self_cost=0.4, memguard_rt=1.05):
+    """A toy exp. 8: a lower threshold slows the nRT node; self-sampling costs it 0.4."""
+    nrt = 1.2 + 8.0 / s["threshold_pct"] + (self_cost if s["sampling"] == "self" else 0.0)
+    rt = memguard_rt if s["policy"] == "memguard" else 1.05
+    return {"rt_slowdown": rt, "nrt_slowdown": nrt, "throttle_count": 10}
 
 
 def test_exp8_holds_when_the_threshold_changes_the_nrt_slowdown(tmp_path):
-    def figures(s):
-        nrt = 1.2 + 8.0 / s["threshold_pct"] + (0.4 if s["sampling"] == "self" else 0.0)
-        return {"rt_slowdown": 1.05, "nrt_slowdown": nrt, "throttle_count": 10}
-    rows = paper_table.exp8(results(tmp_path, "exp8", memguard_points(), figures))
-    assert verdicts(rows) == {"8a": True, "8b": True}
-    assert "6 of 6 series differ" in rows[0][2]
+    rows = paper_table.exp8(results(tmp_path, "exp8", memguard_points(), toy_exp8))
+    assert verdicts(rows) == {"8a": True, "8b": True, "8c": True, "8d": True}
+    assert "9 of 9 series differ" in rows[0][2]
+    assert "MemGuard 1.050" in rows[2][2]
+    assert "ROSGuard self above MemGuard in 3 of 3" in rows[3][2]
 
 
 def test_exp8_fails_when_every_threshold_gives_the_same_run(tmp_path):
@@ -150,9 +161,31 @@ def test_exp8_fails_when_every_threshold_gives_the_same_run(tmp_path):
         return {"rt_slowdown": 1.05, "nrt_slowdown": 1.5 if s["sampling"] == "self" else 1.45,
                 "throttle_count": 0}
     rows = paper_table.exp8(results(tmp_path, "exp8", memguard_points(), figures))
-    assert verdicts(rows) == {"8a": False, "8b": False}
-    assert "0 of 6 series differ" in rows[0][2]
+    assert verdicts(rows)["8a"] is False
+    assert verdicts(rows)["8b"] is False
+    assert "0 of 9 series differ" in rows[0][2]
     assert "0 throttles" in rows[0][2]
+    # Nothing throttled: the comparison says these are unregulated co-runs.
+    assert "no mechanism throttled at any point" in rows[2][2]
+
+
+def test_exp8_memguard_comparison_fails_with_numbers(tmp_path):
+    # MemGuard protects the RT node far better (1.05 vs 1.30), and ROSGuard self-sampling costs
+    # the nRT node nothing more than MemGuard: 8c and 8d do not hold, and say by how much.
+    def figures(s):
+        return toy_exp8(s, self_cost=0.0, memguard_rt=1.05 / 1.3)
+    rows = paper_table.exp8(results(tmp_path, "exp8", memguard_points(), figures))
+    v = verdicts(rows)
+    assert v["8c"] is False and v["8d"] is False
+    assert "+30.0 %" in rows[2][2]
+    assert "ROSGuard self above MemGuard in 0 of 3" in rows[3][2]
+
+
+def test_exp8_without_memguard_points_says_so(tmp_path):
+    rows = paper_table.exp8(results(tmp_path, "exp8", memguard_points(MECHANISMS[:2]), toy_exp8))
+    v = verdicts(rows)
+    assert v == {"8a": True, "8b": True, "8c": False, "8d": False}
+    assert "no MemGuard points" in rows[2][2]
 
 
 # --- experiment 4 -------------------------------------------------------------------------

@@ -461,9 +461,10 @@ TEST_CASE("loader: a controller sharing a core with a node is a warning, said on
   CHECK_THAT(ls.warnings[0], StartsWith("the controller shares core 1 with node 'rt0'"));
 }
 
-TEST_CASE("loader: a budget below one sampling period's traffic is a warning naming the "
-          "thresholds it makes alike",
-          "[loader]") {
+TEST_CASE(
+    "loader: a budget below one sampling period's traffic is a warning naming the "
+    "thresholds it makes alike",
+    "[loader]") {
   TempDir dir;
   // bandwidth_read: 26271.74 MiB/s in isolation, so 26.3 MiB per 1 ms sample; the budget of a
   // 5 ms period is 262.7 MiB x threshold_pct / 100: below one sample up to 19 %, not at 25 %.
@@ -488,4 +489,50 @@ TEST_CASE("loader: a budget below one sampling period's traffic is a warning nam
       "regulation": {"policy": "interval", "sampling_period_us": 100,
                      "regulation_period_us": 5000, "threshold_pct": 5}})");
   CHECK(loader.load(fine).warnings.empty());
+  // An absolute budget is said as such; overflow sampling (memguard) sees the crossing itself.
+  const auto absolute = dir.write("a.json", R"({"name": "t", "backend": "sim",
+      "nodes": {"controller": {"core": 0},
+        "rt": [{"name": "rt0", "core": 1, "workload": "mser"}],
+        "nrt": [{"name": "nrt0", "core": 2, "workload": "bandwidth_read"}]},
+      "regulation": {"policy": "interval", "sampling_period_us": 1000,
+                     "regulation_period_us": 5000, "budget_mbps": 300},
+      "sweep": {"regulation.policy+regulation.sampling": [["interval", "self"],
+                                                           ["memguard", "overflow"]]}})");
+  const auto la = loader.load(absolute);
+  REQUIRE(la.warnings.size() == 1);
+  CHECK_THAT(la.warnings[0], Contains("at budget_mbps 300:"));
+}
+
+TEST_CASE("loader: a policy's defaults fill only the keys a point does not set, and are listed",
+          "[loader]") {
+  TempDir dir;
+  const auto file = dir.write("s.json", R"({"name": "t", "backend": "sim",
+      "nodes": {"controller": {"core": 0},
+        "rt": [{"name": "rt0", "core": 1, "workload": "mser"}],
+        "nrt": [{"name": "nrt0", "core": 2, "workload": "bandwidth_read"}]},
+      "regulation": {"threshold_pct": 20},
+      "sweep": {"regulation.policy+regulation.sampling_period_us": [["interval", 1000],
+                                                                     ["memguard", 100],
+                                                                     ["mempol", 10]]}})");
+  Loader loader = make_loader();
+  const auto ls = loader.load(file);
+  REQUIRE(ls.points.size() == 3);
+  const RegulationSpec& interval = ls.points[0].scenario.regulation;
+  CHECK(interval.sampling == Sampling::Self);
+  CHECK(interval.regulation_period_us == 5000);
+  CHECK(interval.policy_defaults.empty());  // the generic defaults are not a policy's
+  const RegulationSpec& memguard = ls.points[1].scenario.regulation;
+  CHECK(memguard.sampling == Sampling::Overflow);
+  CHECK(memguard.regulation_period_us == 1000);
+  CHECK(memguard.sampling_period_us == 100);  // set by the sweep: kept
+  CHECK(memguard.policy_defaults ==
+        std::vector<std::string>{"sampling = overflow (memguard's default)",
+                                 "regulation_period_us = 1000 (memguard's default)"});
+  const RegulationSpec& mempol = ls.points[2].scenario.regulation;
+  CHECK(mempol.sampling == Sampling::Mmio);
+  CHECK(mempol.sampling_period_us == 10);
+  CHECK(mempol.regulation_period_us == 1000);
+  REQUIRE(ls.policy_defaults.size() == 4);
+  CHECK(ls.policy_defaults[0] ==
+        std::pair<std::string, std::size_t>{"sampling = overflow (memguard's default)", 1});
 }

@@ -53,15 +53,17 @@ TEST_CASE("schema: unknown keys list what is allowed and suggest a near name", "
     CHECK(error_of(doc) == std::pair<std::string, std::string>{
                                "/regulation/polcy",
                                "unknown key 'polcy' (did you mean 'policy'?); allowed here: "
-                               "metric, policy, reference_mbps, regulation_period_us, sampling, "
-                               "sampling_period_us, scope, threshold_pct"});
+                               "budget_mbps, event_budget_mbps, global_budget_mbps, metric, "
+                               "policy, reclaim, reference_mbps, regulation_period_us, "
+                               "sampling, sampling_period_us, scope, sharing, threshold_pct"});
   }
   SECTION("a far-off name gets no suggestion") {
     json doc = scenario();
     doc["regulation"] = {{"xyzzy", 1}};
     CHECK(error_of(doc).second ==
-          "unknown key 'xyzzy'; allowed here: metric, policy, reference_mbps, "
-          "regulation_period_us, sampling, sampling_period_us, scope, threshold_pct");
+          "unknown key 'xyzzy'; allowed here: budget_mbps, event_budget_mbps, "
+          "global_budget_mbps, metric, policy, reclaim, reference_mbps, regulation_period_us, "
+          "sampling, sampling_period_us, scope, sharing, threshold_pct");
   }
   SECTION("at the top level, without the editor's $schema key") {
     json doc = scenario();
@@ -94,8 +96,9 @@ TEST_CASE("schema: enum errors list the allowed values", "[schema]") {
           R"(must be one of "bandwidth_read", "bandwidth_write", "latency", "proxy", not "stream")"});
   json doc = scenario();
   doc["regulation"] = {{"policy", 3}};
-  CHECK(error_of(doc).second ==
-        R"(must be one of "interval", "monolithic", "monitor", "none", not 3)");
+  CHECK(
+      error_of(doc).second ==
+      R"(must be one of "interval", "monolithic", "monitor", "none", "memguard", "mempol", not 3)");
 }
 
 TEST_CASE("schema: range errors say which bounds are inclusive", "[schema]") {
@@ -184,9 +187,11 @@ TEST_CASE("schema: apply_defaults fills nested objects and array items", "[schem
     schemas().apply_defaults(doc, SchemaKind::Scenario);
     const json& r = doc["regulation"];
     CHECK(r["policy"] == "interval");
-    CHECK(r["sampling"] == "self");
-    CHECK(r["sampling_period_us"] == 1000);
-    CHECK(r["regulation_period_us"] == 5000);
+    // Sampling and the periods default by policy (apply_policy_defaults, policy/rules.h), not
+    // from the schema.
+    CHECK_FALSE(r.contains("sampling"));
+    CHECK_FALSE(r.contains("sampling_period_us"));
+    CHECK_FALSE(r.contains("regulation_period_us"));
     CHECK(r["threshold_pct"] == 30);          // given values stay
     CHECK(r["metric"]["line_bytes"] == 128);  // given values stay, in nested objects too
     CHECK(r["metric"]["events"] == json({{"l2d_cache_refill", 1}, {"l2d_cache_wb", 1}}));

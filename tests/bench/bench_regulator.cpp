@@ -19,7 +19,10 @@ using namespace rosguard;
 // replenishes happen all the time, as in a saturated co-run.
 void BM_RegulatorSample(benchmark::State& state) {
   const auto entities = static_cast<std::size_t>(state.range(0));
-  PolicyParams params{20.0, 26271.74, 5 * kNsPerMs, 0};
+  PolicyParams params;
+  params.threshold_pct = 20.0;
+  params.reference_mbps = 26271.74;
+  params.regulation_period_ns = 5 * kNsPerMs;
   RegulatorConfig config{1, accounts_for_scope(Scope::Core, entities), MetricSpec{}};
   Regulator reg(config, make_interval_policy(params));
   Commands out;

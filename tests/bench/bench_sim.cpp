@@ -61,7 +61,9 @@ sim::RunConfig minimal_setup(TimeNs sampling_us, int rt_iterations) {
   cfg.rt.push_back({"rt0", 1, profile("bandwidth_read"), rt_iterations, std::nullopt});
   cfg.nrt.push_back({"nrt0", 2, profile("bandwidth_read"), true});
   cfg.policy = *find_builtin_policy("interval");
-  cfg.policy_params = {20.0, 26271.74, 5 * kNsPerMs, 0};
+  cfg.policy_params.threshold_pct = 20.0;
+  cfg.policy_params.reference_mbps = 26271.74;
+  cfg.policy_params.regulation_period_ns = 5 * kNsPerMs;
   cfg.sampling = Sampling::Self;
   cfg.sampling_period_ns = sampling_us * kNsPerUs;
   return cfg;

@@ -413,6 +413,32 @@ TEST_CASE(
 }
 
 TEST_CASE(
+    "exp8: ROSGuard protects the RT node as MemGuard does at the same thresholds, and its "
+    "self-sampling costs the nRT node more than MemGuard on sift, stitch and tracking",
+    "[sim][fidelity]") {
+  test::TempDir dir;
+  const auto rows = run_scenario("scenarios/paper/exp8-memguard.json", dir);
+  const std::map<std::string, std::string> memguard = {{"policy", "memguard"},
+                                                       {"sampling", "overflow"}};
+  const double mg_rt = mean(rows, memguard, "rt_slowdown");
+  for (const std::string mode : {"self", "external"}) {
+    const double rt = mean(rows, {{"policy", "interval"}, {"sampling", mode}}, "rt_slowdown");
+    INFO(mode << ": RT slowdown " << rt << " vs MemGuard " << mg_rt);
+    CHECK(std::abs(rt / mg_rt - 1) <= 0.10);  // paper_table.py: COMPARABLE
+  }
+  for (const std::string n : {"sift", "stitch", "tracking"})
+    for (const std::string t : {"20", "30", "40"}) {
+      INFO(n << " at " << t << " %");
+      const double self = mean(
+          rows, {{"nrt_workload", n}, {"sampling", "self"}, {"threshold_pct", t}}, "nrt_slowdown");
+      const double mg =
+          mean(rows, {{"nrt_workload", n}, {"policy", "memguard"}, {"threshold_pct", t}},
+               "nrt_slowdown");
+      CHECK(self > mg * 1.005);  // paper_table.py: NOISE
+    }
+}
+
+TEST_CASE(
     "unregulated co-runs: two bandwidth_read copies on one cluster thrash the L3, on two "
     "clusters barely slow each other - two mser copies moderately",
     "[sim][fidelity]") {

@@ -103,7 +103,8 @@ TEST_CASE("policy registry: built-ins by name, unknown names listed, no duplicat
     names.push_back(info.name);
     CHECK_FALSE(info.description.empty());
   }
-  CHECK(names == std::vector<std::string>{"interval", "monolithic", "monitor", "none"});
+  CHECK(names == std::vector<std::string>{"interval", "monolithic", "monitor", "none", "memguard",
+                                          "mempol"});
   for (const auto& n : names) {
     REQUIRE(reg.find(n) != nullptr);
     CHECK(reg.make(n, params(ms(5), ms(10)))->name() == n);
@@ -114,10 +115,12 @@ TEST_CASE("policy registry: built-ins by name, unknown names listed, no duplicat
     FAIL("unknown policy accepted");
   } catch (const InputError& e) {
     CHECK(e.json_path() == "/regulation/policy");
-    CHECK(e.message() == "unknown policy 'adaptive' (known: interval, monolithic, monitor, none)");
+    CHECK(e.message() ==
+          "unknown policy 'adaptive' (known: interval, monolithic, monitor, none, memguard, "
+          "mempol)");
   }
   CHECK_THROWS_AS(reg.add({"interval", "again", {}, make_interval_policy}), ContractError);
-  CHECK(reg.all().size() == 4);
+  CHECK(reg.all().size() == 6);
 }
 
 TEST_CASE("policy traits: what each built-in policy is, without comparing names", "[policy]") {

@@ -83,6 +83,9 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
               << (*hi > *lo ? " to " + seconds_text(*hi) : std::string())
               << " simulated per run (estimate: instructions / (base IPC x frequency), "
                  "without contention or isolation runs)\n";
+  for (const auto& [what, points] : s.policy_defaults)
+    std::cout << "  default      " << what << ", in " << points << " point"
+              << (points == 1 ? "" : "s") << "\n";
   if (s.points.size() < s.point_count)
     std::cout << "  checked      " << s.points.size() << " of the " << s.point_count
               << " points (every value of every sweep key); run checks them all before "
@@ -141,8 +144,15 @@ int list_catalogue(const Loader& loader, const PolicyRegistry& policies,
       std::cout << "| `" << c.name << "` | " << c.unit << " | " << c.meaning << " |\n";
   } else if (what == "policies") {
     std::cout << "policies:\n";
-    for (const auto& p : policies.all())
-      print(p.name, p.description);
+    for (const auto& p : policies.all()) {
+      std::string how;
+      if (p.traits.regulates) {
+        for (Sampling m : p.traits.samplings)
+          how += (how.empty() ? " (sampling: " : ", ") + std::string(to_string(m));
+        how += ")";
+      }
+      print(p.name, p.description + how);
+    }
   } else if (what == "backends") {
     std::cout << "backends:\n";
     for (const auto& b : backends.all())

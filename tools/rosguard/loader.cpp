@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "core/error.h"
+#include "policy/rules.h"
 
 #if !defined(ROSGUARD_SOURCE_DIR) || !defined(ROSGUARD_DATA_FROM_BIN)
 #error "ROSGUARD_SOURCE_DIR and ROSGUARD_DATA_FROM_BIN (bin -> share/rosguard) must be defined"
@@ -208,15 +209,24 @@ std::vector<std::string> controller_sharing_warnings(const std::vector<LoadedPoi
 std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoint>& points) {
   struct Case {
     double traffic_mib = 0.0, reference = 0.0;
-    std::set<double> thresholds;
+    std::set<double> thresholds, budgets;  // threshold_pct, or budget_mbps where given
   };
   std::map<std::tuple<std::string, std::int64_t, std::int64_t>, Case> cases;
   for (const auto& lp : points) {
     const RegulationSpec& r = lp.scenario.regulation;
-    if (r.policy != "interval" || r.reference_mbps <= 0.0) continue;
-    const double budget_mib = r.threshold_pct / 100.0 * r.reference_mbps *
-                              static_cast<double>(r.regulation_period_us) / 1e6;
-    for (const auto& n : lp.scenario.nodes.nrt) {
+    // Periodic sampling against a budget per regulation period (not overflow sampling, which
+    // sees the crossing itself; not per-event budgets, which this estimate does not cover).
+    const PolicyInfo* info = find_builtin_policy(r.policy);
+    if (!info || !info->traits.throttles || !info->traits.periodic_windows ||
+        r.sampling == Sampling::Overflow || !r.event_budget_mbps.empty() || r.reference_mbps <= 0.0)
+      continue;
+    const auto& nodes = lp.scenario.nodes.nrt;
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const auto& n = nodes[i];
+      const double rate_mbps = r.budget_mbps.empty() ? r.threshold_pct / 100.0 * r.reference_mbps
+                               : r.budget_mbps.size() == 1 ? r.budget_mbps.front()
+                                                           : r.budget_mbps.at(i);
+      const double budget_mib = rate_mbps * static_cast<double>(r.regulation_period_us) / 1e6;
       const auto& ref = n.workload.doc.value("reference", nlohmann::json::object());
       if (!ref.contains("mbps") || !ref["mbps"].is_number()) continue;
       const double mbps = ref["mbps"].get<double>();
@@ -226,7 +236,10 @@ std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoi
           cases[{n.name + "' (" + n.workload.name, r.sampling_period_us, r.regulation_period_us}];
       c.traffic_mib = traffic_mib;
       c.reference = mbps;
-      c.thresholds.insert(r.threshold_pct);
+      if (r.budget_mbps.empty())
+        c.thresholds.insert(r.threshold_pct);
+      else
+        c.budgets.insert(rate_mbps);
     }
   }
   std::vector<std::string> warnings;
@@ -234,15 +247,20 @@ std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoi
     const auto& [node, sampling, regulation] = key;
     std::ostringstream t;
     std::size_t k = 0;
+    if (!c.thresholds.empty()) t << "threshold_pct ";
     for (double th : c.thresholds)
       t << (k++ ? ", " : "") << th;
+    if (!c.budgets.empty()) t << (k ? "; " : "") << "budget_mbps ";
+    k = 0;
+    for (double b : c.budgets)
+      t << (k++ ? ", " : "") << b;
     std::ostringstream w;
     w.precision(3);
     w << "budget below one sampling period's traffic: nRT node '" << node << ") uses about "
       << c.traffic_mib << " MiB per " << sampling << " us sample at its reference " << c.reference
-      << " MiB/s, more than the budget of a " << regulation
-      << " us regulation period at threshold_pct " << t.str()
-      << ": it is throttled at its first sample of every period, so these thresholds act "
+      << " MiB/s, more than the budget of a " << regulation << " us regulation period at "
+      << t.str()
+      << ": it is throttled at its first sample of every period, so these budgets act "
          "alike (a shorter sampling period or a longer regulation period lets them differ)";
     warnings.push_back(w.str());
   }
@@ -500,7 +518,14 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
 
 Scenario Loader::build_point(json document, const std::string& file) {
   const fs::path base = fs::path(file).parent_path();
+  // Before the schema's defaults: sampling and the periods default by policy (memguard samples
+  // by overflow with a 1 ms period), and only where this point does not set them.
+  std::vector<std::string> policy_defaults;
+  if (document.is_object() && document.contains("regulation"))
+    policy_defaults = apply_policy_defaults(document["regulation"]);
   schemas_.apply_defaults(document, SchemaKind::Scenario);
+  if (document.is_object() && document.contains("regulation"))  // "regulation" was absent
+    apply_policy_defaults(document["regulation"]);
   if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
     throw InputError(file, err->first, err->second);
   ResolvedRefs refs;
@@ -513,7 +538,9 @@ Scenario Loader::build_point(json document, const std::string& file) {
   for (std::size_t i = 0; i < nodes["nrt"].size(); ++i)
     refs.nrt_workloads.push_back(resolve_workload(nodes["nrt"][i]["workload"], base, file,
                                                   "/nodes/nrt/" + std::to_string(i) + "/workload"));
-  return build_scenario(document, std::move(refs), file);
+  Scenario s = build_scenario(document, std::move(refs), file);
+  s.regulation.policy_defaults = std::move(policy_defaults);
+  return s;
 }
 
 InputError Loader::attribute_to_sweep(const InputError& e, const SweepPoint& p,
@@ -593,6 +620,15 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
   for (const auto& key : out.sweep_keys)
     for (const auto& path : split_sweep_key(key))
       out.sweep_paths.push_back(path);
+  for (const auto& p : out.points)
+    for (const auto& d : p.scenario.regulation.policy_defaults) {
+      auto it = std::find_if(out.policy_defaults.begin(), out.policy_defaults.end(),
+                             [&](const auto& e) { return e.first == d; });
+      if (it == out.policy_defaults.end())
+        out.policy_defaults.emplace_back(d, 1);
+      else
+        ++it->second;
+    }
   for (auto& w : controller_sharing_warnings(out.points))
     out.warnings.push_back(std::move(w));
   for (auto& w : ineffective_budget_warnings(out.points))

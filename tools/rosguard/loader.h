@@ -54,6 +54,9 @@ struct LoadedScenario {
   std::vector<std::string> sweep_paths;  // every swept path, in key order
   std::vector<LoadedPoint> points;       // in order; with PointSelection::Sample maybe a subset
   std::vector<std::string> warnings;     // e.g. the controller shares a core with a node
+  // Keys a policy's own defaults filled in where points did not set them, each with how many
+  // points ("sampling = overflow (memguard's default)" -> 3), in first-seen order.
+  std::vector<std::pair<std::string, std::size_t>> policy_defaults;
   // For the manifest, when a point uses "platform": "host": per backend ("hw", "sim"), how the
   // host platform was made (the probe, the installed model's file). Null otherwise.
   nlohmann::json host_platform;

@@ -80,6 +80,11 @@ json describe_run(const LoadedScenario& loaded, const std::string& backend,
   m["host"] = host_facts();
   m["start_time"] = iso_time_now();
   m["warnings"] = loaded.warnings;
+  // Where a policy's own defaults (memguard: overflow sampling, 1 ms periods) filled in keys.
+  json defaults = json::array();
+  for (const auto& [what, points] : loaded.policy_defaults)
+    defaults.push_back({{"default", what}, {"points", points}});
+  m["policy_defaults"] = defaults;
   return m;
 }
 

@@ -186,8 +186,10 @@ int main(int argc, char** argv) {
   tune->add_flag("--quiet", tune_opt.quiet, "No progress on stderr");
   tune->footer(
       "The space: the scenario's swept regulation keys (policy, sampling, periods, ...); when it "
-      "sweeps none but the threshold, the policies that throttle x sampling self, external x "
-      "periods 100/1000, 500/2500, 1000/5000 us. Thresholds: --thresholds, else the swept "
+      "sweeps none but the threshold, the policies that throttle x each sampling mode they run "
+      "with "
+      "x periods 100/1000, 500/2500, 1000/5000 us and the policy's own default pair. Thresholds: "
+      "--thresholds, else the swept "
       "regulation.threshold_pct, else 1 .. 100 % (17 rungs). Other sweep keys are cases the "
       "setting must meet together. "
       "Per configuration the threshold is bisected (RT slowdown grows, nRT slowdown falls with "

@@ -41,8 +41,9 @@ double tolerance(double a, double b) {
 // The default space (a scenario that sweeps no regulation key but the threshold).
 const std::vector<double> kDefaultLadder = {1,  2,  3,  5,  7,  10, 15, 20, 25,
                                             30, 40, 50, 60, 70, 80, 90, 100};
-const std::vector<std::pair<int, int>> kDefaultPeriods = {{100, 1000}, {500, 2500}, {1000, 5000}};
-const std::vector<std::string> kDefaultSampling = {"self", "external"};
+// Sampling / regulation period pairs, and each policy's own default pair beside them.
+const std::vector<std::pair<std::int64_t, std::int64_t>> kDefaultPeriods = {
+    {100, 1000}, {500, 2500}, {1000, 5000}};
 
 const std::string kPolicy = "regulation.policy";
 const std::string kSampling = "regulation.sampling";
@@ -346,22 +347,27 @@ void Tuner::build_space() {
   const json& reg = src_.expanded["regulation"];
   const bool default_space = dims.empty();
   if (default_space) {
-    json pols = json::array();
-    for (const auto& p : policies_.all())
-      if (p.traits.regulates && p.traits.throttles) pols.push_back(json::array({p.name}));
-    json sampling = json::array();
-    for (const auto& s : kDefaultSampling)
-      sampling.push_back(json::array({s}));
-    json periods = json::array();
-    for (const auto& [sp, rp] : kDefaultPeriods)
-      periods.push_back(json::array({sp, rp}));
-    dims = {{{kPolicy}, pols},
-            {{kSampling}, sampling},
-            {{kSamplingPeriod, kRegulationPeriod}, periods}};
+    // Every policy that throttles, with each sampling mode its traits say it runs with, at the
+    // default period pairs and at its own default pair (e.g. MemPol's microsecond polling).
+    json tuples = json::array();
+    for (const auto& p : policies_.all()) {
+      if (!p.traits.regulates || !p.traits.throttles) continue;
+      auto periods = kDefaultPeriods;
+      const auto own = std::make_pair(p.traits.default_sampling_period_us,
+                                      p.traits.default_regulation_period_us);
+      if (own.first > 0 && own.second > 0 &&
+          std::find(periods.begin(), periods.end(), own) == periods.end())
+        periods.push_back(own);
+      for (Sampling s : p.traits.samplings)
+        for (const auto& [sp, rp] : periods)
+          tuples.push_back(json::array({p.name, std::string(to_string(s)), sp, rp}));
+    }
+    dims = {{{kPolicy, kSampling, kSamplingPeriod, kRegulationPeriod}, tuples}};
     note(
         "the scenario sweeps no regulation key but the threshold: the default space is "
-        "searched (the registered policies that throttle x sampling self, external x "
-        "sampling / regulation periods 100/1000, 500/2500, 1000/5000 us)");
+        "searched (every registered policy that throttles x each sampling mode it runs with x "
+        "sampling / regulation periods 100/1000, 500/2500, 1000/5000 us and the policy's own "
+        "default pair)");
   }
   config_paths_ = {kPolicy, kSampling, kSamplingPeriod, kRegulationPeriod};
   for (const auto& [paths, tuples] : dims)

@@ -310,8 +310,11 @@ fs::path results_folder(const RunOptions& opt, const LoadedScenario& loaded) {
 }
 
 int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& backends) {
-  // 1. Load and validate everything; errors here are InputErrors and nothing is written.
-  LoadedScenario loaded = loader.load(opt.scenario_file, opt.backend);
+  // 1. Load and validate everything; errors here are InputErrors and nothing is written. The
+  // task host (process-per-task backends) is forked before the points are built: it stays small.
+  LoadedScenario loaded = loader.load_base(opt.scenario_file, opt.backend);
+  const std::unique_ptr<TaskHost> host = start_task_host(loader, loaded, backends, opt.trace);
+  loader.load_points(loaded);
   std::unique_ptr<Backend> backend = make_backend(loaded, backends);
   const Scenario& first = loaded.points.front().scenario;
   std::map<std::string, std::size_t> order;
@@ -336,7 +339,8 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
       std::cerr << "resume: " << plan.skipped << " run(s) already in "
                 << store.points_path().string() << ", skipped\n";
     RunState st{&loaded, backend.get(), opened.baselines, opt.trace};
-    auto exec = make_executor(st, backend->process_per_task(), worker_count(opt, *backend));
+    auto exec =
+        make_executor(st, backend->process_per_task(), worker_count(opt, *backend), host.get());
     StopSignalGuard signals;
     Progress progress(plan.runs, !opt.quiet);
     TaskRunner runner(loaded, *exec, progress, report, opened.fallbacks);

@@ -1,13 +1,26 @@
 // The tasks of a run and the pool that runs them.
 //
 // A task is one isolation baseline or one point x repetition. A backend that needs a process
-// per task (sim: SystemC elaborates once per process) gets a ForkExecutor: up to `jobs` forked
-// workers, each running one task and sending its TaskResult back as JSON over a pipe, then
-// leaving with _exit (no parent destructors run in the child). Other backends (hw: one point at
-// a time on the machine) run tasks in this process. Only the runner's thread calls an Executor.
+// per task (sim: SystemC elaborates once per process) runs each task in a worker forked by a
+// task host: a process the runner forks before it builds the sweep's points (Loader::load_base,
+// then load_points), so that it stays small and each fork copies little (forking the runner
+// itself, which holds every point of a 10,000-point sweep, made copy_page_range the largest
+// part of the runner's CPU time). The runner sends each task to the host over a Unix socket
+// with the write end of a pipe; the host forks a worker, which builds its task's point again
+// (Loader::point, from the same scenario text the runner checked) and sends its TaskResult as
+// JSON through the pipe straight to the runner, then leaves with _exit. The host reaps the
+// workers and reports each exit status. Other backends (hw: one point at a time on the
+// machine) run tasks in this process. Only the runner's thread calls an Executor.
+//
+// Containment: the host and every worker die with their parent (PR_SET_PDEATHSIG: SIGKILL), the
+// host ignores SIGINT / SIGTERM (the runner decides: it asks the host to stop its workers with
+// SIGTERM), and workers take the default handlers back (a terminal's Ctrl-C reaches them).
 #pragma once
 
+#include <sys/types.h>
+
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -17,6 +30,7 @@
 
 #include "backend/backend.h"
 #include "loader.h"
+#include "scenario/scenario.h"
 
 namespace rosguard {
 
@@ -53,6 +67,40 @@ std::string point_label(const SweepPoint& point, int rep);
 
 // Runs one task on the backend; every error becomes a TaskResult (never throws).
 TaskResult execute(const Task& task, const RunState& state);
+// The same for a point `lp` built in this process: an isolation task without its `workload`
+// finds it among the point's nodes by `iso_key` and `core`.
+TaskResult execute(const Task& task, const LoadedPoint& lp, Backend& backend,
+                   const Baselines& baselines, bool trace);
+
+// What a worker of a task host runs: the task (its `workload` is null: pointers do not cross
+// processes) with the baselines the runner had when it sent the task.
+using TaskFunction = std::function<TaskResult(const Task& task, const Baselines& baselines)>;
+
+// The task host process (see the top of this file). Forked by the constructor, which returns
+// in the runner; the host runs `warm_up` once (e.g. reading the platform and workload files
+// every worker needs), then forks a worker per task that calls `run`. The destructor closes
+// the socket: the host stops its workers (SIGTERM), reaps them and exits; it is reaped here.
+class TaskHost {
+ public:
+  TaskHost(std::function<void()> warm_up, TaskFunction run);
+  ~TaskHost();
+  TaskHost(const TaskHost&) = delete;
+  TaskHost& operator=(const TaskHost&) = delete;
+
+  int socket() const { return sock_; }
+  pid_t pid() const { return pid_; }
+
+ private:
+  pid_t pid_ = -1;
+  int sock_ = -1;
+};
+
+// A task host for `base` (from Loader::load_base: no point built yet) when its backend needs a
+// process per task, else null (also when the backend is not built in: the runner says so
+// later). Each worker builds its task's point with `loader` (Loader::point, without checking
+// the schema again: the runner checks every point) and runs it on a backend the host makes.
+std::unique_ptr<TaskHost> start_task_host(Loader& loader, const LoadedScenario& base,
+                                          const BackendRegistry& backends, bool trace);
 
 class Executor {
  public:
@@ -67,7 +115,9 @@ class Executor {
   virtual void stop_all() = 0;
 };
 
-// A ForkExecutor with max(1, jobs) workers when `process_per_task`, else in-process.
-std::unique_ptr<Executor> make_executor(const RunState& state, bool process_per_task, int jobs);
+// Up to max(1, jobs) workers at a time through `host` when `process_per_task` (a host is then
+// required: ContractError without one), else one task at a time in this process.
+std::unique_ptr<Executor> make_executor(const RunState& state, bool process_per_task, int jobs,
+                                        TaskHost* host = nullptr);
 
 }  // namespace rosguard

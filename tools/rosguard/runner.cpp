@@ -230,7 +230,6 @@ class TaskRunner {
 // measured so far (the rows are refreshed with all of them when the run finishes).
 void run_tasks(const TaskPlan& plan, RunState& st, const ResultsStore& store, TaskRunner& runner,
                InvocationReport& report, json& trace_events) {
-  const std::vector<std::string> header = header_of(*st.loaded);
   for (const auto& phase : plan.phases) {
     bool measured = false;
     runner.run(phase, [&](const Task& t, const TaskResult& r) {
@@ -240,8 +239,8 @@ void run_tasks(const TaskPlan& plan, RunState& st, const ResultsStore& store, Ta
         return;
       }
       const LoadedPoint& lp = st.loaded->points[t.point];
-      store.append_run(samples_rows(lp.sweep.id, t.rep, r.outcome),
-                       points_row(header, lp.sweep, lp.scenario, t.rep, r.outcome, st.baselines));
+      const auto [samples, row] = run_rows(r, lp, t.rep, st);
+      store.append_run(samples, row);
       ++report.rows;
       for (const auto& e : r.trace)
         trace_events.push_back(e);
@@ -338,7 +337,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     if (plan.skipped > 0 && !opt.quiet)
       std::cerr << "resume: " << plan.skipped << " run(s) already in "
                 << store.points_path().string() << ", skipped\n";
-    RunState st{&loaded, backend.get(), opened.baselines, opt.trace};
+    RunState st{&loaded, backend.get(), opened.baselines, opt.trace, header_of(loaded)};
     auto exec =
         make_executor(st, backend->process_per_task(), worker_count(opt, *backend), host.get());
     StopSignalGuard signals;

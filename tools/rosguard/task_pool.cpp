@@ -20,6 +20,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "results/results.h"
 #include "results_store.h"
 #include "stop_signal.h"
 #include "trace_writer.h"
@@ -51,6 +52,10 @@ json to_json(const TaskResult& r) {
   j["fallbacks"] = r.fallbacks;
   j["facts"] = r.facts;
   j["trace"] = r.trace;
+  if (r.rows_made) {
+    j["samples_csv"] = r.samples_csv;
+    j["row_csv"] = r.row_csv;
+  }
   return j;
 }
 
@@ -72,6 +77,11 @@ TaskResult from_json(const json& j) {
   r.fallbacks = j.at("fallbacks").get<std::vector<std::pair<std::string, std::string>>>();
   r.facts = j.at("facts").get<std::map<std::string, std::string>>();
   r.trace = j.at("trace");
+  if (const auto it = j.find("samples_csv"); it != j.end()) {
+    r.rows_made = true;
+    r.samples_csv = it->get<std::string>();
+    r.row_csv = j.at("row_csv").get<std::string>();
+  }
   return r;
 }
 
@@ -127,13 +137,14 @@ void waitpid_retrying(pid_t pid, int& status) {
 // ---------------------------------------------------------------------------------------------
 // Task host protocol: frames on a Unix stream socket, a Frame then `size` bytes of payload.
 //   runner -> host: Task (payload: the task as JSON; the pipe's write end as SCM_RIGHTS),
-//                   Baselines (payload: baselines_to_json), Stop (SIGTERM to every worker).
+//                   Baselines (payload: baselines_to_json), Header (payload: points.csv's
+//                   columns, as a JSON list), Stop (SIGTERM to every worker).
 //   host -> runner: Exit (`value`: the worker's wait status), Failed (payload: why the host
 //                   could not start it; its pipe is closed).
 // `seq` numbers the runner's tasks (never reused within a run).
 
 struct Frame {
-  enum Type : std::uint32_t { Task = 1, Baselines, Stop, Exit, Failed } type;
+  enum Type : std::uint32_t { Task = 1, Baselines, Header, Stop, Exit, Failed } type;
   std::uint32_t size;
   std::uint64_t seq;
   std::int64_t value;
@@ -272,9 +283,11 @@ bool write_all(int fd, const std::string& payload) {
 // In a worker (forked by the host): default signal handling back, nothing of the host's kept
 // open but its own pipe, run the task, send the result, leave without destructors.
 [[noreturn]] void worker_main(int result_fd, const Task& task, const Baselines& baselines,
-                              const TaskFunction& run, pid_t host) {
+                              const std::vector<std::string>& header, const TaskFunction& run,
+                              pid_t host) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (::getppid() != host) ::_exit(4);
+  ::prctl(PR_SET_NAME, "rosguard-task");
   for (int sig : {SIGINT, SIGTERM, SIGPIPE, SIGCHLD})
     ::signal(sig, SIG_DFL);
   sigset_t none;
@@ -282,7 +295,7 @@ bool write_all(int fd, const std::string& payload) {
   ::sigprocmask(SIG_SETMASK, &none, nullptr);
   std::string payload;
   try {
-    payload = to_json(run(task, baselines)).dump();
+    payload = to_json(run(task, baselines, header)).dump();
   } catch (const std::exception& e) {
     TaskResult r;
     r.error = e.what();
@@ -313,6 +326,7 @@ bool write_all(int fd, const std::string& payload) {
   const pid_t self = ::getpid();
   FrameReader reader(sock);
   Baselines baselines;
+  std::vector<std::string> header;
   std::map<pid_t, std::uint64_t> workers;  // pid -> seq
   bool open = true;
   const auto reap = [&](bool block) {
@@ -349,9 +363,12 @@ bool write_all(int fd, const std::string& payload) {
       const auto& [f, payload] = *frame;
       if (f.type == Frame::Stop) {
         stop_workers();
-      } else if (f.type == Frame::Baselines) {
+      } else if (f.type == Frame::Baselines || f.type == Frame::Header) {
         try {
-          baselines = baselines_from_json(json::parse(payload));
+          if (f.type == Frame::Baselines)
+            baselines = baselines_from_json(json::parse(payload));
+          else
+            header = json::parse(payload).get<std::vector<std::string>>();
         } catch (const std::exception&) {
           ::_exit(6);  // the runner sees the socket close
         }
@@ -370,7 +387,7 @@ bool write_all(int fd, const std::string& payload) {
           ::close(sfd);
           for (int other : reader.fds())
             ::close(other);
-          worker_main(fd, task, baselines, run, self);
+          worker_main(fd, task, baselines, header, run, self);
         }
         if (fd >= 0) ::close(fd);
         if (pid > 0) {
@@ -403,6 +420,13 @@ class HostExecutor : public Executor {
 
   void submit(std::size_t id, const Task& task) override {
     if (host_gone_) throw RunError("the task host process exited (" + host_error() + ")");
+    if (!header_sent_) {
+      if (!send_frame(host_.socket(), {Frame::Header, 0, 0, 0}, json(st_.header).dump())) {
+        host_gone_ = true;
+        throw RunError("the task host process exited (" + host_error() + ")");
+      }
+      header_sent_ = true;
+    }
     send_baselines();
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0) fail_errno("pipe");
@@ -582,9 +606,17 @@ class HostExecutor : public Executor {
   std::map<std::uint64_t, int> exits_;             // seq -> wait status
   std::map<std::uint64_t, std::string> failures_;  // seq -> why it did not start
   bool host_gone_ = false;
+  bool header_sent_ = false;
 };
 
 }  // namespace
+
+std::pair<std::string, std::string> run_rows(const TaskResult& r, const LoadedPoint& lp, int rep,
+                                             const RunState& st) {
+  if (r.rows_made) return {r.samples_csv, r.row_csv};
+  return {samples_rows(lp.sweep.id, rep, r.outcome),
+          points_row(st.header, lp.sweep, lp.scenario, rep, r.outcome, st.baselines)};
+}
 
 std::string point_label(const SweepPoint& p, int rep) {
   std::string s = "point " + p.id + " rep " + std::to_string(rep);
@@ -685,9 +717,17 @@ std::unique_ptr<TaskHost> start_task_host(Loader& loader, const LoadedScenario& 
     for (const std::uint64_t i : indexes)
       loader.point(base, i, true);
   };
-  const auto run = [&loader, &base, backend, trace](const Task& task, const Baselines& b) {
+  const auto run = [&loader, &base, backend, trace](const Task& task, const Baselines& b,
+                                                    const std::vector<std::string>& header) {
     const LoadedPoint lp = loader.point(base, task.point, true);
-    return execute(task, lp, **backend, b, trace);
+    TaskResult r = execute(task, lp, **backend, b, trace);
+    if (r.ok && task.kind == Task::Kind::Point && !header.empty()) {  // here, in parallel
+      r.samples_csv = samples_rows(lp.sweep.id, task.rep, r.outcome);
+      r.row_csv = points_row(header, lp.sweep, lp.scenario, task.rep, r.outcome, b);
+      r.rows_made = true;
+      r.outcome = {};
+    }
+    return r;
   };
   return std::make_unique<TaskHost>(warm_up, run);
 }

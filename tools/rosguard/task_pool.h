@@ -52,6 +52,12 @@ struct TaskResult {
   std::vector<std::pair<std::string, std::string>> fallbacks;  // (what, detail)
   std::map<std::string, std::string> facts;
   nlohmann::json trace = nlohmann::json::array();  // Chrome trace events with --trace
+  // A point run in a worker process: its samples.csv lines and its points.csv row, made there
+  // (samples_rows, points_row with RunState::header and the baselines the worker had: the
+  // runner then only appends them), and `outcome` left empty.
+  bool rows_made = false;
+  std::string samples_csv;
+  std::string row_csv;
 };
 
 // What every task reads; the runner fills `baselines` before the point tasks start.
@@ -60,7 +66,13 @@ struct RunState {
   Backend* backend = nullptr;
   Baselines baselines;
   bool trace = false;
+  std::vector<std::string> header;  // points.csv's columns
 };
+
+// A point run's samples.csv lines and points.csv row: as its worker made them, else from its
+// outcome (samples_rows, points_row with `state`'s header and baselines).
+std::pair<std::string, std::string> run_rows(const TaskResult& result, const LoadedPoint& point,
+                                             int rep, const RunState& state);
 
 // "point ID rep R (path=value, ...)": how progress and errors name a run.
 std::string point_label(const SweepPoint& point, int rep);
@@ -73,8 +85,9 @@ TaskResult execute(const Task& task, const LoadedPoint& lp, Backend& backend,
                    const Baselines& baselines, bool trace);
 
 // What a worker of a task host runs: the task (its `workload` is null: pointers do not cross
-// processes) with the baselines the runner had when it sent the task.
-using TaskFunction = std::function<TaskResult(const Task& task, const Baselines& baselines)>;
+// processes) with the baselines the runner had when it sent the task and points.csv's header.
+using TaskFunction = std::function<TaskResult(const Task& task, const Baselines& baselines,
+                                              const std::vector<std::string>& header)>;
 
 // The task host process (see the top of this file). Forked by the constructor, which returns
 // in the runner; the host runs `warm_up` once (e.g. reading the platform and workload files

@@ -226,25 +226,52 @@ class TaskRunner {
 };
 
 // The phases in order; after each phase of baselines they are saved (for resumed runs and other
-// shards); each point run's samples and row are appended as it finishes, with the baselines
-// measured so far (the rows are refreshed with all of them when the run finishes).
+// shards); each point run's samples and row are appended once it and every run before it in
+// the phase have finished (the few that finish early wait, at most kHeldRuns of them: appended
+// in order, the files need no rewrite when the run ends), with the baselines measured so far
+// (the rows are refreshed with all of them when the run finishes).
 void run_tasks(const TaskPlan& plan, RunState& st, const ResultsStore& store, TaskRunner& runner,
                InvocationReport& report, json& trace_events) {
+  constexpr std::size_t kHeldRuns = 256;
   for (const auto& phase : plan.phases) {
     bool measured = false;
+    std::map<std::size_t, std::pair<std::string, std::string>> held;  // by position in phase
+    std::size_t next = 0;  // position of the next run to append
+    std::vector<bool> done(phase.size(), false);
+    const auto append = [&](const std::pair<std::string, std::string>& rows) {
+      store.append_run(rows.first, rows.second);
+      ++report.rows;
+    };
+    const auto flush_ready = [&] {
+      while (next < phase.size() && done[next]) {
+        if (const auto it = held.find(next); it != held.end()) {
+          append(it->second);
+          held.erase(it);
+        }
+        ++next;
+      }
+    };
     runner.run(phase, [&](const Task& t, const TaskResult& r) {
+      const auto position = static_cast<std::size_t>(&t - phase.data());
+      done[position] = true;
       if (t.kind == Task::Kind::Isolation) {
         st.baselines.put(t.iso_key, r.iso, t.rep);
         measured = true;
-        return;
+      } else {
+        const LoadedPoint& lp = st.loaded->points[t.point];
+        held.emplace(position, run_rows(r, lp, t.rep, st));
+        for (const auto& e : r.trace)
+          trace_events.push_back(e);
       }
-      const LoadedPoint& lp = st.loaded->points[t.point];
-      const auto [samples, row] = run_rows(r, lp, t.rep, st);
-      store.append_run(samples, row);
-      ++report.rows;
-      for (const auto& e : r.trace)
-        trace_events.push_back(e);
+      flush_ready();
+      if (held.size() > kHeldRuns) {  // a slow run holds back too many: append them now
+        for (const auto& [pos, rows] : held)
+          append(rows);
+        held.clear();
+      }
     });
+    for (const auto& [pos, rows] : held)  // behind a failed or stopped run: kept all the same
+      append(rows);
     if (measured) store.save_baselines(st.baselines);
     if (!runner.failure().empty() || stop_signal()) return;
   }

@@ -81,8 +81,9 @@ bench: build
 	$(BUILD)/tests/bench/rosguard_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 	tests/bench/time_sweep.sh $(BUILD) 5 $(JOBS)
 
-# Parallel efficiency on scenarios/bench/sweep-10k.json (10,000 points; long: about
-# 2 x 5 whole sweeps): --jobs 1 against --jobs $(JOBS).
+# Parallel efficiency on scenarios/bench/sweep-10k.json (10,000 points; long: 2 x 5 whole
+# sweeps, alternating): --jobs 1 against --jobs $(JOBS). Take it on a quiet machine (it says
+# when the load average was above 0.5).
 bench-parallel: build
 	tests/bench/parallel_efficiency.sh $(BUILD) 5 $(JOBS)
 

@@ -7,6 +7,7 @@
 #include <initializer_list>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <utility>
 
 namespace rosguard {
@@ -15,7 +16,7 @@ class SharedJson {
  public:
   SharedJson() : doc_(empty()) {}
   SharedJson(nlohmann::json doc)  // NOLINT(google-explicit-constructor): a json is one
-      : doc_(std::make_shared<const nlohmann::json>(std::move(doc))) {}
+      : doc_(std::make_shared<const nlohmann::json>(std::move(doc))), text_(compact(*doc_)) {}
 
   // As json's own: {{"key", value}, ...} builds an object.
   SharedJson(std::initializer_list<nlohmann::detail::json_ref<nlohmann::json>> init)
@@ -42,7 +43,11 @@ class SharedJson {
     return doc_->value(std::forward<K>(key), std::forward<V>(fallback));
   }
   auto items() const { return doc_->items(); }
-  std::string dump(int indent = -1) const { return doc_->dump(indent); }
+  // dump() without indent is made once, when the document is (Baselines::key hashes the
+  // platform's and the workload's for every row of a run).
+  std::string dump(int indent = -1) const {
+    return indent == -1 && text_ ? *text_ : doc_->dump(indent);
+  }
 
   friend bool operator==(const SharedJson& a, const SharedJson& b) {
     return a.doc_ == b.doc_ || *a.doc_ == *b.doc_;
@@ -54,7 +59,16 @@ class SharedJson {
     static const auto e = std::make_shared<const nlohmann::json>();
     return e;
   }
+  // Null when dump() throws (a string that is not UTF-8): dump() then throws as json's does.
+  static std::shared_ptr<const std::string> compact(const nlohmann::json& doc) {
+    try {
+      return std::make_shared<const std::string>(doc.dump());
+    } catch (const nlohmann::json::exception&) {
+      return nullptr;
+    }
+  }
   std::shared_ptr<const nlohmann::json> doc_;
+  std::shared_ptr<const std::string> text_;  // doc_->dump(); null: made on each call
 };
 
 }  // namespace rosguard

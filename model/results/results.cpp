@@ -265,15 +265,18 @@ std::optional<std::string> refresh_isolation_cells(const std::vector<std::string
     for (const auto& [column, value] : fresh)
       if (cell.count(column)) cell[column] = value;
   };
+  // Each key once (it hashes the platform's and the workload's documents).
   for (std::size_t i = 0; i < s.nodes.rt.size(); ++i) {
     const RtNodeSpec& n = s.nodes.rt[i];
-    if (!b.all().count(Baselines::key(s, n.workload, n.core))) return std::nullopt;
-    refresh(prefix_of("rt", i), i == 0, b.runs(s, n.workload, n.core));
+    const auto it = b.all().find(Baselines::key(s, n.workload, n.core));
+    if (it == b.all().end()) return std::nullopt;
+    refresh(prefix_of("rt", i), i == 0, it->second);
   }
   for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i) {
     const NrtNodeSpec& n = s.nodes.nrt[i];
-    if (!b.all().count(Baselines::key(s, n.workload, n.core))) return std::nullopt;
-    refresh(prefix_of("nrt", i), i == 0, b.runs(s, n.workload, n.core));
+    const auto it = b.all().find(Baselines::key(s, n.workload, n.core));
+    if (it == b.all().end()) return std::nullopt;
+    refresh(prefix_of("nrt", i), i == 0, it->second);
   }
   if (!changed) return std::nullopt;
   return join_cells(header, cell);

@@ -90,6 +90,53 @@ kill9)
   cmp "$tmp/ref/samples.csv" "$tmp/k/samples.csv" || fail "resumed samples.csv differs"
   [[ $(status "$tmp/k") == complete ]] || fail "manifest after resume should say complete"
   ;;
+containment)
+  # Sim tasks run in workers forked by a task host (tools/rosguard/task_pool.h). A worker that
+  # dies by a signal fails the run with that signal named; the runner killed alone (SIGKILL, not
+  # its group) takes the host and its workers with it; a run that ends leaves no process behind.
+  alive() { [[ -e /proc/$1 ]] && [[ $(awk '{print $3}' "/proc/$1/stat" 2>/dev/null) != Z ]]; }
+  host_and_workers() {  # of runner $1: "HOST WORKER..." once the host has $2 workers
+    for _ in $(seq 300); do
+      local host
+      host=$(pgrep -P "$1" | head -1)
+      if [[ -n $host && $(pgrep -P "$host" | wc -l) -ge $2 ]]; then
+        echo "$host" $(pgrep -P "$host")
+        return 0
+      fi
+      sleep 0.1
+    done
+    fail "runner $1 has no task host with $2 workers after 30 s"
+  }
+  ROSGUARD_FAKE_SLEEP_MS=3000 "$bin" run $scenario --out "$tmp/seg" --jobs 2 --quiet 2>"$tmp/err" &
+  pid=$!
+  procs=($(host_and_workers $pid 2))
+  kill -SEGV "${procs[1]}"
+  wait $pid
+  rc=$?
+  [[ $rc -eq 1 ]] || fail "exit $rc after a worker died of SIGSEGV, expected 1"
+  grep -q "worker process died with signal 11" "$tmp/err" || fail "no signal named: $(cat "$tmp/err")"
+  for p in "${procs[@]}"; do alive "$p" && fail "process $p outlived the failed run"; done
+
+  ROSGUARD_FAKE_SLEEP_MS=3000 "$bin" run $scenario --out "$tmp/k" --jobs 2 --quiet &
+  pid=$!
+  procs=($(host_and_workers $pid 2))
+  kill -9 $pid
+  wait $pid 2>/dev/null
+  for _ in $(seq 50); do
+    left=0
+    for p in "${procs[@]}"; do alive "$p" && left=1; done
+    [[ $left -eq 0 ]] && break
+    sleep 0.1
+  done
+  [[ $left -eq 0 ]] || fail "the task host or a worker outlived the runner killed with SIGKILL"
+
+  "$bin" run $scenario --out "$tmp/ok" --jobs 2 --quiet &
+  pid=$!
+  host=$(pgrep -P $pid | head -1)
+  wait $pid || fail "a plain run failed"
+  [[ -z $host ]] || ! alive "$host" || fail "the task host outlived its run"
+  [[ $(rows "$tmp/ok") -eq 24 ]] || fail "expected 24 rows, got $(rows "$tmp/ok")"
+  ;;
 sigint)
   # SIGINT stops an in-process (hw-like) run: exit 130, complete rows, status interrupted.
   for backend in hw sim; do
@@ -265,7 +312,9 @@ for k in ["tool", "host", "scenario", "platform", "backend", "seed", "start_time
           "fallbacks", "counts", "scenario_hash"]:
     assert k in m, k
 assert m["tool"]["git_revision"], m["tool"]
-assert m["scenario"]["expanded"]["regulation"]["sampling"] == "self"  # a schema default
+assert m["scenario"]["expanded"]["regulation"]["scope"] == "core"  # a schema default
+# sampling defaults by policy, per point (policy_defaults): the expanded base leaves it unset
+assert "sampling" not in m["scenario"]["expanded"]["regulation"]
 assert len(m["scenario"]["points"]) == 12
 assert m["counts"]["rows"] == 24 and m["status"] == "complete"
 PY

@@ -1,31 +1,75 @@
 #!/usr/bin/env bash
 # Parallel efficiency of `rosguard run` on the sim backend: wall time of a whole sweep at
 # --jobs 1 and --jobs N, median over repeats, points per second and efficiency
-# T(1) / (N x T(N)). Not a test: nothing is asserted (the machine may be shared).
+# T(1) / (N x T(N)). Not a test: nothing is asserted about the times (the machine may be
+# shared), but every run must succeed, write every row, and give the same points.csv and
+# samples.csv at --jobs 1 and --jobs N.
 # Usage: tests/bench/parallel_efficiency.sh [BUILD_DIR] [REPEATS] [N] [SCENARIO] [SHARD]
-#   defaults: build 5 2 scenarios/bench/sweep-10k.json (SHARD, e.g. 0/10, times a tenth)
+#   defaults: build 5 2 scenarios/bench/sweep-10k.json 0/1 (SHARD 0/10 times a tenth; the whole
+#   scenario is still loaded and checked, so a shard's efficiency is lower than the sweep's)
+# The runs at --jobs 1 and --jobs N alternate, so that a change in the machine's load hits both.
+# Each run's line has its wall time, the CPU time of all its processes (runner, task host,
+# workers: /usr/bin/time) and the 1-minute load average when it started; a load above 0.5
+# means the machine was not quiet and is said at the end.
 set -euo pipefail
 build=${1:-build}
 repeats=${2:-5}
 jobs=${3:-2}
 scenario=${4:-scenarios/bench/sweep-10k.json}
 shard=${5:-0/1}
+exe="$build/rosguard"
+[[ -x $exe ]] || { echo "error: $exe not found (build first: make build)" >&2; exit 2; }
+[[ -f $scenario ]] || { echo "error: $scenario not found" >&2; exit 2; }
+[[ $repeats -ge 1 && $jobs -ge 2 ]] || { echo "error: REPEATS >= 1 and N >= 2" >&2; exit 2; }
+timer=()
+[[ -x /usr/bin/time ]] && timer=(/usr/bin/time -f '%U %S' -o)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 median_of() { sort -g | awk '{a[NR]=$1} END {print (NR % 2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
+load1() { cut -d' ' -f1 /proc/loadavg; }
+declare -A walls cpus
+max_load=0
+echo "$scenario --shard $shard: $repeats runs each at --jobs 1 and --jobs $jobs, alternating" \
+  "($(nproc) CPUs)"
+for ((i = 0; i < repeats; i++)); do
+  for j in 1 "$jobs"; do
+    load=$(load1)
+    max_load=$(echo "if ($load > $max_load) $load else $max_load" | bc -l)
+    start=$(date +%s.%N)
+    if [[ ${#timer[@]} -gt 0 ]]; then
+      "${timer[@]}" "$tmp/cpu" "$exe" run "$scenario" --out "$tmp/out$j" --overwrite --quiet \
+        --jobs "$j" --shard "$shard"
+    else
+      "$exe" run "$scenario" --out "$tmp/out$j" --overwrite --quiet --jobs "$j" --shard "$shard"
+    fi
+    end=$(date +%s.%N)
+    wall=$(echo "$end - $start" | bc -l)
+    cpu=nan
+    [[ ${#timer[@]} -gt 0 ]] && cpu=$(awk '{print $1 + $2}' "$tmp/cpu")
+    walls[$j]+="$wall "
+    cpus[$j]+="$cpu "
+    printf '  run %d --jobs %-3s wall %8.2f s  cpu %8.2f s  (load %s at start)\n' "$i" "$j" \
+      "$wall" "$cpu" "$load"
+  done
+  rows1=$(($(wc -l <"$tmp/out1/points.csv") - 1))
+  rowsn=$(($(wc -l <"$tmp/out$jobs/points.csv") - 1))
+  [[ $rows1 -gt 0 && $rows1 -eq $rowsn ]] || { echo "error: $rows1 rows at --jobs 1, $rowsn at --jobs $jobs" >&2; exit 1; }
+  for f in points.csv samples.csv; do
+    cmp -s "$tmp/out1/$f" "$tmp/out$jobs/$f" ||
+      { echo "error: $f differs between --jobs 1 and --jobs $jobs" >&2; exit 1; }
+  done
+done
 declare -A median
 for j in 1 "$jobs"; do
-  times=()
-  for ((i = 0; i < repeats; i++)); do
-    start=$(date +%s.%N)
-    "$build/rosguard" run "$scenario" --out "$tmp/out" --overwrite --quiet --jobs "$j" --shard "$shard"
-    end=$(date +%s.%N)
-    times+=("$(echo "$end - $start" | bc -l)")
-  done
-  median[$j]=$(printf '%s\n' "${times[@]}" | median_of)
-  rows=$(($(wc -l <"$tmp/out/points.csv") - 1))
-  printf '%s --jobs %-3s %6d runs  median %8.2f s  %8.1f runs/s  (%s)\n' "$scenario" "$j" "$rows" \
-    "${median[$j]}" "$(echo "$rows / ${median[$j]}" | bc -l)" "$(printf '%s ' "${times[@]}")"
+  median[$j]=$(tr ' ' '\n' <<<"${walls[$j]}" | grep . | median_of)
+  cpu=$(tr ' ' '\n' <<<"${cpus[$j]}" | grep . | median_of)
+  printf '%s --jobs %-3s %6d runs  median %8.2f s  %8.1f runs/s  cpu %8.2f s  (%s)\n' \
+    "$scenario" "$j" "$rows1" "${median[$j]}" "$(echo "$rows1 / ${median[$j]}" | bc -l)" "$cpu" \
+    "${walls[$j]% }"
 done
 printf 'parallel efficiency at --jobs %s: %.1f %%\n' "$jobs" \
   "$(echo "100 * ${median[1]} / ($jobs * ${median[$jobs]})" | bc -l)"
+if (($(echo "$max_load > 0.5" | bc -l))); then
+  echo "note: the 1-minute load average reached $max_load before a run: the machine was not" \
+    "quiet, so these wall times (and the efficiency) are not the tool's alone"
+fi

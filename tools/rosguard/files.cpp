@@ -61,23 +61,62 @@ void write_file_atomic(const fs::path& path, const std::string& content) {
 }
 
 std::string read_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail("cannot read", path);
-  std::stringstream buf;
-  buf << in.rdbuf();
-  return buf.str();
+  // read(2) into a string of the file's size (a results file may be hundreds of MB: a
+  // stringstream copied it twice and grew it step by step).
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) fail("cannot read", path);
+  struct stat st {};
+  std::string text;
+  if (::fstat(fd, &st) == 0 && st.st_size > 0) text.reserve(static_cast<std::size_t>(st.st_size));
+  char buf[1 << 16];
+  while (true) {
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      ::close(fd);
+      fail("cannot read", path);
+    }
+    if (n == 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+  }
+  ::close(fd);
+  return text;
 }
 
 std::size_t truncate_torn_tail(const fs::path& path) {
+  // Only the tail is read: back from the end, a block at a time, to the last '\n'.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return 0;
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    ::close(fd);
+    fail("cannot read", path);
+  }
+  const auto size = static_cast<std::uint64_t>(st.st_size);
+  std::uint64_t keep = 0;  // bytes up to and including the last '\n'
+  char buf[1 << 16];
+  for (std::uint64_t end = size; end > 0;) {
+    const std::uint64_t begin = end > sizeof buf ? end - sizeof buf : 0;
+    const ssize_t n =
+        ::pread(fd, buf, static_cast<std::size_t>(end - begin), static_cast<off_t>(begin));
+    if (n < 0 && errno == EINTR) continue;
+    if (n != static_cast<ssize_t>(end - begin)) {
+      ::close(fd);
+      fail("cannot read", path);
+    }
+    const void* nl = ::memrchr(buf, '\n', static_cast<std::size_t>(n));
+    if (nl) {
+      keep = begin + static_cast<std::uint64_t>(static_cast<const char*>(nl) - buf) + 1;
+      break;
+    }
+    end = begin;
+  }
+  ::close(fd);
+  if (keep == size) return 0;
   std::error_code ec;
-  if (!fs::exists(path, ec)) return 0;
-  const std::string text = read_file(path);
-  const auto last = text.rfind('\n');
-  const std::size_t keep = last == std::string::npos ? 0 : last + 1;
-  if (keep == text.size()) return 0;
   fs::resize_file(path, keep, ec);
   if (ec) throw RunError("cannot truncate " + path.string() + ": " + ec.message());
-  return text.size() - keep;
+  return static_cast<std::size_t>(size - keep);
 }
 
 std::vector<std::string> split_lines(const std::string& text) {

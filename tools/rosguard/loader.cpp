@@ -269,6 +269,16 @@ std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoi
 
 }  // namespace
 
+struct SweepSource {
+  SweepSource(const json& expanded, const std::vector<std::string>& keys, const std::string& file)
+      : document(expanded),
+        sweep_pointers(check_sweep_paths(document, keys, file)),
+        plan(plan_sweep(document, keys, file)) {}
+  json document;                                      // the plan refers to it
+  std::map<std::string, std::string> sweep_pointers;  // dotted path -> JSON pointer
+  SweepPlan plan;
+};
+
 Home Home::locate() {
   if (const char* env = std::getenv("ROSGUARD_HOME"); env && *env) {
     if (!has_schemas(env))
@@ -478,16 +488,24 @@ PlatformInfo Loader::resolve_platform(const json& ref, const fs::path& base,
                                       const std::string& file, const std::string& pointer,
                                       const std::string& backend) {
   if (ref.get<std::string>() == kHostPlatform) return host_platform(backend, file, pointer);
+  // Every point names its platform: a reference seen before skips the file system.
+  const std::string ref_key = "platform\n" + base.string() + "\n" + ref.get<std::string>();
+  if (auto seen = resolved_.find(ref_key); seen != resolved_.end())
+    return platform_cache_.at(seen->second);
   const fs::path path =
       find_named(ref.get<std::string>(), home_.platforms(), base, file, pointer, "platform");
   const std::string key = fs::weakly_canonical(path).string();
-  if (auto it = platform_cache_.find(key); it != platform_cache_.end()) return it->second;
+  if (auto it = platform_cache_.find(key); it != platform_cache_.end()) {
+    resolved_[ref_key] = key;
+    return it->second;
+  }
   const std::string shown = display_path(path);
   json doc = read_json_file(path, shown);
   schemas_.validate(doc, SchemaKind::Platform, shown);
   schemas_.apply_defaults(doc, SchemaKind::Platform);
   PlatformInfo info = build_platform(doc, shown);
   platform_cache_[key] = info;
+  resolved_[ref_key] = key;
   return info;
 }
 
@@ -503,20 +521,27 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
     w.origin = "inline";
     return w;
   }
+  const std::string ref_key = "workload\n" + base.string() + "\n" + ref.get<std::string>();
+  if (auto seen = resolved_.find(ref_key); seen != resolved_.end())
+    return workload_cache_.at(seen->second);
   const fs::path path =
       find_named(ref.get<std::string>(), home_.workloads(), base, file, pointer, "workload");
   const std::string key = fs::weakly_canonical(path).string();
-  if (auto it = workload_cache_.find(key); it != workload_cache_.end()) return it->second;
+  if (auto it = workload_cache_.find(key); it != workload_cache_.end()) {
+    resolved_[ref_key] = key;
+    return it->second;
+  }
   const std::string shown = display_path(path);
   json doc = read_json_file(path, shown);
   schemas_.validate(doc, SchemaKind::Workload, shown);
   schemas_.apply_defaults(doc, SchemaKind::Workload);
   WorkloadInfo w{doc.at("name").get<std::string>(), shown, doc};
   workload_cache_[key] = w;
+  resolved_[ref_key] = key;
   return w;
 }
 
-Scenario Loader::build_point(json document, const std::string& file) {
+Scenario Loader::build_point(json document, const std::string& file, bool skip_schema) {
   const fs::path base = fs::path(file).parent_path();
   // Before the schema's defaults: sampling and the periods default by policy (memguard samples
   // by overflow with a 1 ms period), and only where this point does not set them.
@@ -526,8 +551,9 @@ Scenario Loader::build_point(json document, const std::string& file) {
   schemas_.apply_defaults(document, SchemaKind::Scenario);
   if (document.is_object() && document.contains("regulation"))  // "regulation" was absent
     apply_policy_defaults(document["regulation"]);
-  if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
-    throw InputError(file, err->first, err->second);
+  if (!skip_schema)
+    if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
+      throw InputError(file, err->first, err->second);
   ResolvedRefs refs;
   refs.platform = resolve_platform(document["platform"], base, file, "/platform",
                                    document["backend"].get<std::string>());
@@ -544,8 +570,8 @@ Scenario Loader::build_point(json document, const std::string& file) {
 }
 
 InputError Loader::attribute_to_sweep(const InputError& e, const SweepPoint& p,
-                                      const LoadedScenario& out,
-                                      const std::map<std::string, std::string>& sweep_pointers) {
+                                      const LoadedScenario& out) {
+  const std::map<std::string, std::string>& sweep_pointers = out.source->sweep_pointers;
   const std::string& file = out.file;
   const std::string& path = e.json_path();
   const std::string& msg = e.message();
@@ -575,6 +601,13 @@ InputError Loader::attribute_to_sweep(const InputError& e, const SweepPoint& p,
 
 LoadedScenario Loader::load(const std::string& file, const std::optional<std::string>& backend,
                             PointSelection selection) {
+  LoadedScenario out = load_base(file, backend);
+  load_points(out, selection);
+  return out;
+}
+
+LoadedScenario Loader::load_base(const std::string& file,
+                                 const std::optional<std::string>& backend) {
   LoadedScenario out;
   out.file = file;
   host_used_ = json();
@@ -592,34 +625,40 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
   schemas_.apply_defaults(out.expanded, SchemaKind::Scenario);
   schemas_.validate(out.expanded, SchemaKind::Scenario, file);
 
-  const auto sweep_pointers = check_sweep_paths(out.expanded, out.sweep_keys, file);
-  const SweepPlan plan = plan_sweep(out.expanded, out.sweep_keys, file);
-  out.point_count = plan.count();
-
-  // An error in one point names the sweep value that caused it (a problem inside a platform or
-  // workload file is reported as it is).
-  for (const std::uint64_t index : selected_points(out.point_count, plan.sizes(), selection)) {
-    SweepPoint p;
-    try {
-      p = plan.point(index);
-    } catch (const SweepPathError& e) {
-      throw in_file(file, e);
-    }
-    try {
-      Scenario s = build_point(p.document, file);
-      // The point's document lives on in the Scenario (with its defaults); one copy is enough
-      // (a sweep of 10,000 points is held in memory, and every sim task forks this process).
-      p.document = nullptr;
-      out.points.push_back({std::move(p), std::move(s)});
-    } catch (const InputError& e) {
-      if (e.file() != file) throw;
-      throw attribute_to_sweep(e, p, out, sweep_pointers);
-    }
-  }
-
+  out.source = std::make_shared<const SweepSource>(out.expanded, out.sweep_keys, file);
+  out.point_count = out.source->plan.count();
   for (const auto& key : out.sweep_keys)
     for (const auto& path : split_sweep_key(key))
       out.sweep_paths.push_back(path);
+  return out;
+}
+
+LoadedPoint Loader::point(const LoadedScenario& loaded, std::uint64_t index, bool skip_schema) {
+  if (!loaded.source) throw ContractError("Loader::point: a scenario without its sweep source");
+  SweepPoint p;
+  try {
+    p = loaded.source->plan.point(index);
+  } catch (const SweepPathError& e) {
+    throw in_file(loaded.file, e);
+  }
+  try {
+    Scenario s = build_point(p.document, loaded.file, skip_schema);
+    // The point's document lives on in the Scenario (with its defaults); one copy is enough
+    // (a sweep of 10,000 points is held in memory).
+    p.document = nullptr;
+    return {std::move(p), std::move(s)};
+  } catch (const InputError& e) {
+    if (e.file() != loaded.file) throw;
+    throw attribute_to_sweep(e, p, loaded);
+  }
+}
+
+void Loader::load_points(LoadedScenario& out, PointSelection selection) {
+  // An error in one point names the sweep value that caused it (a problem inside a platform or
+  // workload file is reported as it is).
+  for (const std::uint64_t index :
+       selected_points(out.point_count, out.source->plan.sizes(), selection))
+    out.points.push_back(point(out, index));
   for (const auto& p : out.points)
     for (const auto& d : p.scenario.regulation.policy_defaults) {
       auto it = std::find_if(out.policy_defaults.begin(), out.policy_defaults.end(),
@@ -634,7 +673,6 @@ LoadedScenario Loader::load(const std::string& file, const std::optional<std::st
   for (auto& w : ineffective_budget_warnings(out.points))
     out.warnings.push_back(std::move(w));
   out.host_platform = host_used_;
-  return out;
 }
 
 std::vector<CatalogEntry> Loader::platforms() const {

@@ -45,6 +45,10 @@ inline constexpr std::uint64_t kCheckAllPoints = 2000;
 // kCheckAllPoints points; of a larger one, every value of every key at least once).
 enum class PointSelection { All, Sample };
 
+// What building any point of a loaded scenario again needs (Loader::point): the expanded
+// document, its sweep plan, and where each swept path is. Immutable; defined in loader.cpp.
+struct SweepSource;
+
 struct LoadedScenario {
   std::string file;
   std::uint64_t point_count = 0;  // points of the sweep; `points` holds them all unless sampled
@@ -60,6 +64,7 @@ struct LoadedScenario {
   // For the manifest, when a point uses "platform": "host": per backend ("hw", "sim"), how the
   // host platform was made (the probe, the installed model's file). Null otherwise.
   nlohmann::json host_platform;
+  std::shared_ptr<const SweepSource> source;  // set by Loader::load_base (and load)
 };
 
 // A catalogue entry for `rosguard list`.
@@ -77,6 +82,18 @@ class Loader {
   LoadedScenario load(const std::string& file, const std::optional<std::string>& backend = {},
                       PointSelection selection = PointSelection::All);
 
+  // load() in two steps. load_base: the scenario file itself (schema, defaults, sweep paths and
+  // plan): `points`, `warnings` and `host_platform` stay empty. load_points: builds the
+  // selected points of a load_base result and fills them in. `rosguard run` starts its task
+  // host between the two (it forks a process that holds no point: task_pool.h).
+  LoadedScenario load_base(const std::string& file, const std::optional<std::string>& backend = {});
+  void load_points(LoadedScenario& loaded, PointSelection selection = PointSelection::All);
+  // Point `index` of a scenario from load_base or load, built as load_points builds it (an
+  // error names the sweep value that caused it). `skip_schema`: the document is not checked
+  // against the scenario schema again (only for a point that load_points already built in
+  // another process of this run: the same document, so the same answer).
+  LoadedPoint point(const LoadedScenario& loaded, std::uint64_t index, bool skip_schema = false);
+
   std::vector<CatalogEntry> platforms() const;
   std::vector<CatalogEntry> workloads() const;
 
@@ -84,11 +101,11 @@ class Loader {
 
  private:
   // One point's scenario from its document (defaults applied here): schema, references, rules.
-  Scenario build_point(nlohmann::json document, const std::string& file);
+  Scenario build_point(nlohmann::json document, const std::string& file, bool skip_schema = false);
   // The error `e` of point `p`, at the sweep value that caused it; an error the scenario has
   // without any sweep value is reported plainly.
-  InputError attribute_to_sweep(const InputError& e, const SweepPoint& p, const LoadedScenario& out,
-                                const std::map<std::string, std::string>& sweep_pointers);
+  InputError attribute_to_sweep(const InputError& e, const SweepPoint& p,
+                                const LoadedScenario& out);
   PlatformInfo resolve_platform(const nlohmann::json& ref, const std::filesystem::path& base,
                                 const std::string& file, const std::string& pointer,
                                 const std::string& backend);
@@ -105,6 +122,8 @@ class Loader {
   SchemaSet schemas_;
   std::map<std::string, PlatformInfo> platform_cache_;
   std::map<std::string, WorkloadInfo> workload_cache_;
+  // "platform|workload\n<base folder>\n<reference>" -> its cache key (the canonical path)
+  std::map<std::string, std::string> resolved_;
   std::map<std::string, PlatformInfo> host_cache_;      // by backend
   std::map<std::string, nlohmann::json> host_records_;  // by backend
   nlohmann::json host_used_;                            // this load's records (manifest)

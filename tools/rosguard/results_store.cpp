@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <string_view>
 #include <tuple>
 
 #include "core/error.h"
@@ -75,6 +76,90 @@ CsvFile read_csv(const fs::path& path, const std::map<std::string, std::size_t>&
     return std::tie(a.order, a.rep) < std::tie(b.order, b.rep);
   });
   return out;
+}
+
+// samples.csv in canonical order: the lines of the runs in `keep`, stably sorted by (sweep
+// index, rep), as read_csv would sort them line by line. A run's samples are appended in one
+// piece, so the text is handled in blocks of consecutive lines of one run (a 10,000-point sweep
+// writes some 10^7 lines); it is rewritten only when that changes it.
+void tidy_samples(const fs::path& path, const std::map<std::string, std::size_t>& order,
+                  const std::set<RunKey>& keep) {
+  const std::string header = std::string(kSamplesHeader) + "\n";
+  std::error_code ec;
+  if (!fs::exists(path, ec)) {
+    write_file_atomic(path, header);
+    return;
+  }
+  truncate_torn_tail(path);
+  const std::string text = read_file(path);
+  struct Block {
+    std::size_t order;
+    int rep;
+    std::size_t begin, end;  // bytes of `text`
+  };
+  std::vector<Block> blocks;
+  bool changed = text.compare(0, header.size(), header) != 0;
+  std::size_t pos = text.find('\n');
+  pos = pos == std::string::npos ? text.size() : pos + 1;
+  std::string_view id;  // of the open block
+  int rep = -1;
+  bool open = false;  // the last line read belongs to a kept block
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    end = end == std::string::npos ? text.size() : end + 1;
+    const std::string_view line(text.data() + pos, end - pos - (text[end - 1] == '\n' ? 1 : 0));
+    std::string_view cell0, cell1;
+    std::vector<std::string> cells;  // only for a line with quotes
+    bool two_cells = false;
+    if (line.find('"') == std::string_view::npos) {
+      const std::size_t c0 = line.find(',');
+      if (c0 != std::string_view::npos) {
+        two_cells = true;
+        cell0 = line.substr(0, c0);
+        cell1 = line.substr(c0 + 1, line.find(',', c0 + 1) - (c0 + 1));
+      }
+    } else {
+      cells = csv_split(std::string(line));
+      if ((two_cells = cells.size() >= 2)) {
+        cell0 = cells[0];
+        cell1 = cells[1];
+      }
+    }
+    int line_rep = -1;  // a rep that is not a number matches no run
+    if (two_cells) std::from_chars(cell1.data(), cell1.data() + cell1.size(), line_rep);
+    if (open && two_cells && cell0 == id && line_rep == rep && cells.empty()) {
+      blocks.back().end = end;  // the open block goes on
+    } else {
+      open = false;
+      const RunKey key{std::string(cell0), line_rep};
+      if (two_cells && keep.count(key)) {
+        const auto it = order.find(key.first);
+        blocks.push_back({it == order.end() ? order.size() : it->second, line_rep, pos, end});
+        id = std::string_view(text.data() + pos, cell0.size());
+        rep = line_rep;
+        open = cells.empty();
+      } else {
+        changed = true;  // a line dropped
+      }
+    }
+    pos = end;
+  }
+  const auto before = [](const Block& a, const Block& b) {
+    return std::tie(a.order, a.rep) < std::tie(b.order, b.rep);
+  };
+  if (!std::is_sorted(blocks.begin(), blocks.end(), before)) {
+    changed = true;
+    std::stable_sort(blocks.begin(), blocks.end(), before);
+  }
+  if (!text.empty() && text.back() != '\n') changed = true;
+  if (!changed) return;
+  std::string out = header;
+  out.reserve(text.size() + 1);
+  for (const Block& b : blocks) {
+    out.append(text, b.begin, b.end - b.begin);
+    if (out.back() != '\n') out += '\n';
+  }
+  write_file_atomic(path, out);
 }
 
 void append_under_lock(const fs::path& path, const std::string& data) {
@@ -210,10 +295,7 @@ std::set<RunKey> ResultsStore::tidy_csv_files(const RowRefresher& refresh) const
   }
   write_file_atomic(points_path(), text);
 
-  text = std::string(kSamplesHeader) + "\n";
-  for (const auto& row : read_csv(dir_ / "samples.csv", order_).rows)
-    if (done.count(row.key)) text += row.line + "\n";
-  write_file_atomic(dir_ / "samples.csv", text);
+  tidy_samples(dir_ / "samples.csv", order_, done);
   return done;
 }
 

@@ -89,7 +89,9 @@ CorunPlan add_corun_points(LoadedScenario& loaded, const RunOptions& opt, const 
     auto [it, fresh] = index.try_emplace(key, added.size());
     if (fresh) {
       LoadedPoint corun;
-      corun.sweep.index = plan.first + added.size();
+      // The source point's sweep index: a worker process rebuilds the co-run from it
+      // (Task::corun), as it rebuilds a point from its own.
+      corun.sweep.index = p.sweep.index;
       corun.sweep.id = key;
       corun.scenario = UnregulatedCoruns::scenario_of(p.scenario);
       added.push_back(std::move(corun));
@@ -176,7 +178,7 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
     for (int k = 0; k < measurements; ++k) {
       if (coruns_held.has(loaded.points[point].sweep.id, k)) continue;
       corun_rounds[static_cast<std::size_t>(baseline_round(k, reps, measurements))].push_back(
-          {Task::Kind::Point, point, k, "", nullptr, 0});
+          {Task::Kind::Point, point, k, "", nullptr, 0, true});
     }
   }
   const auto add = [&](std::vector<Task> phase) {
@@ -291,40 +293,66 @@ class TaskRunner {
 };
 
 // The phases in order; after each phase of baselines (or co-runs) they are saved (for resumed
-// runs and other shards); each point run's samples and row are appended as it finishes, with the
-// baselines and co-runs measured so far (the rows are refreshed with all of them when the run
-// finishes).
+// runs and other shards); each point run's samples and row are appended once it and every run
+// before it in the phase have finished (the few that finish early wait, at most kHeldRuns of
+// them: appended in order, the files need no rewrite when the run ends), with the baselines and
+// co-runs measured so far (the rows are refreshed with all of them when the run finishes).
 void run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
                UnregulatedCoruns& coruns, const ResultsStore& store, TaskRunner& runner,
                InvocationReport& report, json& trace_events) {
-  const std::vector<std::string> header = header_of(*st.loaded);
+  constexpr std::size_t kHeldRuns = 256;
   for (const auto& phase : plan.phases) {
     bool measured = false, corun_measured = false;
+    std::map<std::size_t, std::pair<std::string, std::string>> held;  // by position in phase
+    std::size_t next = 0;  // position of the next run to append
+    std::vector<bool> done(phase.size(), false);
+    const auto append = [&](const std::pair<std::string, std::string>& rows) {
+      store.append_run(rows.first, rows.second);
+      ++report.rows;
+    };
+    const auto flush_ready = [&] {
+      while (next < phase.size() && done[next]) {
+        if (const auto it = held.find(next); it != held.end()) {
+          append(it->second);
+          held.erase(it);
+        }
+        ++next;
+      }
+    };
     runner.run(phase, [&](const Task& t, const TaskResult& r) {
+      const auto position = static_cast<std::size_t>(&t - phase.data());
+      done[position] = true;
       if (t.kind == Task::Kind::Isolation) {
         st.baselines.put(t.iso_key, r.iso, t.rep);
         measured = true;
-        return;
-      }
-      const LoadedPoint& lp = st.loaded->points[t.point];
-      if (corun_plan.is_corun(t.point)) {
+      } else if (corun_plan.is_corun(t.point)) {
         CorunResult c;
         for (const auto& n : r.outcome.rt)
           c.rt_time_us.push_back(n.time_us);
         for (const auto& n : r.outcome.nrt)
           c.nrt_time_us.push_back(n.time_us);
-        coruns.put(lp.sweep.id, std::move(c), t.rep);
+        coruns.put(st.loaded->points[t.point].sweep.id, std::move(c), t.rep);
         corun_measured = true;
-        return;
+      } else {
+        const LoadedPoint& lp = st.loaded->points[t.point];
+        auto rows = run_rows(r, lp, t.rep, st);
+        rows.second.pop_back();  // the newline
+        rows.second =
+            fill_unregulated_cells(st.header, rows.second, lp.scenario, coruns, st.baselines) +
+            "\n";
+        held.emplace(position, std::move(rows));
+        for (const auto& e : r.trace)
+          trace_events.push_back(e);
       }
-      std::string row = points_row(header, lp.sweep, lp.scenario, t.rep, r.outcome, st.baselines);
-      row.pop_back();  // the newline
-      row = fill_unregulated_cells(header, row, lp.scenario, coruns, st.baselines) + "\n";
-      store.append_run(samples_rows(lp.sweep.id, t.rep, r.outcome), row);
-      ++report.rows;
-      for (const auto& e : r.trace)
-        trace_events.push_back(e);
+      flush_ready();
+      if (held.size() > kHeldRuns) {  // a slow run holds back too many: append them now
+        for (const auto& [pos, rows] : held)
+          append(rows);
+        held.clear();
+      }
     });
+    for (const auto& [pos, rows] : held)  // behind a failed or stopped run: kept all the same
+      append(rows);
     if (measured) store.save_baselines(st.baselines);
     if (corun_measured) coruns.save(store.dir());
     if (!runner.failure().empty() || stop_signal()) return;
@@ -396,8 +424,11 @@ fs::path results_folder(const RunOptions& opt, const LoadedScenario& loaded) {
 }
 
 int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& backends) {
-  // 1. Load and validate everything; errors here are InputErrors and nothing is written.
-  LoadedScenario loaded = loader.load(opt.scenario_file, opt.backend);
+  // 1. Load and validate everything; errors here are InputErrors and nothing is written. The
+  // task host (process-per-task backends) is forked before the points are built: it stays small.
+  LoadedScenario loaded = loader.load_base(opt.scenario_file, opt.backend);
+  const std::unique_ptr<TaskHost> host = start_task_host(loader, loaded, backends, opt.trace);
+  loader.load_points(loaded);
   std::unique_ptr<Backend> backend = make_backend(loaded, backends);
   const Scenario& first = loaded.points.front().scenario;
   std::map<std::string, std::size_t> order;
@@ -432,8 +463,9 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     if (plan.skipped > 0 && !opt.quiet)
       std::cerr << "resume: " << plan.skipped << " run(s) already in "
                 << store.points_path().string() << ", skipped\n";
-    RunState st{&loaded, backend.get(), opened.baselines, opt.trace};
-    auto exec = make_executor(st, backend->process_per_task(), worker_count(opt, *backend));
+    RunState st{&loaded, backend.get(), opened.baselines, opt.trace, header_of(loaded)};
+    auto exec =
+        make_executor(st, backend->process_per_task(), worker_count(opt, *backend), host.get());
     StopSignalGuard signals;
     Progress progress(plan.runs, !opt.quiet);
     TaskRunner runner(loaded, corun_plan, *exec, progress, report, opened.fallbacks);

@@ -118,6 +118,10 @@ bool is_wrapper(const std::string& d) {
 struct SchemaSet::Impl {
   std::map<std::string, json> docs;  // schema file name -> document
   std::map<SchemaKind, std::unique_ptr<valijson::Schema>> compiled;
+  // One validator for every document: it keeps the std::regex of each "pattern" it compiled
+  // (a fresh validator per document compiled them all again: most of the time a 10,000-point
+  // sweep took to load).
+  valijson::Validator validator;
 
   // A schema node and the file it lives in (for resolving its relative $refs).
   struct Node {
@@ -383,10 +387,9 @@ SchemaSet::~SchemaSet() = default;
 
 std::vector<std::pair<std::string, std::string>> SchemaSet::errors(const json& doc,
                                                                    SchemaKind kind) const {
-  valijson::Validator validator;
   valijson::ValidationResults results;
   valijson::adapters::NlohmannJsonAdapter adapter(doc);
-  if (validator.validate(*impl_->compiled.at(kind), adapter, &results)) return {};
+  if (impl_->validator.validate(*impl_->compiled.at(kind), adapter, &results)) return {};
   std::vector<std::pair<std::string, std::string>> out;
   valijson::ValidationResults::Error e;
   valijson::ValidationResults::Error deepest;

@@ -1,20 +1,31 @@
 #include "task_pool.h"
 
 #include <fcntl.h>
+#include <malloc.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
+#include <sys/signalfd.h>
+#include <sys/socket.h>
+#include <sys/uio.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
+#include <deque>
 #include <iostream>
 #include <optional>
+#include <set>
 
 #include "core/error.h"
+#include "results/results.h"
 #include "results_store.h"
 #include "stop_signal.h"
 #include "trace_writer.h"
+#include "unregulated.h"
 
 namespace rosguard {
 using json = nlohmann::json;
@@ -43,6 +54,10 @@ json to_json(const TaskResult& r) {
   j["fallbacks"] = r.fallbacks;
   j["facts"] = r.facts;
   j["trace"] = r.trace;
+  if (r.rows_made) {
+    j["samples_csv"] = r.samples_csv;
+    j["row_csv"] = r.row_csv;
+  }
   return j;
 }
 
@@ -64,6 +79,11 @@ TaskResult from_json(const json& j) {
   r.fallbacks = j.at("fallbacks").get<std::vector<std::pair<std::string, std::string>>>();
   r.facts = j.at("facts").get<std::map<std::string, std::string>>();
   r.trace = j.at("trace");
+  if (const auto it = j.find("samples_csv"); it != j.end()) {
+    r.rows_made = true;
+    r.samples_csv = it->get<std::string>();
+    r.row_csv = j.at("row_csv").get<std::string>();
+  }
   return r;
 }
 
@@ -112,83 +132,365 @@ void waitpid_retrying(pid_t pid, int& status) {
   }
 }
 
-// In the forked worker: default signal handling (a terminal's Ctrl-C reaches the whole process
-// group), run the task, send the result, leave without running the parent's destructors.
-[[noreturn]] void worker_main(int result_fd, const Task& task, const RunState& st) {
-  ::signal(SIGINT, SIG_DFL);
-  ::signal(SIGTERM, SIG_DFL);
+[[noreturn]] void fail_errno(const char* what) {
+  throw RunError(std::string(what) + ": " + std::strerror(errno));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Task host protocol: frames on a Unix stream socket, a Frame then `size` bytes of payload.
+//   runner -> host: Task (payload: the task as JSON; the pipe's write end as SCM_RIGHTS),
+//                   Baselines (payload: baselines_to_json), Header (payload: points.csv's
+//                   columns, as a JSON list), Stop (SIGTERM to every worker).
+//   host -> runner: Exit (`value`: the worker's wait status), Failed (payload: why the host
+//                   could not start it; its pipe is closed).
+// `seq` numbers the runner's tasks (never reused within a run).
+
+struct Frame {
+  enum Type : std::uint32_t { Task = 1, Baselines, Header, Stop, Exit, Failed } type;
+  std::uint32_t size;
+  std::uint64_t seq;
+  std::int64_t value;
+};
+
+// Sends a frame (and `fd` with its first byte when >= 0). Returns false when the peer is gone.
+bool send_frame(int sock, Frame f, const std::string& payload = "", int fd = -1) {
+  f.size = static_cast<std::uint32_t>(payload.size());
+  std::string bytes(reinterpret_cast<const char*>(&f), sizeof f);
+  bytes += payload;
+  std::size_t sent = 0;
+  while (sent < bytes.size()) {
+    iovec iov{bytes.data() + sent, bytes.size() - sent};
+    msghdr msg{};
+    msg.msg_iov = &iov;
+    msg.msg_iovlen = 1;
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))] = {};
+    if (fd >= 0 && sent == 0) {
+      msg.msg_control = control;
+      msg.msg_controllen = sizeof control;
+      cmsghdr* c = CMSG_FIRSTHDR(&msg);
+      c->cmsg_level = SOL_SOCKET;
+      c->cmsg_type = SCM_RIGHTS;
+      c->cmsg_len = CMSG_LEN(sizeof(int));
+      std::memcpy(CMSG_DATA(c), &fd, sizeof(int));
+    }
+    const ssize_t n = ::sendmsg(sock, &msg, MSG_NOSIGNAL);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    sent += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+// The receiving side: bytes and passed descriptors, in order.
+class FrameReader {
+ public:
+  explicit FrameReader(int sock) : sock_(sock) {}
+  ~FrameReader() {
+    for (int fd : fds_)
+      ::close(fd);
+  }
+  FrameReader(const FrameReader&) = delete;
+  FrameReader& operator=(const FrameReader&) = delete;
+
+  // One recvmsg. Returns false at EOF or on an error other than EINTR / EAGAIN.
+  bool receive() {
+    char buf[65536];
+    iovec iov{buf, sizeof buf};
+    alignas(cmsghdr) char control[CMSG_SPACE(16 * sizeof(int))];
+    msghdr msg{};
+    msg.msg_iov = &iov;
+    msg.msg_iovlen = 1;
+    msg.msg_control = control;
+    msg.msg_controllen = sizeof control;
+    const ssize_t n = ::recvmsg(sock_, &msg, MSG_CMSG_CLOEXEC | MSG_DONTWAIT);
+    if (n < 0) return errno == EINTR || errno == EAGAIN;
+    for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c)) {
+      if (c->cmsg_level != SOL_SOCKET || c->cmsg_type != SCM_RIGHTS) continue;
+      const std::size_t count = (c->cmsg_len - CMSG_LEN(0)) / sizeof(int);
+      for (std::size_t i = 0; i < count; ++i) {
+        int fd = -1;
+        std::memcpy(&fd, CMSG_DATA(c) + i * sizeof(int), sizeof(int));
+        fds_.push_back(fd);
+      }
+    }
+    if (n == 0) return false;
+    data_.append(buf, static_cast<std::size_t>(n));
+    return true;
+  }
+
+  // The next whole frame, if one has arrived.
+  std::optional<std::pair<Frame, std::string>> next() {
+    if (data_.size() - pos_ < sizeof(Frame)) return std::nullopt;
+    Frame f{};
+    std::memcpy(&f, data_.data() + pos_, sizeof f);
+    if (data_.size() - pos_ - sizeof f < f.size) return std::nullopt;
+    std::string payload = data_.substr(pos_ + sizeof f, f.size);
+    pos_ += sizeof f + f.size;
+    if (pos_ == data_.size()) {
+      data_.clear();
+      pos_ = 0;
+    }
+    return std::make_pair(f, std::move(payload));
+  }
+
+  // The oldest descriptor received and not taken yet (a Task frame's pipe; it arrives with the
+  // frame's first byte, so never after the frame), or -1.
+  int take_fd() {
+    if (fds_.empty()) return -1;
+    const int fd = fds_.front();
+    fds_.pop_front();
+    return fd;
+  }
+  const std::deque<int>& fds() const { return fds_; }
+
+ private:
+  int sock_;
+  std::string data_;
+  std::size_t pos_ = 0;
+  std::deque<int> fds_;
+};
+
+json task_to_json(const Task& t, std::size_t point) {
+  return {{"isolation", t.kind == Task::Kind::Isolation},
+          {"point", point},
+          {"rep", t.rep},
+          {"key", t.iso_key},
+          {"core", t.core},
+          {"corun", t.corun}};
+}
+
+Task task_from_json(const json& j) {
+  Task t;
+  t.kind = j.at("isolation").get<bool>() ? Task::Kind::Isolation : Task::Kind::Point;
+  t.point = j.at("point").get<std::size_t>();
+  t.rep = j.at("rep").get<int>();
+  t.iso_key = j.at("key").get<std::string>();
+  t.core = j.at("core").get<int>();
+  t.corun = j.at("corun").get<bool>();
+  return t;
+}
+
+// Writes all of `payload` to `fd`; false on an error.
+bool write_all(int fd, const std::string& payload) {
+  const char* p = payload.data();
+  std::size_t left = payload.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+// In a worker (forked by the host): default signal handling back, nothing of the host's kept
+// open but its own pipe, run the task, send the result, leave without destructors.
+[[noreturn]] void worker_main(int result_fd, const Task& task, const Baselines& baselines,
+                              const std::vector<std::string>& header, const TaskFunction& run,
+                              pid_t host) {
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (::getppid() != host) ::_exit(4);
+  ::prctl(PR_SET_NAME, "rosguard-task");
+  for (int sig : {SIGINT, SIGTERM, SIGPIPE, SIGCHLD})
+    ::signal(sig, SIG_DFL);
+  sigset_t none;
+  sigemptyset(&none);
+  ::sigprocmask(SIG_SETMASK, &none, nullptr);
   std::string payload;
   try {
-    payload = to_json(execute(task, st)).dump();
+    payload = to_json(run(task, baselines, header)).dump();
   } catch (const std::exception& e) {
     TaskResult r;
     r.error = e.what();
     payload = to_json(r).dump();
   }
-  const char* p = payload.data();
-  std::size_t left = payload.size();
-  while (left > 0) {
-    const ssize_t n = ::write(result_fd, p, left);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) ::_exit(3);
-    p += n;
-    left -= static_cast<std::size_t>(n);
+  ::_exit(write_all(result_fd, payload) ? 0 : 3);
+}
+
+// The host's life: serve tasks until the runner closes the socket, then stop the workers.
+[[noreturn]] void host_main(int sock, const std::function<void()>& warm_up, const TaskFunction& run,
+                            pid_t runner) {
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (::getppid() != runner) ::_exit(0);
+  ::prctl(PR_SET_NAME, "rosguard-host");
+  ::signal(SIGINT, SIG_IGN);  // the runner decides what a Ctrl-C stops
+  ::signal(SIGTERM, SIG_IGN);
+  ::signal(SIGPIPE, SIG_IGN);
+  sigset_t chld;
+  sigemptyset(&chld);
+  sigaddset(&chld, SIGCHLD);
+  ::sigprocmask(SIG_BLOCK, &chld, nullptr);
+  const int sfd = ::signalfd(-1, &chld, SFD_CLOEXEC | SFD_NONBLOCK);
+  if (sfd < 0) ::_exit(5);
+  try {
+    warm_up();
+  } catch (...) {  // the runner reports whatever is wrong with the scenario
   }
+  // Free heap pages go back to the kernel: every fork copies the page table entries of what
+  // stays mapped.
+  ::malloc_trim(0);
+  const pid_t self = ::getpid();
+  FrameReader reader(sock);
+  Baselines baselines;
+  std::vector<std::string> header;
+  std::map<pid_t, std::uint64_t> workers;  // pid -> seq
+  bool open = true;
+  const auto reap = [&](bool block) {
+    while (!workers.empty()) {
+      int status = 0;
+      const pid_t pid = ::waitpid(-1, &status, block ? 0 : WNOHANG);
+      if (pid < 0 && errno == EINTR) continue;
+      if (pid <= 0) return;
+      const auto it = workers.find(pid);
+      if (it == workers.end()) continue;
+      if (open) open = send_frame(sock, {Frame::Exit, 0, it->second, status});
+      workers.erase(it);
+    }
+  };
+  const auto stop_workers = [&] {
+    for (const auto& w : workers)
+      ::kill(w.first, SIGTERM);
+  };
+  while (open) {
+    pollfd pfds[2] = {{sock, POLLIN, 0}, {sfd, POLLIN, 0}};
+    if (::poll(pfds, 2, -1) < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    if (pfds[1].revents) {
+      signalfd_siginfo info;
+      while (::read(sfd, &info, sizeof info) > 0) {
+      }
+      reap(false);
+    }
+    if (!pfds[0].revents) continue;
+    open = reader.receive();
+    while (auto frame = reader.next()) {
+      const auto& [f, payload] = *frame;
+      if (f.type == Frame::Stop) {
+        stop_workers();
+      } else if (f.type == Frame::Baselines || f.type == Frame::Header) {
+        try {
+          if (f.type == Frame::Baselines)
+            baselines = baselines_from_json(json::parse(payload));
+          else
+            header = json::parse(payload).get<std::vector<std::string>>();
+        } catch (const std::exception&) {
+          ::_exit(6);  // the runner sees the socket close
+        }
+      } else if (f.type == Frame::Task) {
+        const int fd = reader.take_fd();
+        std::string why;
+        Task task;
+        try {
+          task = task_from_json(json::parse(payload));
+        } catch (const std::exception& e) {
+          why = std::string("bad task: ") + e.what();
+        }
+        const pid_t pid = why.empty() && fd >= 0 ? ::fork() : -1;
+        if (pid == 0) {
+          ::close(sock);
+          ::close(sfd);
+          for (int other : reader.fds())
+            ::close(other);
+          worker_main(fd, task, baselines, header, run, self);
+        }
+        if (fd >= 0) ::close(fd);
+        if (pid > 0) {
+          workers[pid] = f.seq;
+          continue;
+        }
+        if (why.empty())
+          why =
+              fd < 0 ? "no pipe came with the task" : std::string("fork: ") + std::strerror(errno);
+        open = send_frame(sock, {Frame::Failed, 0, f.seq, 0}, why);
+      }
+    }
+  }
+  // The runner closed the socket (or is gone): stop what still runs, reap it, leave.
+  stop_workers();
+  open = false;
+  reap(true);
   ::_exit(0);
 }
 
-class ForkExecutor : public Executor {
+// The runner's side: tasks go to the host; results come back through each task's pipe.
+class HostExecutor : public Executor {
  public:
-  ForkExecutor(const RunState& st, int jobs) : st_(st), jobs_(jobs) {}
-  ~ForkExecutor() override { stop_all(); }
+  HostExecutor(const RunState& st, int jobs, TaskHost& host)
+      : st_(st), jobs_(jobs), host_(host), reader_(host.socket()) {}
+  ~HostExecutor() override { stop_all(); }
 
   bool can_submit() const override { return static_cast<int>(workers_.size()) < jobs_; }
   bool busy() const override { return !workers_.empty(); }
 
   void submit(std::size_t id, const Task& task) override {
-    int fds[2];
-    if (::pipe2(fds, O_CLOEXEC) != 0) throw RunError(std::string("pipe: ") + std::strerror(errno));
-    std::cout.flush();
-    std::cerr.flush();
-    const pid_t pid = ::fork();
-    if (pid < 0) throw RunError(std::string("fork: ") + std::strerror(errno));
-    if (pid == 0) {
-      ::close(fds[0]);
-      worker_main(fds[1], task, st_);
+    if (host_gone_) throw RunError("the task host process exited (" + host_error() + ")");
+    if (!header_sent_) {
+      if (!send_frame(host_.socket(), {Frame::Header, 0, 0, 0}, json(st_.header).dump())) {
+        host_gone_ = true;
+        throw RunError("the task host process exited (" + host_error() + ")");
+      }
+      header_sent_ = true;
     }
+    send_baselines();
+    int fds[2];
+    if (::pipe2(fds, O_CLOEXEC) != 0) fail_errno("pipe");
+    const std::size_t point = st_.loaded->points.at(task.point).sweep.index;
+    const std::uint64_t seq = ++seq_;
+    const bool sent = send_frame(host_.socket(), {Frame::Task, 0, seq, 0},
+                                 task_to_json(task, point).dump(), fds[1]);
     ::close(fds[1]);
-    workers_.push_back({id, pid, fds[0], {}});
+    if (!sent) {
+      ::close(fds[0]);
+      host_gone_ = true;
+      throw RunError("the task host process exited (" + host_error() + ")");
+    }
+    workers_.push_back({id, seq, fds[0], {}, false});
   }
 
   std::pair<std::size_t, TaskResult> wait_one() override {
     while (true) {
+      for (std::size_t i = 0; i < workers_.size(); ++i)
+        if (auto r = finished(i)) return {workers_erase(i), std::move(*r)};
       std::vector<pollfd> pfds;
       for (const auto& w : workers_)
-        pfds.push_back({w.fd, POLLIN, 0});
+        pfds.push_back({w.eof ? -1 : w.fd, POLLIN, 0});
+      pfds.push_back({host_gone_ ? -1 : host_.socket(), POLLIN, 0});
       const int n = ::poll(pfds.data(), pfds.size(), 200);
-      if (n < 0 && errno != EINTR) throw RunError(std::string("poll: ") + std::strerror(errno));
-      for (std::size_t i = 0; n > 0 && i < pfds.size(); ++i) {
-        if (!(pfds[i].revents & (POLLIN | POLLHUP | POLLERR))) continue;
-        Worker& w = workers_[i];
-        char buf[65536];
-        const ssize_t got = ::read(w.fd, buf, sizeof buf);
-        if (got > 0) {
-          w.data.append(buf, static_cast<std::size_t>(got));
-          continue;
-        }
-        if (got < 0 && errno == EINTR) continue;
-        return finish(i);  // EOF (or a read error): the worker is done
-      }
+      if (n < 0 && errno != EINTR) fail_errno("poll");
+      for (std::size_t i = 0; n > 0 && i < workers_.size(); ++i)
+        if (pfds[i].revents & (POLLIN | POLLHUP | POLLERR)) read_result(workers_[i]);
+      if (n > 0 && pfds.back().revents) read_host();
     }
   }
 
   void stop_all() override {
-    for (const auto& w : workers_)
-      ::kill(w.pid, SIGTERM);
+    if (workers_.empty()) return;
+    if (!host_gone_ && !send_frame(host_.socket(), {Frame::Stop, 0, 0, 0})) host_gone_ = true;
+    // Until every worker has ended (its exit reported), draining the pipes meanwhile; a host
+    // that says nothing for 10 s is given up on (its workers die with it: PR_SET_PDEATHSIG).
+    int quiet_polls = 0;
+    while (!host_gone_ && quiet_polls < 50 &&
+           std::any_of(workers_.begin(), workers_.end(), [&](const Worker& w) {
+             return !exits_.count(w.seq) && !failures_.count(w.seq);
+           })) {
+      std::vector<pollfd> pfds;
+      for (const auto& w : workers_)
+        pfds.push_back({w.eof ? -1 : w.fd, POLLIN, 0});
+      pfds.push_back({host_.socket(), POLLIN, 0});
+      const int n = ::poll(pfds.data(), pfds.size(), 200);
+      if (n < 0 && errno != EINTR) break;
+      quiet_polls = n == 0 ? quiet_polls + 1 : 0;
+      for (std::size_t i = 0; n > 0 && i < workers_.size(); ++i)
+        if (pfds[i].revents & (POLLIN | POLLHUP | POLLERR)) read_result(workers_[i]);
+      if (n > 0 && pfds.back().revents) read_host();
+    }
     for (const auto& w : workers_) {
-      int status = 0;
-      waitpid_retrying(w.pid, status);
       ::close(w.fd);
+      exits_.erase(w.seq);
+      failures_.erase(w.seq);
     }
     workers_.clear();
   }
@@ -196,43 +498,132 @@ class ForkExecutor : public Executor {
  private:
   struct Worker {
     std::size_t id;
-    pid_t pid;
+    std::uint64_t seq;
     int fd;
     std::string data;
+    bool eof;
   };
 
-  std::pair<std::size_t, TaskResult> finish(std::size_t i) {
-    Worker w = std::move(workers_[i]);
-    workers_.erase(workers_.begin() + static_cast<std::ptrdiff_t>(i));
-    ::close(w.fd);
+  // The host's copy of the baselines is brought up to date before a task that may read them.
+  void send_baselines() {
+    std::size_t measurements = 0;
+    for (const auto& [key, runs] : st_.baselines.all())
+      measurements += runs.runs.size() + 1;
+    if (measurements == baselines_sent_) return;
+    if (!send_frame(host_.socket(), {Frame::Baselines, 0, 0, 0},
+                    baselines_to_json(st_.baselines).dump())) {
+      host_gone_ = true;
+      throw RunError("the task host process exited (" + host_error() + ")");
+    }
+    baselines_sent_ = measurements;
+  }
+
+  void read_result(Worker& w) {
+    char buf[65536];
+    const ssize_t got = ::read(w.fd, buf, sizeof buf);
+    if (got > 0)
+      w.data.append(buf, static_cast<std::size_t>(got));
+    else if (got == 0 || errno != EINTR)
+      w.eof = true;  // EOF (or a read error): the worker is done
+  }
+
+  void read_host() {
+    if (!reader_.receive()) host_gone_ = true;
+    while (auto frame = reader_.next()) {
+      const auto& [f, payload] = *frame;
+      if (f.type == Frame::Exit) exits_[f.seq] = static_cast<int>(f.value);
+      if (f.type == Frame::Failed) failures_[f.seq] = payload;
+    }
+    // Reports of tasks already finished (from their result alone) are not kept.
+    for (auto it = exits_.begin(); it != exits_.end();)
+      it = it->first <= finished_below_ && !running(it->first) ? exits_.erase(it) : std::next(it);
+  }
+
+  bool running(std::uint64_t seq) const {
+    return std::any_of(workers_.begin(), workers_.end(),
+                       [&](const Worker& w) { return w.seq == seq; });
+  }
+
+  std::string host_error() {
     int status = 0;
-    waitpid_retrying(w.pid, status);
+    if (::waitpid(host_.pid(), &status, WNOHANG) == host_.pid())
+      return WIFSIGNALED(status) ? std::string("signal ") + strsignal(WTERMSIG(status))
+                                 : "status " + std::to_string(WEXITSTATUS(status));
+    return "it closed its socket";
+  }
+
+  // Worker i's result once it is known: a whole result from its pipe (its exit status is not
+  // awaited then), else its exit status or the host's word on why it did not start.
+  std::optional<TaskResult> finished(std::size_t i) {
+    Worker& w = workers_[i];
+    if (const auto f = failures_.find(w.seq); f != failures_.end()) {
+      TaskResult r;
+      r.error = "the task host could not start a worker: " + f->second;
+      failures_.erase(f);
+      return r;
+    }
+    if (!w.eof) return std::nullopt;
+    const auto exit = exits_.find(w.seq);
+    const bool known = exit != exits_.end();
+    const int status = known ? exit->second : 0;
+    if (!known || !WIFSIGNALED(status)) {
+      try {
+        TaskResult r = from_json(json::parse(w.data));
+        if (known) exits_.erase(exit);
+        return r;
+      } catch (const std::exception&) {
+        if (!known && !host_gone_) return std::nullopt;  // its exit status tells more
+      }
+    }
+    if (known) exits_.erase(exit);
     TaskResult r;
-    if (WIFSIGNALED(status)) {
+    if (!known) {
+      r.error =
+          "worker process left no readable result, and the task host exited (" + host_error() + ")";
+    } else if (WIFSIGNALED(status)) {
       const int sig = WTERMSIG(status);
       r.interrupted = stop_signal() != 0 && (sig == SIGINT || sig == SIGTERM);
       r.error = r.interrupted ? "interrupted"
                               : "worker process died with signal " + std::to_string(sig) + " (" +
                                     strsignal(sig) + ")";
-      return {w.id, r};
-    }
-    try {
-      r = from_json(json::parse(w.data));
-    } catch (const std::exception& e) {
-      r = TaskResult{};
+    } else {
       r.error = "worker process exited with status " +
                 std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
                 " and no readable result";
     }
-    return {w.id, r};
+    return r;
+  }
+
+  std::size_t workers_erase(std::size_t i) {
+    const Worker w = std::move(workers_[i]);
+    workers_.erase(workers_.begin() + static_cast<std::ptrdiff_t>(i));
+    ::close(w.fd);
+    finished_below_ = std::max(finished_below_, w.seq);
+    return w.id;
   }
 
   const RunState& st_;
   int jobs_;
+  TaskHost& host_;
+  FrameReader reader_;
   std::vector<Worker> workers_;
+  std::uint64_t seq_ = 0;
+  std::uint64_t finished_below_ = 0;
+  std::size_t baselines_sent_ = static_cast<std::size_t>(-1);
+  std::map<std::uint64_t, int> exits_;             // seq -> wait status
+  std::map<std::uint64_t, std::string> failures_;  // seq -> why it did not start
+  bool host_gone_ = false;
+  bool header_sent_ = false;
 };
 
 }  // namespace
+
+std::pair<std::string, std::string> run_rows(const TaskResult& r, const LoadedPoint& lp, int rep,
+                                             const RunState& st) {
+  if (r.rows_made) return {r.samples_csv, r.row_csv};
+  return {samples_rows(lp.sweep.id, rep, r.outcome),
+          points_row(st.header, lp.sweep, lp.scenario, rep, r.outcome, st.baselines)};
+}
 
 std::string point_label(const SweepPoint& p, int rep) {
   std::string s = "point " + p.id + " rep " + std::to_string(rep);
@@ -244,19 +635,35 @@ std::string point_label(const SweepPoint& p, int rep) {
 }
 
 TaskResult execute(const Task& task, const RunState& st) {
+  return execute(task, st.loaded->points[task.point], *st.backend, st.baselines, st.trace);
+}
+
+TaskResult execute(const Task& task, const LoadedPoint& lp, Backend& backend,
+                   const Baselines& baselines, bool trace_on) {
   TaskResult r;
-  const LoadedPoint& lp = st.loaded->points[task.point];
   const int reps = lp.scenario.repetitions;
-  ChromeTrace trace(static_cast<int>(task.point) * reps + task.rep + 1);
-  TaskContext ctx(r, st.trace && task.kind == Task::Kind::Point ? &trace : nullptr);
+  ChromeTrace trace(static_cast<int>(lp.sweep.index) * reps + task.rep + 1);
+  TaskContext ctx(r, trace_on && task.kind == Task::Kind::Point ? &trace : nullptr);
   try {
     if (task.kind == Task::Kind::Isolation) {
-      r.iso = st.backend->isolation(lp.scenario, *task.workload, task.core,
-                                    task_seed(lp.scenario.seed, task.iso_key, task.rep), ctx);
+      const WorkloadInfo* workload = task.workload;
+      const auto find = [&](const auto& nodes) {
+        for (const auto& n : nodes)
+          if (!workload && n.core == task.core &&
+              Baselines::key(lp.scenario, n.workload, n.core) == task.iso_key)
+            workload = &n.workload;
+      };
+      find(lp.scenario.nodes.rt);
+      find(lp.scenario.nodes.nrt);
+      if (!workload)
+        throw ContractError("isolation baseline " + task.iso_key + " is not one of point " +
+                            lp.sweep.id + "'s");
+      r.iso = backend.isolation(lp.scenario, *workload, task.core,
+                                task_seed(lp.scenario.seed, task.iso_key, task.rep), ctx);
     } else {
-      r.outcome = st.backend->run_point(lp.scenario, st.baselines, task.rep,
-                                        task_seed(lp.scenario.seed, lp.sweep.id, task.rep), ctx);
-      if (st.trace) r.trace = trace.take(point_label(lp.sweep, task.rep));
+      r.outcome = backend.run_point(lp.scenario, baselines, task.rep,
+                                    task_seed(lp.scenario.seed, lp.sweep.id, task.rep), ctx);
+      if (trace_on) r.trace = trace.take(point_label(lp.sweep, task.rep));
     }
     r.ok = true;
   } catch (const Interrupted&) {
@@ -268,9 +675,80 @@ TaskResult execute(const Task& task, const RunState& st) {
   return r;
 }
 
-std::unique_ptr<Executor> make_executor(const RunState& st, bool process_per_task, int jobs) {
-  if (process_per_task) return std::make_unique<ForkExecutor>(st, std::max(1, jobs));
-  return std::make_unique<InProcessExecutor>(st);
+TaskHost::TaskHost(std::function<void()> warm_up, TaskFunction run) {
+  int sv[2];
+  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) fail_errno("socketpair");
+  std::cout.flush();
+  std::cerr.flush();
+  const pid_t runner = ::getpid();
+  pid_ = ::fork();
+  if (pid_ < 0) {
+    const int e = errno;
+    ::close(sv[0]);
+    ::close(sv[1]);
+    errno = e;
+    fail_errno("fork");
+  }
+  if (pid_ == 0) {
+    ::close(sv[0]);
+    host_main(sv[1], warm_up, run, runner);
+  }
+  ::close(sv[1]);
+  sock_ = sv[0];
+}
+
+TaskHost::~TaskHost() {
+  ::close(sock_);
+  int status = 0;
+  waitpid_retrying(pid_, status);
+}
+
+std::unique_ptr<TaskHost> start_task_host(Loader& loader, const LoadedScenario& base,
+                                          const BackendRegistry& backends, bool trace) {
+  const BackendInfo* info = backends.find(base.expanded.value("backend", ""));
+  if (!info || !info->make()->process_per_task()) return nullptr;
+  // Made in the host (shared by its workers through the fork), like the runner's own.
+  auto backend = std::make_shared<std::unique_ptr<Backend>>();
+  // The platform and workload files every worker needs are read once, in the host: one point
+  // with each value of each sweep key (the first of the others).
+  const auto warm_up = [&loader, &base, info, backend] {
+    *backend = info->make();
+    std::set<std::uint64_t> indexes = {0};
+    std::uint64_t stride = base.point_count;
+    for (const auto& key : base.sweep_keys) {
+      const auto values = static_cast<std::uint64_t>(base.expanded.at("sweep").at(key).size());
+      stride /= values;
+      for (std::uint64_t v = 0; v < values && indexes.size() < 1000; ++v)
+        indexes.insert(v * stride);
+    }
+    for (const std::uint64_t i : indexes)
+      loader.point(base, i, true);
+  };
+  const auto run = [&loader, &base, backend, trace](const Task& task, const Baselines& b,
+                                                    const std::vector<std::string>& header) {
+    LoadedPoint lp = loader.point(base, task.point, true);
+    if (task.corun) {  // the runner reads the co-run's outcome: no rows
+      lp.sweep.id = UnregulatedCoruns::key(lp.scenario);
+      lp.scenario = UnregulatedCoruns::scenario_of(lp.scenario);
+      return execute(task, lp, **backend, b, trace);
+    }
+    TaskResult r = execute(task, lp, **backend, b, trace);
+    if (r.ok && task.kind == Task::Kind::Point && !header.empty()) {  // here, in parallel
+      r.samples_csv = samples_rows(lp.sweep.id, task.rep, r.outcome);
+      r.row_csv = points_row(header, lp.sweep, lp.scenario, task.rep, r.outcome, b);
+      r.rows_made = true;
+      r.outcome = {};
+    }
+    return r;
+  };
+  return std::make_unique<TaskHost>(warm_up, run);
+}
+
+std::unique_ptr<Executor> make_executor(const RunState& st, bool process_per_task, int jobs,
+                                        TaskHost* host) {
+  if (!process_per_task) return std::make_unique<InProcessExecutor>(st);
+  if (!host) throw ContractError("make_executor: a process-per-task backend needs a task host");
+  return std::make_unique<HostExecutor>(st, std::max(1, jobs), *host);
 }
 
 }  // namespace rosguard

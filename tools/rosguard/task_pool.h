@@ -1,13 +1,26 @@
 // The tasks of a run and the pool that runs them.
 //
 // A task is one isolation baseline or one point x repetition. A backend that needs a process
-// per task (sim: SystemC elaborates once per process) gets a ForkExecutor: up to `jobs` forked
-// workers, each running one task and sending its TaskResult back as JSON over a pipe, then
-// leaving with _exit (no parent destructors run in the child). Other backends (hw: one point at
-// a time on the machine) run tasks in this process. Only the runner's thread calls an Executor.
+// per task (sim: SystemC elaborates once per process) runs each task in a worker forked by a
+// task host: a process the runner forks before it builds the sweep's points (Loader::load_base,
+// then load_points), so that it stays small and each fork copies little (forking the runner
+// itself, which holds every point of a 10,000-point sweep, made copy_page_range the largest
+// part of the runner's CPU time). The runner sends each task to the host over a Unix socket
+// with the write end of a pipe; the host forks a worker, which builds its task's point again
+// (Loader::point, from the same scenario text the runner checked) and sends its TaskResult as
+// JSON through the pipe straight to the runner, then leaves with _exit. The host reaps the
+// workers and reports each exit status. Other backends (hw: one point at a time on the
+// machine) run tasks in this process. Only the runner's thread calls an Executor.
+//
+// Containment: the host and every worker die with their parent (PR_SET_PDEATHSIG: SIGKILL), the
+// host ignores SIGINT / SIGTERM (the runner decides: it asks the host to stop its workers with
+// SIGTERM), and workers take the default handlers back (a terminal's Ctrl-C reaches them).
 #pragma once
 
+#include <sys/types.h>
+
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -17,6 +30,7 @@
 
 #include "backend/backend.h"
 #include "loader.h"
+#include "scenario/scenario.h"
 
 namespace rosguard {
 
@@ -27,6 +41,9 @@ struct Task {
   std::string iso_key;    // isolation only: Baselines::key
   const WorkloadInfo* workload = nullptr;  // isolation only
   int core = 0;                            // isolation only
+  // A point task that runs the unregulated co-run (unregulated.h) of the point: a worker
+  // process rebuilds the point from its sweep index and runs UnregulatedCoruns::scenario_of it.
+  bool corun = false;
 };
 
 struct TaskResult {
@@ -38,6 +55,12 @@ struct TaskResult {
   std::vector<std::pair<std::string, std::string>> fallbacks;  // (what, detail)
   std::map<std::string, std::string> facts;
   nlohmann::json trace = nlohmann::json::array();  // Chrome trace events with --trace
+  // A point run in a worker process: its samples.csv lines and its points.csv row, made there
+  // (samples_rows, points_row with RunState::header and the baselines the worker had: the
+  // runner then only appends them), and `outcome` left empty.
+  bool rows_made = false;
+  std::string samples_csv;
+  std::string row_csv;
 };
 
 // What every task reads; the runner fills `baselines` before the point tasks start.
@@ -46,13 +69,54 @@ struct RunState {
   Backend* backend = nullptr;
   Baselines baselines;
   bool trace = false;
+  std::vector<std::string> header;  // points.csv's columns
 };
+
+// A point run's samples.csv lines and points.csv row: as its worker made them, else from its
+// outcome (samples_rows, points_row with `state`'s header and baselines).
+std::pair<std::string, std::string> run_rows(const TaskResult& result, const LoadedPoint& point,
+                                             int rep, const RunState& state);
 
 // "point ID rep R (path=value, ...)": how progress and errors name a run.
 std::string point_label(const SweepPoint& point, int rep);
 
 // Runs one task on the backend; every error becomes a TaskResult (never throws).
 TaskResult execute(const Task& task, const RunState& state);
+// The same for a point `lp` built in this process: an isolation task without its `workload`
+// finds it among the point's nodes by `iso_key` and `core`.
+TaskResult execute(const Task& task, const LoadedPoint& lp, Backend& backend,
+                   const Baselines& baselines, bool trace);
+
+// What a worker of a task host runs: the task (its `workload` is null: pointers do not cross
+// processes) with the baselines the runner had when it sent the task and points.csv's header.
+using TaskFunction = std::function<TaskResult(const Task& task, const Baselines& baselines,
+                                              const std::vector<std::string>& header)>;
+
+// The task host process (see the top of this file). Forked by the constructor, which returns
+// in the runner; the host runs `warm_up` once (e.g. reading the platform and workload files
+// every worker needs), then forks a worker per task that calls `run`. The destructor closes
+// the socket: the host stops its workers (SIGTERM), reaps them and exits; it is reaped here.
+class TaskHost {
+ public:
+  TaskHost(std::function<void()> warm_up, TaskFunction run);
+  ~TaskHost();
+  TaskHost(const TaskHost&) = delete;
+  TaskHost& operator=(const TaskHost&) = delete;
+
+  int socket() const { return sock_; }
+  pid_t pid() const { return pid_; }
+
+ private:
+  pid_t pid_ = -1;
+  int sock_ = -1;
+};
+
+// A task host for `base` (from Loader::load_base: no point built yet) when its backend needs a
+// process per task, else null (also when the backend is not built in: the runner says so
+// later). Each worker builds its task's point with `loader` (Loader::point, without checking
+// the schema again: the runner checks every point) and runs it on a backend the host makes.
+std::unique_ptr<TaskHost> start_task_host(Loader& loader, const LoadedScenario& base,
+                                          const BackendRegistry& backends, bool trace);
 
 class Executor {
  public:
@@ -67,7 +131,9 @@ class Executor {
   virtual void stop_all() = 0;
 };
 
-// A ForkExecutor with max(1, jobs) workers when `process_per_task`, else in-process.
-std::unique_ptr<Executor> make_executor(const RunState& state, bool process_per_task, int jobs);
+// Up to max(1, jobs) workers at a time through `host` when `process_per_task` (a host is then
+// required: ContractError without one), else one task at a time in this process.
+std::unique_ptr<Executor> make_executor(const RunState& state, bool process_per_task, int jobs,
+                                        TaskHost* host = nullptr);
 
 }  // namespace rosguard

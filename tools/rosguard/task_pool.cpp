@@ -352,6 +352,38 @@ bool write_all(int fd, const std::string& payload) {
     for (const auto& w : workers)
       ::kill(w.first, SIGTERM);
   };
+  // Tasks wait here while `limit` workers run (the runner keeps a few more in flight than it
+  // has workers, so that a worker that ends is followed at once, without a round trip through
+  // the runner); they start in the order they came.
+  struct Queued {
+    Task task;
+    int fd;
+    std::uint64_t seq;
+  };
+  std::deque<Queued> queued;
+  std::size_t limit = 1;  // concurrent workers: the runner's --jobs (Header frame)
+  const auto start_queued = [&] {
+    while (open && !queued.empty() && workers.size() < limit) {
+      Queued q = std::move(queued.front());
+      queued.pop_front();
+      const pid_t pid = ::fork();
+      if (pid == 0) {
+        ::close(sock);
+        ::close(sfd);
+        for (int other : reader.fds())
+          ::close(other);
+        for (const auto& other : queued)  // other tasks' pipes: their EOF must not wait on this
+          ::close(other.fd);
+        worker_main(q.fd, q.task, baselines, header, run, self);
+      }
+      ::close(q.fd);
+      if (pid > 0)
+        workers[pid] = q.seq;
+      else
+        open = send_frame(sock, {Frame::Failed, 0, q.seq, 0},
+                          std::string("fork: ") + std::strerror(errno));
+    }
+  };
   while (open) {
     pollfd pfds[2] = {{sock, POLLIN, 0}, {sfd, POLLIN, 0}};
     if (::poll(pfds, 2, -1) < 0) {
@@ -363,6 +395,7 @@ bool write_all(int fd, const std::string& payload) {
       while (::read(sfd, &info, sizeof info) > 0) {
       }
       reap(false);
+      start_queued();
     }
     if (!pfds[0].revents) continue;
     open = reader.receive();
@@ -370,7 +403,14 @@ bool write_all(int fd, const std::string& payload) {
       const auto& [f, payload] = *frame;
       if (f.type == Frame::Stop) {
         stop_workers();
+        for (const auto& q : queued) {  // never started: no result, the runner is told
+          ::close(q.fd);
+          if (open) open = send_frame(sock, {Frame::Failed, 0, q.seq, 0}, "stopped before it ran");
+        }
+        queued.clear();
       } else if (f.type == Frame::Baselines || f.type == Frame::Header) {
+        if (f.type == Frame::Header)
+          limit = static_cast<std::size_t>(std::max<std::int64_t>(1, f.value));
         try {
           if (f.type == Frame::Baselines)
             baselines = baselines_from_json(json::parse(payload));
@@ -388,25 +428,16 @@ bool write_all(int fd, const std::string& payload) {
         } catch (const std::exception& e) {
           why = std::string("bad task: ") + e.what();
         }
-        const pid_t pid = why.empty() && fd >= 0 ? ::fork() : -1;
-        if (pid == 0) {
-          ::close(sock);
-          ::close(sfd);
-          for (int other : reader.fds())
-            ::close(other);
-          worker_main(fd, task, baselines, header, run, self);
+        if (why.empty() && fd < 0) why = "no pipe came with the task";
+        if (!why.empty()) {
+          if (fd >= 0) ::close(fd);
+          open = send_frame(sock, {Frame::Failed, 0, f.seq, 0}, why);
+        } else {
+          queued.push_back({std::move(task), fd, f.seq});
         }
-        if (fd >= 0) ::close(fd);
-        if (pid > 0) {
-          workers[pid] = f.seq;
-          continue;
-        }
-        if (why.empty())
-          why =
-              fd < 0 ? "no pipe came with the task" : std::string("fork: ") + std::strerror(errno);
-        open = send_frame(sock, {Frame::Failed, 0, f.seq, 0}, why);
       }
     }
+    start_queued();
   }
   // The runner closed the socket (or is gone): stop what still runs, reap it, leave.
   stop_workers();
@@ -422,13 +453,14 @@ class HostExecutor : public Executor {
       : st_(st), jobs_(jobs), host_(host), reader_(host.socket()) {}
   ~HostExecutor() override { stop_all(); }
 
-  bool can_submit() const override { return static_cast<int>(workers_.size()) < jobs_; }
+  // --jobs workers run at a time in the host; kQueued more wait there, ready to start.
+  bool can_submit() const override { return static_cast<int>(workers_.size()) < jobs_ + kQueued; }
   bool busy() const override { return !workers_.empty(); }
 
   void submit(std::size_t id, const Task& task) override {
     if (host_gone_) throw RunError("the task host process exited (" + host_error() + ")");
     if (!header_sent_) {
-      if (!send_frame(host_.socket(), {Frame::Header, 0, 0, 0}, json(st_.header).dump())) {
+      if (!send_frame(host_.socket(), {Frame::Header, 0, 0, jobs_}, json(st_.header).dump())) {
         host_gone_ = true;
         throw RunError("the task host process exited (" + host_error() + ")");
       }
@@ -602,6 +634,7 @@ class HostExecutor : public Executor {
     return w.id;
   }
 
+  static constexpr int kQueued = 2;
   const RunState& st_;
   int jobs_;
   TaskHost& host_;

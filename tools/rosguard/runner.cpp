@@ -455,10 +455,16 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     const CorunPlan corun_plan = add_corun_points(loaded, opt, *backend);
     UnregulatedCoruns coruns = UnregulatedCoruns::read(store.dir());
     const TaskPlan plan = plan_tasks(loaded, opt, opened, *backend, corun_plan, coruns);
+    const bool elsewhere = std::any_of(
+        loaded.points.begin(), loaded.points.end(),
+        [](const LoadedPoint& p) { return UnregulatedCoruns::signalled_elsewhere(p.scenario); });
     report.facts["unregulated_corun"] =
-        opt.unregulated ? "measured once per co-run of the nodes with policy none "
-                          "(unregulated.json)"
-                        : "off (rosguard run --no-unregulated)";
+        !opt.unregulated ? "off (rosguard run --no-unregulated)"
+        : elsewhere      ? "not measured where an RT node is signalled by a topic (another "
+                           "program's jobs cannot run twice); elsewhere once per co-run "
+                           "(unregulated.json)"
+                         : "measured once per co-run of the nodes with policy none "
+                           "(unregulated.json)";
     report.skipped_on_resume = plan.skipped;
     if (plan.skipped > 0 && !opt.quiet)
       std::cerr << "resume: " << plan.skipped << " run(s) already in "

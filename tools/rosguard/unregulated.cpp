@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/hash.h"
 #include "files.h"
+#include "policy/policy.h"
 #include "results/results.h"
 #include "results_store.h"
 
@@ -53,7 +54,14 @@ std::vector<double> times_from(const json& a) {
 }  // namespace
 
 bool UnregulatedCoruns::needed(const Scenario& s) {
-  return s.regulation.policy != "none" && !s.nodes.rt.empty() && !s.nodes.nrt.empty();
+  const PolicyInfo* policy = find_builtin_policy(s.regulation.policy);
+  const bool regulates = !policy || policy->traits.regulates;
+  return regulates && !s.nodes.rt.empty() && !s.nodes.nrt.empty() && !signalled_elsewhere(s);
+}
+
+bool UnregulatedCoruns::signalled_elsewhere(const Scenario& s) {
+  return std::any_of(s.nodes.rt.begin(), s.nodes.rt.end(),
+                     [](const RtNodeSpec& n) { return n.signal == RtSignal::Topic; });
 }
 
 std::string UnregulatedCoruns::key(const Scenario& s) {

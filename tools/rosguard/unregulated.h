@@ -38,7 +38,10 @@ class UnregulatedCoruns {
  public:
   // True when `point` has an unregulated co-run to measure: it has RT and nRT nodes and a
   // policy other than none (a policy-none point is its own unregulated co-run).
+  // An RT node signalled by a topic (another program's jobs, `"signal": "topic"`) has no
+  // co-run: its jobs cannot be run twice (the run says so in the manifest fact).
   static bool needed(const Scenario& point);
+  static bool signalled_elsewhere(const Scenario& point);
   // The co-run's identity (see the contract above), e.g. "corun/mser+bandwidth_read/1a2b3c4d".
   static std::string key(const Scenario& point);
   // `point` with its regulation off: policy none, the other regulation settings at their

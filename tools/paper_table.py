@@ -37,8 +37,8 @@ GALLERY = {
     "exp5-sampling-period": ("slowdown_vs_threshold.png", "Exp. 5: sampling period"),
     "exp6-regulation-period": ("slowdown_vs_regulation_period.png", "Exp. 6: regulation period"),
     "exp7-grid": ("rt_nrt_grid_threshold20.png", "Exp. 7: RT x nRT grid at 20 %"),
-    "exp8-memguard": ("slowdown_vs_threshold_1.png",
-                      "Exp. 8: ROSGuard (self, external) and MemGuard vs threshold"),
+    "exp8-memguard": ("mechanisms.png",
+                      "Exp. 8: ROSGuard (self, external) and MemGuard, per nRT program and threshold"),
 }
 TABLE1 = {"bandwidth_read": (1.07, 26271.74), "bandwidth_write": (1.61, 25519.15),
           "disparity": (0.83, 1517.16), "mser": (2.16, 3722.43), "sift": (0.58, 232.15),

@@ -13,6 +13,7 @@ sys.path.insert(0, str(ROOT))
 sys.dont_write_bytecode = True
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+import matplotlib.pyplot as plt  # noqa: E402  (after MPLBACKEND)
 import resultgen  # noqa: E402  (beside this file; pytest puts its folder on sys.path)
 
 # name -> (points function, write_results options)
@@ -59,3 +60,16 @@ def loaded(results_dir):
 
     return load
 
+
+@pytest.fixture
+def drawn():
+    """drawn(plan) -> its Figure, closed after the test."""
+    figures = []
+
+    def draw(plan):
+        figures.append(plan.draw())
+        return figures[-1]
+
+    yield draw
+    for fig in figures:
+        plt.close(fig)

@@ -8,7 +8,6 @@ from __future__ import annotations
 import json
 import math
 
-import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from matplotlib.collections import LineCollection, PathCollection
@@ -21,20 +20,6 @@ from analysis.results import InvalidInput, Point, Stat, load_results
 from checks import run_cli
 
 UNREGULATED = "unregulated co-run"
-
-
-@pytest.fixture
-def drawn():
-    """drawn(plan) -> its Figure, closed after the test."""
-    figures = []
-
-    def draw(plan):
-        figures.append(plan.draw())
-        return figures[-1]
-
-    yield draw
-    for fig in figures:
-        plt.close(fig)
 
 
 def _plans(results):

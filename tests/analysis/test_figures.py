@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 
-import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from matplotlib.container import BarContainer, ErrorbarContainer
@@ -39,20 +38,6 @@ EXPECTED = {
              "tradeoff", "mechanisms"},
     "rt_alone": {"isolation_table1"},
 }
-
-
-@pytest.fixture
-def drawn():
-    """drawn(plan) -> its Figure, closed after the test."""
-    figures = []
-
-    def draw(plan):
-        figures.append(plan.draw())
-        return figures[-1]
-
-    yield draw
-    for fig in figures:
-        plt.close(fig)
 
 
 def _plans(results):

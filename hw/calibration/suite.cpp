@@ -364,6 +364,8 @@ void Suite::measure_costs() {
                             [&] {
                               while (!done.load(std::memory_order_acquire)) {
                                 const auto e = sub_waker.epoch();
+                                if (done.load(std::memory_order_acquire))
+                                  break;  // a stop notified before the epoch read
                                 SampleMsg m;
                                 bool got = false;
                                 while (topic.take(sub, m)) {
@@ -436,6 +438,7 @@ void Suite::measure_costs() {
     RtThread thr(ThreadSpec{"cal-thr", nrt_core, SchedClass::Fifo, prio::kThr}, [&] {
       while (!done.load(std::memory_order_acquire)) {
         const auto e = thr_waker.epoch();
+        if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
         if (throttled.exchange(false, std::memory_order_acq_rel))
           act.push_back(ns_to_us(now_ns() - t_taken.load(std::memory_order_acquire)));
         else
@@ -446,6 +449,7 @@ void Suite::measure_costs() {
     RtThread cfb(ThreadSpec{"cal-cfb", nrt_core, SchedClass::Fifo, prio::kCfb}, [&] {
       while (!done.load(std::memory_order_acquire)) {
         const auto e = cfb_waker.epoch();
+        if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
         ControlMsg m;
         bool got = false;
         while (control.take(sub, m)) {
@@ -598,6 +602,7 @@ void Suite::measure_costs() {
       int i = 0;
       while (!done.load(std::memory_order_acquire)) {
         const auto e = ctl_waker.epoch();
+        if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
         SampleMsg msg;
         bool got = false;
         while (samples.take(sample_sub, msg)) {

@@ -331,8 +331,11 @@ HoldMeasurement measure_hold(ThrottleKind kind, int core, const HoldProbeOptions
   RtThread thr(
       ThreadSpec{"thr-probe", core, sched.control, prio::kThr},
       [&] {
-        while (!stop.load(std::memory_order_acquire)) {
+        while (true) {
+          // The epoch before the flags: a stop or hold notified after this read ends the wait
+          // below; read after the flags, a notify in between was lost (the probe hung in join).
           const auto e = wake.epoch();
+          if (stop.load(std::memory_order_acquire)) break;
           if (held.load(std::memory_order_acquire)) {
             engaged_count.store(worker.count(), std::memory_order_relaxed);
             engaged_t.store(now_ns(), std::memory_order_release);

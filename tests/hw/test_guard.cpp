@@ -147,6 +147,42 @@ void serve_for(Guard& g, std::chrono::milliseconds d) {
     g.serve(5 * kNsPerMs);
 }
 
+// How finely this kernel brings a running thread's CPU time (/proc/<tid>/schedstat, what the
+// guard reads without a PMU) up to date, in ns: a child spins alone on `core` for 60 ms and its
+// schedstat is read every 200 us from 10 ms in; the largest step between two readings. Where it
+// is updated at the scheduler tick only (seen: 4 ms steps, HZ 250, on 6.18 under Firecracker), a
+// budget is seen up to one step late.
+long long cpu_time_step_ns(int core) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(core, &set);
+    ::sched_setaffinity(0, sizeof set, &set);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(60);
+    while (std::chrono::steady_clock::now() < end) {
+    }
+    ::_exit(0);
+  }
+  const auto read_ns = [child] {
+    std::ifstream f("/proc/" + std::to_string(child) + "/schedstat");
+    long long ns = -1;
+    f >> ns;
+    return ns;
+  };
+  std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  long long last = read_ns(), step = 0;
+  for (int i = 0; i < 200; ++i) {
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    const long long now = read_ns();
+    step = std::max(step, now - last);
+    last = now;
+  }
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return step;
+}
+
 double share_while_serving(Guard& g, const Stress& st, std::chrono::milliseconds d) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::uint64_t c0 = st.cpu_ns();
@@ -167,6 +203,7 @@ TEST_CASE("guard holds a pinned stress-ng to its budget while the RT node is act
     return;
   }
   const int core = cpus.back(), ctl = cpus.front();
+  const long long cpu_step_ns = cpu_time_step_ns(core);
   Stress st(core);
   PolicyRegistry policies;
   register_builtin(policies);
@@ -197,7 +234,11 @@ TEST_CASE("guard holds a pinned stress-ng to its budget while the RT node is act
       WARN("SKIPPED (CPU shares): other work held the core (stress-ng got "
            << before << " of it unregulated)");
     } else {
-      CHECK(active < 0.35);
+      INFO("the kernel updates a running thread's CPU time in steps of up to " << cpu_step_ns / 1000
+                                                                               << " us");
+      // ... plus one step of the CPU-time clock the budget is read from (a budget is seen up to
+      // one step late).
+      CHECK(active < 0.35 + static_cast<double>(cpu_step_ns) / (10.0 * kNsPerMs));
       CHECK(active < 0.5 * before);
       CHECK(after > 2.0 * active);
     }

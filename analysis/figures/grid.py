@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from functools import partial
 
-import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
@@ -26,7 +25,7 @@ from analysis import style
 from analysis.configs import (as_config, backend_words, describe, distinct, group_by,
                               held_fixed, keys_in_order, slug, title, varying)
 from analysis.figures import reference
-from analysis.figures.base import FigurePlan
+from analysis.figures.base import FigurePlan, slowdown_bar
 
 KIND = "RT x nRT grid"
 STEM = "rt_nrt_grid"
@@ -140,10 +139,7 @@ def _draw_cell(ax, cell, conf_cols, conf_keys, target=None) -> list:
                 continue
             s = stats[0]
             x = node + (i - (n - 1) / 2) * width
-            ax.bar(x, s.mean - 1.0, width=width, bottom=1.0, color=style.colour(i),
-                   # clipped at 0: a mean of equal repetitions may round a hair outside them
-                   yerr=np.maximum(0.0, np.array([[s.mean - s.min], [s.max - s.mean]])),
-                   error_kw={"elinewidth": 0.8, "capsize": 1.5, "ecolor": "0.2"})
+            slowdown_bar(ax, x, s, width, style.colour(i))
             ax.annotate(f"{s.mean:.2f}", (x, max(s.max, 1.0)), xytext=(0, 1.5),
                         textcoords="offset points", rotation=90, ha="center", va="bottom",
                         fontsize=5.5)

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 from functools import partial
 
-import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
@@ -26,7 +25,7 @@ from analysis import style
 from analysis.configs import (as_config, column_words, describe, distinct, group_by,
                               held_fixed, keys_in_order, slug, title, varying)
 from analysis.figures import reference
-from analysis.figures.base import FigurePlan
+from analysis.figures.base import FigurePlan, slowdown_bar
 
 KIND = "mechanism comparison"
 STEM = "mechanisms"
@@ -134,9 +133,7 @@ def _draw_panel(ax, points, series_cols, series_keys, nrts, metric) -> None:
                 continue
             s = stats[0]
             x = g + (i - (n - 1) / 2) * width
-            ax.bar(x, s.mean - 1.0, width=width, bottom=1.0, color=style.colour(i),
-                   yerr=np.maximum(0.0, np.array([[s.mean - s.min], [s.max - s.mean]])),
-                   error_kw={"elinewidth": 0.8, "capsize": 1.5, "ecolor": "0.2"})
+            slowdown_bar(ax, x, s, width, style.colour(i))
         for value in reference.unregulated(cell, metric):
             reference.unregulated_segment(ax, g - 0.45, g + 0.45, value)
     ax.axhline(1.0, **style.ISOLATION_STYLE)

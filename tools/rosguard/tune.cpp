@@ -439,18 +439,24 @@ void Tuner::build_space() {
       fs::remove_all(dir, ec);
     }
   } cleanup{check_dir};
+  // Loads one setting (a configuration at the ladder's top rung) as a scenario of its own on
+  // `backend`: InputError when it is not valid there.
+  const auto check_setting = [&](const json& config, const std::string& backend,
+                                 const std::string& suffix) {
+    json setting = config;
+    setting.push_back(number_json(ladder_.back()));
+    json doc = batch_document({setting}, backend);
+    doc["name"] = name_.substr(0, 100) + "-" + suffix;
+    const fs::path f = check_dir / (suffix + ".json");
+    write_file_atomic(f, doc.dump(2) + "\n");
+    RunOptions ro;
+    ro.scenario_file = f.string();
+    load_for_run(ro, loader_, backends_);
+  };
   for (auto& s : searches_) {
     s.label = setting_label(s.config);
-    json setting = s.config;
-    setting.push_back(number_json(ladder_.back()));
-    json doc = batch_document({setting}, "sim");
-    doc["name"] = name_.substr(0, 100) + "-tune-check";
-    const fs::path f = check_dir / "check.json";
-    write_file_atomic(f, doc.dump(2) + "\n");
     try {
-      RunOptions ro;
-      ro.scenario_file = f.string();
-      load_for_run(ro, loader_, backends_);
+      check_setting(s.config, "sim", "tune-check");
       valid.push_back(std::move(s));
     } catch (const InputError& e) {
       note(s.label + " is left out: " + e.message());
@@ -465,16 +471,8 @@ void Tuner::build_space() {
   }
   // --confirm hw: the scenario must run on this machine before the search spends its time.
   if (opt_.confirm == "hw") {
-    json setting = searches_.front().config;
-    setting.push_back(number_json(ladder_.back()));
-    json doc = batch_document({setting}, "hw");
-    doc["name"] = name_.substr(0, 100) + "-confirm-check";
-    const fs::path f = check_dir / "confirm.json";
-    write_file_atomic(f, doc.dump(2) + "\n");
     try {
-      RunOptions ro;
-      ro.scenario_file = f.string();
-      load_for_run(ro, loader_, backends_);
+      check_setting(searches_.front().config, "hw", "confirm-check");
     } catch (const InputError& e) {
       throw InputError(file, e.json_path(), "--confirm hw: on this machine " + e.message());
     }

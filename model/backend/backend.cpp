@@ -62,11 +62,12 @@ std::string Baselines::key(const Scenario& s, const WorkloadInfo& workload, int 
   // How many times a baseline is measured does not change one measurement.
   nlohmann::json hw = s.document.at("hw");
   hw.erase("baseline_repetitions");
-  const std::string context = s.backend + s.platform.doc.dump() + workload.doc.dump() +
-                              s.document.at("sim").dump() + hw.dump();
+  // FNV-1a of backend + platform + workload + sim + hw, the documents' texts compact.
+  std::uint64_t h = fnv1a(s.backend);
+  h = workload.doc.fnv1a(s.platform.doc.fnv1a(h));
+  h = fnv1a(hw.dump(), fnv1a(s.document.at("sim").dump(), h));
   char buf[20];
-  std::snprintf(buf, sizeof buf, "%08llx",
-                static_cast<unsigned long long>(fnv1a(context) & 0xffffffffULL));
+  std::snprintf(buf, sizeof buf, "%08llx", static_cast<unsigned long long>(h & 0xffffffffULL));
   return workload.name + "/core" + std::to_string(core) + "/" + buf;
 }
 

@@ -4,11 +4,15 @@
 // assigning a json replaces the shared document for this copy only.
 #pragma once
 
+#include <cstdint>
 #include <initializer_list>
 #include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
+
+#include "core/hash.h"
 
 namespace rosguard {
 
@@ -46,7 +50,20 @@ class SharedJson {
   // dump() without indent is made once, when the document is (Baselines::key hashes the
   // platform's and the workload's for every row of a run).
   std::string dump(int indent = -1) const {
-    return indent == -1 && text_ ? *text_ : doc_->dump(indent);
+    return indent == -1 && text_ ? text_->text : doc_->dump(indent);
+  }
+  // fnv1a(dump(), h), the last answer kept: a key that hashes a text after the same prefix
+  // for every point (Baselines::key: the platform's 8 KB after the backend's name) hashes it
+  // once per run.
+  std::uint64_t fnv1a(std::uint64_t h) const {
+    if (!text_) return rosguard::fnv1a(doc_->dump(), h);
+    const std::lock_guard<std::mutex> lock(text_->mutex);
+    if (!text_->hashed || text_->hash_in != h) {
+      text_->hash_in = h;
+      text_->hash_out = rosguard::fnv1a(text_->text, h);
+      text_->hashed = true;
+    }
+    return text_->hash_out;
   }
 
   friend bool operator==(const SharedJson& a, const SharedJson& b) {
@@ -59,16 +76,24 @@ class SharedJson {
     static const auto e = std::make_shared<const nlohmann::json>();
     return e;
   }
+  struct Text {
+    std::string text;          // doc_->dump()
+    mutable std::mutex mutex;  // guards the last fnv1a answer below
+    mutable bool hashed = false;
+    mutable std::uint64_t hash_in = 0, hash_out = 0;
+  };
   // Null when dump() throws (a string that is not UTF-8): dump() then throws as json's does.
-  static std::shared_ptr<const std::string> compact(const nlohmann::json& doc) {
+  static std::shared_ptr<const Text> compact(const nlohmann::json& doc) {
     try {
-      return std::make_shared<const std::string>(doc.dump());
+      auto t = std::make_shared<Text>();
+      t->text = doc.dump();
+      return t;
     } catch (const nlohmann::json::exception&) {
       return nullptr;
     }
   }
   std::shared_ptr<const nlohmann::json> doc_;
-  std::shared_ptr<const std::string> text_;  // doc_->dump(); null: made on each call
+  std::shared_ptr<const Text> text_;  // null: dump() made on each call
 };
 
 }  // namespace rosguard

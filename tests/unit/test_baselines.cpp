@@ -4,8 +4,10 @@
 // response times in samples.csv.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
+#include "core/hash.h"
 #include "engine/outcome.h"
 #include "results/results.h"
 
@@ -83,6 +85,32 @@ TEST_CASE("a baseline spread above 5 % is too noisy and says so", "[baselines]")
   CHECK_THAT(w, Catch::StartsWith("isolation baseline w/core0/x: "));
   CHECK_THAT(w, Catch::Contains("5.1 %"));
   CHECK_THAT(w, Catch::Contains("over 3 measurements"));
+}
+
+TEST_CASE("a baseline's key hashes backend, platform, workload, sim and hw as one text",
+          "[baselines]") {
+  Scenario s = two_node_scenario();
+  s.platform.doc = {{"cores", 2}, {"name", "p"}};
+  const WorkloadInfo& w = s.nodes.rt[0].workload;
+  const auto expected = [&](const Scenario& sc) {
+    const std::string text = sc.backend + sc.platform.doc.dump() + w.doc.dump() +
+                             sc.document.at("sim").dump() + sc.document.at("hw").dump();
+    char hex[20];
+    std::snprintf(hex, sizeof hex, "%08llx",
+                  static_cast<unsigned long long>(fnv1a(text) & 0xffffffffULL));
+    return "rt_work/core0/" + std::string(hex);
+  };
+  CHECK(Baselines::key(s, w, 0) == expected(s));
+  // The platform's hash is kept for the prefix it was made after: another backend, another key.
+  Scenario other = s;
+  other.backend = "sim";
+  CHECK(Baselines::key(other, w, 0) == expected(other));
+  CHECK(Baselines::key(other, w, 0) != Baselines::key(s, w, 0));
+  CHECK(Baselines::key(s, w, 0) == expected(s));
+  // How many times a baseline is measured is not part of it.
+  other = s;
+  other.document["hw"]["baseline_repetitions"] = 5;
+  CHECK(Baselines::key(other, w, 0) == Baselines::key(s, w, 0));
 }
 
 TEST_CASE("baseline measurements are spread over the repetition rounds", "[baselines]") {

@@ -111,12 +111,12 @@ TEST_CASE("a row gets the co-run's median over its isolation, a policy-none row 
   const std::string row = row_of(header, s, b);
   UnregulatedCoruns coruns;
   // Not measured (yet): the line stays as it is.
-  CHECK(fill_unregulated_cells(header, row, s, coruns, b) == row);
   const std::string key = UnregulatedCoruns::key(s);
+  CHECK(fill_unregulated_cells(header, row, s, key, coruns, b) == row);
   coruns.put(key, {{380.0}, {210.0}}, 0);
   coruns.put(key, {{400.0}, {kNaN}}, 1);  // a measurement that lacks the nRT time
   coruns.put(key, {{420.0}, {230.0}}, 2);
-  const std::string filled = fill_unregulated_cells(header, row, s, coruns, b);
+  const std::string filled = fill_unregulated_cells(header, row, s, key, coruns, b);
   CHECK(cell(header, filled, "rt_unregulated_time_us") == "400.000");
   CHECK(cell(header, filled, "rt_unregulated_slowdown") == "4.000000");
   CHECK(cell(header, filled, "nrt_unregulated_time_us") == "220.000");
@@ -124,7 +124,8 @@ TEST_CASE("a row gets the co-run's median over its isolation, a policy-none row 
   CHECK(cell(header, filled, "rt_slowdown") == cell(header, row, "rt_slowdown"));
 
   const Scenario none = point("none", 20);
-  const std::string own = fill_unregulated_cells(header, row_of(header, none, b), none, coruns, b);
+  const std::string own =
+      fill_unregulated_cells(header, row_of(header, none, b), none, "", coruns, b);
   CHECK(cell(header, own, "rt_unregulated_time_us") == "150.000");
   CHECK(cell(header, own, "rt_unregulated_slowdown") == "1.500000");
   CHECK(cell(header, own, "nrt_unregulated_slowdown") == "1.500000");

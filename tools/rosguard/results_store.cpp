@@ -331,10 +331,10 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
   return opened;
 }
 
-void ResultsStore::append_run(const std::string& samples, const std::string& row) const {
+void ResultsStore::append_runs(const std::string& samples, const std::string& rows) const {
   FileLock lock(dir_ / ".lock");
   append_under_lock(dir_ / "samples.csv", samples);
-  append_under_lock(points_path(), row);
+  append_under_lock(points_path(), rows);
 }
 
 void ResultsStore::save_baselines(const Baselines& baselines) const {

@@ -83,8 +83,8 @@ class ResultsStore {
   // marked running.
   Opened open(const nlohmann::json& description, const std::string& shard);
 
-  // Appends one run's samples.csv lines and its points.csv row.
-  void append_run(const std::string& samples, const std::string& row) const;
+  // Appends runs' samples.csv lines and their points.csv rows (the same runs, in one order).
+  void append_runs(const std::string& samples, const std::string& rows) const;
   // Merges `baselines` into baselines.json: measurements it does not hold yet are added, those
   // it holds (another shard's of the same index) are kept.
   void save_baselines(const Baselines& baselines) const;

@@ -2,6 +2,8 @@
 
 #include <cstdio>
 #include <map>
+#include <set>
+#include <utility>
 
 #include "core/hash.h"
 #include "host_facts.h"
@@ -26,7 +28,9 @@ json describe_points(const LoadedScenario& loaded) {
 // Table 1), so that analysis can show measured next to reference.
 json describe_workloads(const LoadedScenario& loaded) {
   json workloads = json::object();
+  std::set<std::pair<std::string, std::string>> seen;  // (name, origin): each entry made once
   const auto add = [&](const WorkloadInfo& w) {
+    if (!seen.emplace(w.name, w.origin).second) return;
     json entry{{"origin", w.origin}};
     if (w.doc.contains("reference")) entry["reference"] = w.doc["reference"];
     workloads[w.name] = entry;
@@ -43,8 +47,9 @@ json describe_workloads(const LoadedScenario& loaded) {
 json describe_platform(const LoadedScenario& loaded) {
   std::map<std::string, json> platforms;
   for (const auto& p : loaded.points)
-    platforms.emplace(p.scenario.platform.name, json{{"origin", p.scenario.platform.origin},
-                                                     {"doc", p.scenario.platform.doc}});
+    if (!platforms.count(p.scenario.platform.name))  // the document copied once
+      platforms.emplace(p.scenario.platform.name, json{{"origin", p.scenario.platform.origin},
+                                                       {"doc", p.scenario.platform.doc}});
   return platforms.size() == 1 ? platforms.begin()->second : json(platforms);
 }
 

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
@@ -67,6 +68,7 @@ std::string join(const std::vector<std::string>& v, const std::string& sep) {
 struct CorunPlan {
   std::size_t first = 0;          // index of the first co-run point: the scenario's point count
   std::vector<int> measurements;  // per co-run point, as many as the baselines get
+  std::map<std::string, std::string> key_of;  // this shard's point id -> its co-run key
   bool is_corun(std::size_t point) const { return point >= first; }
 };
 
@@ -84,7 +86,7 @@ CorunPlan add_corun_points(LoadedScenario& loaded, const RunOptions& opt, const 
             static_cast<std::size_t>(opt.shard_index) ||
         !UnregulatedCoruns::needed(p.scenario))
       continue;
-    const std::string key = UnregulatedCoruns::key(p.scenario);
+    const std::string& key = plan.key_of[p.sweep.id] = UnregulatedCoruns::key(p.scenario);
     const int measurements = backend.baseline_repetitions(p.scenario);
     auto [it, fresh] = index.try_emplace(key, added.size());
     if (fresh) {
@@ -292,24 +294,65 @@ class TaskRunner {
   std::size_t runs_done_ = 0;  // point runs finished (progress counts runs, not baselines)
 };
 
+// Runs' samples and rows on their way to the results folder: written together (one lock, one
+// write per file) once kRows wait or the oldest has waited kDelay, and when flushed. Runs that
+// come slower than that are written as they come; a killed run loses at most those waiting
+// (complete rows only: --resume runs them again).
+class RowWriter {
+ public:
+  RowWriter(const ResultsStore& store, InvocationReport& report) : store_(store), report_(report) {}
+  ~RowWriter() {  // rows behind an exception are kept as well
+    try {
+      flush();
+    } catch (const std::exception&) {  // the exception on its way is the one to report
+    }
+  }
+  RowWriter(const RowWriter&) = delete;
+  RowWriter& operator=(const RowWriter&) = delete;
+
+  void add(const std::pair<std::string, std::string>& rows) {
+    if (waiting_ == 0) since_ = std::chrono::steady_clock::now();
+    samples_ += rows.first;
+    rows_ += rows.second;
+    ++waiting_;
+    if (waiting_ >= kRows || std::chrono::steady_clock::now() - since_ >= kDelay) flush();
+  }
+  void flush() {
+    if (waiting_ == 0) return;
+    store_.append_runs(samples_, rows_);
+    report_.rows += waiting_;
+    samples_.clear();
+    rows_.clear();
+    waiting_ = 0;
+  }
+
+ private:
+  static constexpr std::size_t kRows = 256;
+  static constexpr std::chrono::milliseconds kDelay{100};
+  const ResultsStore& store_;
+  InvocationReport& report_;
+  std::string samples_, rows_;
+  std::size_t waiting_ = 0;
+  std::chrono::steady_clock::time_point since_;
+};
+
 // The phases in order; after each phase of baselines (or co-runs) they are saved (for resumed
-// runs and other shards); each point run's samples and row are appended once it and every run
-// before it in the phase have finished (the few that finish early wait, at most kHeldRuns of
-// them: appended in order, the files need no rewrite when the run ends), with the baselines and
-// co-runs measured so far (the rows are refreshed with all of them when the run finishes).
+// runs and other shards); each point run's samples and row are appended (RowWriter) once it and
+// every run before it in the phase have finished (the few that finish early wait, at most
+// kHeldRuns of them: appended in order, the files need no rewrite when the run ends), with the
+// baselines and co-runs measured so far (the rows are refreshed with all of them when the run
+// finishes).
 void run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
-               UnregulatedCoruns& coruns, const ResultsStore& store, TaskRunner& runner,
-               InvocationReport& report, json& trace_events) {
+               const ResultsStore& store, TaskRunner& runner, InvocationReport& report,
+               json& trace_events) {
   constexpr std::size_t kHeldRuns = 256;
+  RowWriter writer(store, report);
   for (const auto& phase : plan.phases) {
     bool measured = false, corun_measured = false;
     std::map<std::size_t, std::pair<std::string, std::string>> held;  // by position in phase
     std::size_t next = 0;  // position of the next run to append
     std::vector<bool> done(phase.size(), false);
-    const auto append = [&](const std::pair<std::string, std::string>& rows) {
-      store.append_run(rows.first, rows.second);
-      ++report.rows;
-    };
+    const auto append = [&](const std::pair<std::string, std::string>& rows) { writer.add(rows); };
     const auto flush_ready = [&] {
       while (next < phase.size() && done[next]) {
         if (const auto it = held.find(next); it != held.end()) {
@@ -331,16 +374,11 @@ void run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
           c.rt_time_us.push_back(n.time_us);
         for (const auto& n : r.outcome.nrt)
           c.nrt_time_us.push_back(n.time_us);
-        coruns.put(st.loaded->points[t.point].sweep.id, std::move(c), t.rep);
+        st.coruns.put(st.loaded->points[t.point].sweep.id, std::move(c), t.rep);
         corun_measured = true;
       } else {
         const LoadedPoint& lp = st.loaded->points[t.point];
-        auto rows = run_rows(r, lp, t.rep, st);
-        rows.second.pop_back();  // the newline
-        rows.second =
-            fill_unregulated_cells(st.header, rows.second, lp.scenario, coruns, st.baselines) +
-            "\n";
-        held.emplace(position, std::move(rows));
+        held.emplace(position, run_rows(r, lp, t.rep, st));
         for (const auto& e : r.trace)
           trace_events.push_back(e);
       }
@@ -353,8 +391,9 @@ void run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
     });
     for (const auto& [pos, rows] : held)  // behind a failed or stopped run: kept all the same
       append(rows);
+    writer.flush();
     if (measured) store.save_baselines(st.baselines);
-    if (corun_measured) coruns.save(store.dir());
+    if (corun_measured) st.coruns.save(store.dir());
     if (!runner.failure().empty() || stop_signal()) return;
   }
 }
@@ -370,19 +409,27 @@ void warn_noisy_baselines(const TaskPlan& plan, const Baselines& baselines) {
 }
 
 // Brings a row's baseline and unregulated co-run cells up to date from the folder's baselines
-// and co-runs (DIR/unregulated.json as it is now: read here, not under the store's lock).
-RowRefresher row_refresher(const LoadedScenario& loaded, const std::filesystem::path& dir) {
+// and co-runs (DIR/unregulated.json as it is now: read here, not under the store's lock). The
+// co-run keys of this shard's points are `corun_plan`'s; another shard's are made here.
+RowRefresher row_refresher(const LoadedScenario& loaded, const CorunPlan& corun_plan,
+                           const std::filesystem::path& dir) {
   std::map<std::string, const LoadedPoint*> by_id;
   for (const auto& p : loaded.points)
     by_id.emplace(p.sweep.id, &p);
-  return [by_id, header = header_of(loaded), coruns = UnregulatedCoruns::read(dir)](
+  return [by_id, keys = corun_plan.key_of, header = header_of(loaded),
+          coruns = UnregulatedCoruns::read(dir)](
              const std::string& id, const std::string& line,
-             const Baselines& b) -> std::optional<std::string> {
+             const Baselines& b) mutable -> std::optional<std::string> {
     const auto it = by_id.find(id);
     if (it == by_id.end()) return std::nullopt;
-    const auto fresh = refresh_isolation_cells(header, line, it->second->scenario, b);
+    const Scenario& s = it->second->scenario;
+    const auto fresh = refresh_isolation_cells(header, line, s, b);
     const std::string current = fresh.value_or(line);
-    std::string filled = fill_unregulated_cells(header, current, it->second->scenario, coruns, b);
+    auto key = keys.find(id);
+    if (key == keys.end() && UnregulatedCoruns::needed(s))
+      key = keys.emplace(id, UnregulatedCoruns::key(s)).first;
+    std::string filled =
+        fill_unregulated_cells(header, current, s, key == keys.end() ? "" : key->second, coruns, b);
     if (!fresh && filled == line) return std::nullopt;
     return filled;
   };
@@ -450,9 +497,10 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   // 3. Tasks of this shard; 4. run them; 5. sort the rows (so --jobs and shards do not change
   // the bytes) and finish the manifest, also when something throws.
   InvocationReport report;
+  CorunPlan corun_plan;
   try {
     // The co-run points are appended: `first` and other references into the points are stale.
-    const CorunPlan corun_plan = add_corun_points(loaded, opt, *backend);
+    corun_plan = add_corun_points(loaded, opt, *backend);
     UnregulatedCoruns coruns = UnregulatedCoruns::read(store.dir());
     const TaskPlan plan = plan_tasks(loaded, opt, opened, *backend, corun_plan, coruns);
     const bool elsewhere = std::any_of(
@@ -469,14 +517,15 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     if (plan.skipped > 0 && !opt.quiet)
       std::cerr << "resume: " << plan.skipped << " run(s) already in "
                 << store.points_path().string() << ", skipped\n";
-    RunState st{&loaded, backend.get(), opened.baselines, opt.trace, header_of(loaded)};
+    RunState st{&loaded,   backend.get(),     opened.baselines,
+                opt.trace, header_of(loaded), std::move(coruns)};
     auto exec =
         make_executor(st, backend->process_per_task(), worker_count(opt, *backend), host.get());
     StopSignalGuard signals;
     Progress progress(plan.runs, !opt.quiet);
     TaskRunner runner(loaded, corun_plan, *exec, progress, report, opened.fallbacks);
     json trace_events = json::array();
-    run_tasks(plan, corun_plan, st, coruns, store, runner, report, trace_events);
+    run_tasks(plan, corun_plan, st, store, runner, report, trace_events);
     progress.finish();
     warn_noisy_baselines(plan, st.baselines);
     if (opt.trace && !trace_events.empty()) store.add_trace(trace_events);
@@ -489,12 +538,12 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     report.status = "failed";
     report.error = e.what();
     try {
-      store.finish(report, row_refresher(loaded, store.dir()));
+      store.finish(report, row_refresher(loaded, corun_plan, store.dir()));
     } catch (const std::exception&) {  // the first error is the one to report
     }
     throw;
   }
-  store.finish(report, row_refresher(loaded, store.dir()));
+  store.finish(report, row_refresher(loaded, corun_plan, store.dir()));
   return report_to_user(opt, report, store.dir(), point_count, repetitions);
 }
 

@@ -33,7 +33,10 @@ using json = nlohmann::json;
 namespace {
 
 // ---------------------------------------------------------------------------------------------
-// Worker protocol: a TaskResult as JSON. A number that was not measured (NaN) travels as null.
+// Worker protocol: a TaskResult as one line of JSON (a number that was not measured, NaN,
+// travels as null), then, when the worker made its rows, the samples.csv lines and the
+// points.csv row as they are (their sizes in the JSON): a point's samples are some 16 KB, which
+// the runner then neither parses nor copies character by character.
 
 json to_json(const TaskResult& r) {
   json j;
@@ -54,11 +57,15 @@ json to_json(const TaskResult& r) {
   j["fallbacks"] = r.fallbacks;
   j["facts"] = r.facts;
   j["trace"] = r.trace;
-  if (r.rows_made) {
-    j["samples_csv"] = r.samples_csv;
-    j["row_csv"] = r.row_csv;
-  }
+  if (r.rows_made) j["rows_bytes"] = {r.samples_csv.size(), r.row_csv.size()};
   return j;
+}
+
+std::string encode(const TaskResult& r) {
+  std::string out = to_json(r).dump();  // one line: dump() escapes a newline in a string
+  out += '\n';
+  if (r.rows_made) out += r.samples_csv + r.row_csv;
+  return out;
 }
 
 TaskResult from_json(const json& j) {
@@ -79,10 +86,22 @@ TaskResult from_json(const json& j) {
   r.fallbacks = j.at("fallbacks").get<std::vector<std::pair<std::string, std::string>>>();
   r.facts = j.at("facts").get<std::map<std::string, std::string>>();
   r.trace = j.at("trace");
-  if (const auto it = j.find("samples_csv"); it != j.end()) {
+  return r;
+}
+
+// What encode() wrote; throws (json or std::out_of_range) when `bytes` is not all of it.
+TaskResult decode(const std::string& bytes) {
+  const std::size_t eol = bytes.find('\n');
+  if (eol == std::string::npos) throw std::out_of_range("no end of the result's first line");
+  const json j = json::parse(std::string_view(bytes).substr(0, eol));
+  TaskResult r = from_json(j);
+  if (const auto it = j.find("rows_bytes"); it != j.end()) {
+    const auto samples = it->at(0).get<std::size_t>(), row = it->at(1).get<std::size_t>();
+    if (bytes.size() - eol - 1 != samples + row)
+      throw std::out_of_range("the result's rows are cut short");
     r.rows_made = true;
-    r.samples_csv = it->get<std::string>();
-    r.row_csv = j.at("row_csv").get<std::string>();
+    r.samples_csv = bytes.substr(eol + 1, samples);
+    r.row_csv = bytes.substr(eol + 1 + samples, row);
   }
   return r;
 }
@@ -139,8 +158,9 @@ void waitpid_retrying(pid_t pid, int& status) {
 // ---------------------------------------------------------------------------------------------
 // Task host protocol: frames on a Unix stream socket, a Frame then `size` bytes of payload.
 //   runner -> host: Task (payload: the task as JSON; the pipe's write end as SCM_RIGHTS),
-//                   Baselines (payload: baselines_to_json), Header (payload: points.csv's
-//                   columns, as a JSON list), Stop (SIGTERM to every worker).
+//                   Baselines (payload: {"baselines": baselines_to_json, "coruns":
+//                   UnregulatedCoruns::to_json}), Header (payload: points.csv's columns, as a
+//                   JSON list), Stop (SIGTERM to every worker).
 //   host -> runner: Exit (`value`: the worker's wait status), Failed (payload: why the host
 //                   could not start it; its pipe is closed).
 // `seq` numbers the runner's tasks (never reused within a run).
@@ -286,9 +306,8 @@ bool write_all(int fd, const std::string& payload) {
 
 // In a worker (forked by the host): default signal handling back, nothing of the host's kept
 // open but its own pipe, run the task, send the result, leave without destructors.
-[[noreturn]] void worker_main(int result_fd, const Task& task, const Baselines& baselines,
-                              const std::vector<std::string>& header, const TaskFunction& run,
-                              pid_t host) {
+[[noreturn]] void worker_main(int result_fd, const Task& task, const TaskInputs& inputs,
+                              const TaskFunction& run, pid_t host) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (::getppid() != host) ::_exit(4);
   ::prctl(PR_SET_NAME, "rosguard-task");
@@ -299,11 +318,11 @@ bool write_all(int fd, const std::string& payload) {
   ::sigprocmask(SIG_SETMASK, &none, nullptr);
   std::string payload;
   try {
-    payload = to_json(run(task, baselines, header)).dump();
+    payload = encode(run(task, inputs));
   } catch (const std::exception& e) {
     TaskResult r;
     r.error = e.what();
-    payload = to_json(r).dump();
+    payload = encode(r);
   }
   ::_exit(write_all(result_fd, payload) ? 0 : 3);
 }
@@ -332,8 +351,7 @@ bool write_all(int fd, const std::string& payload) {
   ::malloc_trim(0);
   const pid_t self = ::getpid();
   FrameReader reader(sock);
-  Baselines baselines;
-  std::vector<std::string> header;
+  TaskInputs inputs;
   std::map<pid_t, std::uint64_t> workers;  // pid -> seq
   bool open = true;
   const auto reap = [&](bool block) {
@@ -374,7 +392,7 @@ bool write_all(int fd, const std::string& payload) {
           ::close(other);
         for (const auto& other : queued)  // other tasks' pipes: their EOF must not wait on this
           ::close(other.fd);
-        worker_main(q.fd, q.task, baselines, header, run, self);
+        worker_main(q.fd, q.task, inputs, run, self);
       }
       ::close(q.fd);
       if (pid > 0)
@@ -412,10 +430,13 @@ bool write_all(int fd, const std::string& payload) {
         if (f.type == Frame::Header)
           limit = static_cast<std::size_t>(std::max<std::int64_t>(1, f.value));
         try {
-          if (f.type == Frame::Baselines)
-            baselines = baselines_from_json(json::parse(payload));
-          else
-            header = json::parse(payload).get<std::vector<std::string>>();
+          const json doc = json::parse(payload);
+          if (f.type == Frame::Baselines) {
+            inputs.baselines = baselines_from_json(doc.at("baselines"));
+            inputs.coruns = UnregulatedCoruns::from_json(doc.at("coruns"));
+          } else {
+            inputs.header = doc.get<std::vector<std::string>>();
+          }
         } catch (const std::exception&) {
           ::_exit(6);  // the runner sees the socket close
         }
@@ -536,14 +557,16 @@ class HostExecutor : public Executor {
     bool eof;
   };
 
-  // The host's copy of the baselines is brought up to date before a task that may read them.
+  // The host's copy of the baselines and co-runs is brought up to date before a task that may
+  // read them.
   void send_baselines() {
-    std::size_t measurements = 0;
+    std::size_t measurements = st_.coruns.measurements();
     for (const auto& [key, runs] : st_.baselines.all())
       measurements += runs.runs.size() + 1;
     if (measurements == baselines_sent_) return;
-    if (!send_frame(host_.socket(), {Frame::Baselines, 0, 0, 0},
-                    baselines_to_json(st_.baselines).dump())) {
+    const json doc = {{"baselines", baselines_to_json(st_.baselines)},
+                      {"coruns", st_.coruns.to_json()}};
+    if (!send_frame(host_.socket(), {Frame::Baselines, 0, 0, 0}, doc.dump())) {
       host_gone_ = true;
       throw RunError("the task host process exited (" + host_error() + ")");
     }
@@ -600,7 +623,7 @@ class HostExecutor : public Executor {
     const int status = known ? exit->second : 0;
     if (!known || !WIFSIGNALED(status)) {
       try {
-        TaskResult r = from_json(json::parse(w.data));
+        TaskResult r = decode(w.data);
         if (known) exits_.erase(exit);
         return r;
       } catch (const std::exception&) {
@@ -649,13 +672,24 @@ class HostExecutor : public Executor {
   bool header_sent_ = false;
 };
 
+// A point run's points.csv row (with its newline), its unregulated cells filled.
+std::string point_row(const std::vector<std::string>& header, const LoadedPoint& lp, int rep,
+                      const PointOutcome& outcome, const Baselines& baselines,
+                      const UnregulatedCoruns& coruns) {
+  std::string row = points_row(header, lp.sweep, lp.scenario, rep, outcome, baselines);
+  row.pop_back();  // the newline
+  const std::string key =
+      UnregulatedCoruns::needed(lp.scenario) ? UnregulatedCoruns::key(lp.scenario) : "";
+  return fill_unregulated_cells(header, row, lp.scenario, key, coruns, baselines) + "\n";
+}
+
 }  // namespace
 
 std::pair<std::string, std::string> run_rows(const TaskResult& r, const LoadedPoint& lp, int rep,
                                              const RunState& st) {
   if (r.rows_made) return {r.samples_csv, r.row_csv};
   return {samples_rows(lp.sweep.id, rep, r.outcome),
-          points_row(st.header, lp.sweep, lp.scenario, rep, r.outcome, st.baselines)};
+          point_row(st.header, lp, rep, r.outcome, st.baselines, st.coruns)};
 }
 
 std::string point_label(const SweepPoint& p, int rep) {
@@ -757,18 +791,17 @@ std::unique_ptr<TaskHost> start_task_host(Loader& loader, const LoadedScenario& 
     for (const std::uint64_t i : indexes)
       loader.point(base, i, true);
   };
-  const auto run = [&loader, &base, backend, trace](const Task& task, const Baselines& b,
-                                                    const std::vector<std::string>& header) {
+  const auto run = [&loader, &base, backend, trace](const Task& task, const TaskInputs& in) {
     LoadedPoint lp = loader.point(base, task.point, true);
     if (task.corun) {  // the runner reads the co-run's outcome: no rows
       lp.sweep.id = UnregulatedCoruns::key(lp.scenario);
       lp.scenario = UnregulatedCoruns::scenario_of(lp.scenario);
-      return execute(task, lp, **backend, b, trace);
+      return execute(task, lp, **backend, in.baselines, trace);
     }
-    TaskResult r = execute(task, lp, **backend, b, trace);
-    if (r.ok && task.kind == Task::Kind::Point && !header.empty()) {  // here, in parallel
+    TaskResult r = execute(task, lp, **backend, in.baselines, trace);
+    if (r.ok && task.kind == Task::Kind::Point && !in.header.empty()) {  // here, in parallel
       r.samples_csv = samples_rows(lp.sweep.id, task.rep, r.outcome);
-      r.row_csv = points_row(header, lp.sweep, lp.scenario, task.rep, r.outcome, b);
+      r.row_csv = point_row(in.header, lp, task.rep, r.outcome, in.baselines, in.coruns);
       r.rows_made = true;
       r.outcome = {};
     }

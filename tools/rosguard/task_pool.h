@@ -31,6 +31,7 @@
 #include "backend/backend.h"
 #include "loader.h"
 #include "scenario/scenario.h"
+#include "unregulated.h"
 
 namespace rosguard {
 
@@ -63,17 +64,19 @@ struct TaskResult {
   std::string row_csv;
 };
 
-// What every task reads; the runner fills `baselines` before the point tasks start.
+// What every task reads; the runner fills `baselines` and `coruns` before the point tasks start.
 struct RunState {
   const LoadedScenario* loaded = nullptr;
   Backend* backend = nullptr;
   Baselines baselines;
   bool trace = false;
   std::vector<std::string> header;  // points.csv's columns
+  UnregulatedCoruns coruns;
 };
 
 // A point run's samples.csv lines and points.csv row: as its worker made them, else from its
-// outcome (samples_rows, points_row with `state`'s header and baselines).
+// outcome (samples_rows, then points_row and fill_unregulated_cells with `state`'s header,
+// baselines and co-runs).
 std::pair<std::string, std::string> run_rows(const TaskResult& result, const LoadedPoint& point,
                                              int rep, const RunState& state);
 
@@ -87,10 +90,17 @@ TaskResult execute(const Task& task, const RunState& state);
 TaskResult execute(const Task& task, const LoadedPoint& lp, Backend& backend,
                    const Baselines& baselines, bool trace);
 
+// What a task in a worker reads: the baselines and co-runs the runner had when it sent the
+// task, and points.csv's columns.
+struct TaskInputs {
+  Baselines baselines;
+  UnregulatedCoruns coruns;
+  std::vector<std::string> header;
+};
+
 // What a worker of a task host runs: the task (its `workload` is null: pointers do not cross
-// processes) with the baselines the runner had when it sent the task and points.csv's header.
-using TaskFunction = std::function<TaskResult(const Task& task, const Baselines& baselines,
-                                              const std::vector<std::string>& header)>;
+// processes) with its inputs.
+using TaskFunction = std::function<TaskResult(const Task& task, const TaskInputs& inputs)>;
 
 // The task host process (see the top of this file). Forked by the constructor, which returns
 // in the runner; the host runs `warm_up` once (e.g. reading the platform and workload files

@@ -78,19 +78,19 @@ std::string UnregulatedCoruns::key(const Scenario& s) {
           if (node.is_object())
             for (const char* k : {"budget_mbps", "regulation", "threshold_pct"})
               node.erase(k);
-  std::string context = s.backend + s.platform.doc.dump() + doc.dump();
+  // FNV-1a of backend + platform + that document + each node's workload, the texts compact.
+  std::uint64_t h = fnv1a(doc.dump(), s.platform.doc.fnv1a(fnv1a(s.backend)));
   std::string names;
   for (const auto& n : s.nodes.rt) {
-    context += n.workload.doc.dump();
+    h = fnv1a(n.workload.doc.dump(), h);
     names += (names.empty() ? "" : "+") + n.workload.name;
   }
   for (const auto& n : s.nodes.nrt) {
-    context += n.workload.doc.dump();
+    h = fnv1a(n.workload.doc.dump(), h);
     names += "+" + n.workload.name;
   }
   char buf[20];
-  std::snprintf(buf, sizeof buf, "%08llx",
-                static_cast<unsigned long long>(fnv1a(context) & 0xffffffffULL));
+  std::snprintf(buf, sizeof buf, "%08llx", static_cast<unsigned long long>(h & 0xffffffffULL));
   return "corun/" + names + "/" + buf;
 }
 
@@ -146,34 +146,10 @@ std::optional<CorunResult> UnregulatedCoruns::median(const std::string& key) con
                      node_medians(&CorunResult::nrt_time_us)};
 }
 
-UnregulatedCoruns UnregulatedCoruns::read(const fs::path& dir) {
-  UnregulatedCoruns out;
-  std::error_code ec;
-  const fs::path path = dir / kFile;
-  if (!fs::exists(path, ec)) return out;
-  const json doc = json::parse(read_file(path), nullptr, false);
-  try {
-    if (!doc.is_object()) throw json::other_error::create(501, "not a JSON object", nullptr);
-    for (const auto& [key, entry] : doc.items())
-      for (const auto& r : entry.at("runs"))
-        out.put(key, {times_from(r.at("rt_time_us")), times_from(r.at("nrt_time_us"))},
-                r.at("rep").get<int>());
-  } catch (const json::exception& e) {
-    throw RunError(path.string() + ": not the unregulated co-runs rosguard writes (" + e.what() +
-                   "); remove it to measure them again");
-  }
-  return out;
-}
-
-void UnregulatedCoruns::save(const fs::path& dir) const {
-  FileLock lock(dir / ".lock");
-  UnregulatedCoruns merged = read(dir);
-  for (const auto& [key, runs] : by_key_)
-    for (const auto& [rep, r] : runs)
-      if (!merged.has(key, rep)) merged.put(key, r, rep);
+json UnregulatedCoruns::to_json() const {
   json doc = json::object();
-  for (const auto& [key, runs] : merged.by_key_) {
-    const CorunResult m = *merged.median(key);
+  for (const auto& [key, runs] : by_key_) {
+    const CorunResult m = *median(key);
     json each = json::array();
     for (const auto& [rep, r] : runs)
       each.push_back({{"rep", rep},
@@ -183,12 +159,50 @@ void UnregulatedCoruns::save(const fs::path& dir) const {
                 {"nrt_time_us", times_json(m.nrt_time_us)},
                 {"runs", each}};
   }
-  write_file_atomic(dir / kFile, doc.dump(2) + "\n");
+  return doc;
+}
+
+UnregulatedCoruns UnregulatedCoruns::from_json(const json& doc) {
+  UnregulatedCoruns out;
+  if (!doc.is_object()) throw json::other_error::create(501, "not a JSON object", nullptr);
+  for (const auto& [key, entry] : doc.items())
+    for (const auto& r : entry.at("runs"))
+      out.put(key, {times_from(r.at("rt_time_us")), times_from(r.at("nrt_time_us"))},
+              r.at("rep").get<int>());
+  return out;
+}
+
+UnregulatedCoruns UnregulatedCoruns::read(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path path = dir / kFile;
+  if (!fs::exists(path, ec)) return {};
+  try {
+    return from_json(json::parse(read_file(path), nullptr, false));
+  } catch (const json::exception& e) {
+    throw RunError(path.string() + ": not the unregulated co-runs rosguard writes (" + e.what() +
+                   "); remove it to measure them again");
+  }
+}
+
+void UnregulatedCoruns::save(const fs::path& dir) const {
+  FileLock lock(dir / ".lock");
+  UnregulatedCoruns merged = read(dir);
+  for (const auto& [key, runs] : by_key_)
+    for (const auto& [rep, r] : runs)
+      if (!merged.has(key, rep)) merged.put(key, r, rep);
+  write_file_atomic(dir / kFile, merged.to_json().dump(2) + "\n");
+}
+
+std::size_t UnregulatedCoruns::measurements() const {
+  std::size_t n = 0;
+  for (const auto& [key, runs] : by_key_)
+    n += runs.size();
+  return n;
 }
 
 std::string fill_unregulated_cells(const std::vector<std::string>& header, const std::string& line,
-                                   const Scenario& s, const UnregulatedCoruns& coruns,
-                                   const Baselines& baselines) {
+                                   const Scenario& s, const std::string& corun_key,
+                                   const UnregulatedCoruns& coruns, const Baselines& baselines) {
   std::vector<std::string> cells = csv_split(line);
   if (cells.size() != header.size()) return line;
   const auto at = [&](const std::string& column) -> std::string* {
@@ -216,7 +230,7 @@ std::string fill_unregulated_cells(const std::vector<std::string>& header, const
       if (slowdown) set(prefix + "_unregulated_slowdown", *slowdown);
     }
   } else if (UnregulatedCoruns::needed(s)) {
-    const auto m = coruns.median(UnregulatedCoruns::key(s));
+    const auto m = coruns.median(corun_key);
     if (!m) return line;
     const auto isolation = [&](const WorkloadInfo& w, int core) {
       return baselines.all().count(Baselines::key(s, w, core)) ? baselines.at(s, w, core).time_us

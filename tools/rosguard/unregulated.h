@@ -19,6 +19,7 @@
 
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,6 +54,11 @@ class UnregulatedCoruns {
   // Node by node median of the measurements of `key` (NaN ignored); nullopt when none.
   std::optional<CorunResult> median(const std::string& key) const;
   const std::map<std::string, std::map<int, CorunResult>>& all() const { return by_key_; }
+  std::size_t measurements() const;  // over every key
+
+  // The document DIR/unregulated.json holds, and back (throws json::exception for another).
+  nlohmann::json to_json() const;
+  static UnregulatedCoruns from_json(const nlohmann::json& doc);
 
   // DIR/unregulated.json; empty when the file is missing. Throws RunError for a file of
   // another shape (naming it).
@@ -66,13 +72,14 @@ class UnregulatedCoruns {
   std::map<std::string, std::map<int, CorunResult>> by_key_;
 };
 
-// The points.csv line `line` (no newline; columns `header`; a point of scenario `s`) with its
-// unregulated cells set: from the co-run's median over the isolation baselines' median when the
-// point needs a co-run and it was measured, from the row's own rt / nrt time and slowdown when
-// the policy is none, left as they are otherwise. A header without those columns leaves the
-// line unchanged.
+// The points.csv line `line` (no newline; columns `header`; a point of scenario `s`, whose
+// co-run key is `corun_key`: UnregulatedCoruns::key(s), read only when the point needs a
+// co-run) with its unregulated cells set: from the co-run's median over the isolation
+// baselines' median when the point needs a co-run and it was measured, from the row's own rt /
+// nrt time and slowdown when the policy is none, left as they are otherwise. A header without
+// those columns leaves the line unchanged.
 std::string fill_unregulated_cells(const std::vector<std::string>& header, const std::string& line,
-                                   const Scenario& s, const UnregulatedCoruns& coruns,
-                                   const Baselines& baselines);
+                                   const Scenario& s, const std::string& corun_key,
+                                   const UnregulatedCoruns& coruns, const Baselines& baselines);
 
 }  // namespace rosguard

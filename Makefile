@@ -83,7 +83,7 @@ bench: build
 
 # Parallel efficiency on scenarios/bench/sweep-10k.json (10,000 points; long: 2 x 5 whole
 # sweeps, alternating): --jobs 1 against --jobs $(JOBS). Take it on a quiet machine (it says
-# when the load average was above 0.5).
+# when other processes took more than 2 % of a run's CPU time).
 bench-parallel: build
 	tests/bench/parallel_efficiency.sh $(BUILD) 5 $(JOBS)
 

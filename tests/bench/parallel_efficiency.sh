@@ -9,8 +9,9 @@
 #   scenario is still loaded and checked, so a shard's efficiency is lower than the sweep's)
 # The runs at --jobs 1 and --jobs N alternate, so that a change in the machine's load hits both.
 # Each run's line has its wall time, the CPU time of all its processes (runner, task host,
-# workers: /usr/bin/time) and the 1-minute load average when it started; a load above 0.5
-# means the machine was not quiet and is said at the end.
+# workers: /usr/bin/time) and the CPU time the rest of the machine used meanwhile (the busy time
+# in /proc/stat less the run's own); when that exceeds 2 % of the run's CPU time, the machine was
+# not quiet, which is said at the end. (The load average would count the benchmark's own runs.)
 set -euo pipefail
 build=${1:-build}
 repeats=${2:-5}
@@ -26,15 +27,16 @@ timer=()
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 median_of() { sort -g | awk '{a[NR]=$1} END {print (NR % 2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
-load1() { cut -d' ' -f1 /proc/loadavg; }
+busy_s() { # CPU seconds all CPUs spent busy since boot (user nice system irq softirq steal)
+  awk -v hz="$(getconf CLK_TCK)" '/^cpu / {print ($2 + $3 + $4 + $7 + $8 + $9) / hz}' /proc/stat
+}
 declare -A walls cpus
-max_load=0
+max_other=0
 echo "$scenario --shard $shard: $repeats runs each at --jobs 1 and --jobs $jobs, alternating" \
   "($(nproc) CPUs)"
 for ((i = 0; i < repeats; i++)); do
   for j in 1 "$jobs"; do
-    load=$(load1)
-    max_load=$(echo "if ($load > $max_load) $load else $max_load" | bc -l)
+    busy0=$(busy_s)
     start=$(date +%s.%N)
     if [[ ${#timer[@]} -gt 0 ]]; then
       "${timer[@]}" "$tmp/cpu" "$exe" run "$scenario" --out "$tmp/out$j" --overwrite --quiet \
@@ -44,12 +46,17 @@ for ((i = 0; i < repeats; i++)); do
     fi
     end=$(date +%s.%N)
     wall=$(echo "$end - $start" | bc -l)
-    cpu=nan
-    [[ ${#timer[@]} -gt 0 ]] && cpu=$(awk '{print $1 + $2}' "$tmp/cpu")
+    cpu=nan other=nan
+    if [[ ${#timer[@]} -gt 0 ]]; then
+      cpu=$(awk '{print $1 + $2}' "$tmp/cpu")
+      other=$(echo "$(busy_s) - $busy0 - $cpu" | bc -l)
+      share=$(echo "$other / $cpu" | bc -l)
+      max_other=$(echo "if ($share > $max_other) $share else $max_other" | bc -l)
+    fi
     walls[$j]+="$wall "
     cpus[$j]+="$cpu "
-    printf '  run %d --jobs %-3s wall %8.2f s  cpu %8.2f s  (load %s at start)\n' "$i" "$j" \
-      "$wall" "$cpu" "$load"
+    printf '  run %d --jobs %-3s wall %8.2f s  cpu %8.2f s  (rest of the machine %.2f s)\n' \
+      "$i" "$j" "$wall" "$cpu" "$other"
   done
   rows1=$(($(wc -l <"$tmp/out1/points.csv") - 1))
   rowsn=$(($(wc -l <"$tmp/out$jobs/points.csv") - 1))
@@ -69,7 +76,8 @@ for j in 1 "$jobs"; do
 done
 printf 'parallel efficiency at --jobs %s: %.1f %%\n' "$jobs" \
   "$(echo "100 * ${median[1]} / ($jobs * ${median[$jobs]})" | bc -l)"
-if (($(echo "$max_load > 0.5" | bc -l))); then
-  echo "note: the 1-minute load average reached $max_load before a run: the machine was not" \
-    "quiet, so these wall times (and the efficiency) are not the tool's alone"
+if (($(echo "$max_other > 0.02" | bc -l))); then
+  printf 'note: other processes used up to %.1f %% of a run'"'"'s CPU time: the machine was not quiet,' \
+    "$(echo "100 * $max_other" | bc -l)"
+  echo " so these wall times (and the efficiency) are not the tool's alone"
 fi

@@ -317,6 +317,7 @@ class RowWriter {
     ++waiting_;
     if (waiting_ >= kRows || std::chrono::steady_clock::now() - since_ >= kDelay) flush();
   }
+  std::size_t waiting() const { return waiting_; }
   void flush() {
     if (waiting_ == 0) return;
     store_.append_runs(samples_, rows_);
@@ -341,10 +342,12 @@ class RowWriter {
 // every run before it in the phase have finished (the few that finish early wait, at most
 // kHeldRuns of them: appended in order, the files need no rewrite when the run ends), with the
 // baselines and co-runs measured so far (the rows are refreshed with all of them when the run
-// finishes).
-void run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
+// finishes). Returns whether a baseline or co-run was measured after a row was written (so that
+// a row may lack it).
+bool run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
                const ResultsStore& store, TaskRunner& runner, InvocationReport& report,
                json& trace_events) {
+  bool measured_after_rows = false;
   constexpr std::size_t kHeldRuns = 256;
   RowWriter writer(store, report);
   for (const auto& phase : plan.phases) {
@@ -365,6 +368,8 @@ void run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
     runner.run(phase, [&](const Task& t, const TaskResult& r) {
       const auto position = static_cast<std::size_t>(&t - phase.data());
       done[position] = true;
+      if (t.kind != Task::Kind::Point || corun_plan.is_corun(t.point))
+        measured_after_rows = measured_after_rows || report.rows > 0 || writer.waiting() > 0;
       if (t.kind == Task::Kind::Isolation) {
         st.baselines.put(t.iso_key, r.iso, t.rep);
         measured = true;
@@ -394,8 +399,9 @@ void run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
     writer.flush();
     if (measured) store.save_baselines(st.baselines);
     if (corun_measured) st.coruns.save(store.dir());
-    if (!runner.failure().empty() || stop_signal()) return;
+    if (!runner.failure().empty() || stop_signal()) return measured_after_rows;
   }
+  return measured_after_rows;
 }
 
 // Tells the user, once per baseline of this shard, when its measurements spread too much.
@@ -498,6 +504,11 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   // the bytes) and finish the manifest, also when something throws.
   InvocationReport report;
   CorunPlan corun_plan;
+  // Rows another invocation or shard wrote, or rows written before a measurement they use, are
+  // brought up to date when the run finishes; a fresh single-shard run that measured every
+  // baseline and co-run before its first row has none (the refresh reads every row: 0.3 s for
+  // 10,000 points).
+  bool refresh_rows = true;
   try {
     // The co-run points are appended: `first` and other references into the points are stale.
     corun_plan = add_corun_points(loaded, opt, *backend);
@@ -525,7 +536,9 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     Progress progress(plan.runs, !opt.quiet);
     TaskRunner runner(loaded, corun_plan, *exec, progress, report, opened.fallbacks);
     json trace_events = json::array();
-    run_tasks(plan, corun_plan, st, store, runner, report, trace_events);
+    const bool measured_after_rows =
+        run_tasks(plan, corun_plan, st, store, runner, report, trace_events);
+    refresh_rows = measured_after_rows || opt.shard_count > 1 || !opened.done.empty();
     progress.finish();
     warn_noisy_baselines(plan, st.baselines);
     if (opt.trace && !trace_events.empty()) store.add_trace(trace_events);
@@ -543,7 +556,8 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     }
     throw;
   }
-  store.finish(report, row_refresher(loaded, corun_plan, store.dir()));
+  store.finish(report,
+               refresh_rows ? row_refresher(loaded, corun_plan, store.dir()) : RowRefresher{});
   return report_to_user(opt, report, store.dir(), point_count, repetitions);
 }
 

@@ -27,7 +27,7 @@ std::vector<std::string> shown(const std::string& out) {
 
 TEST_CASE("progress on a terminal stays within its width and counts runs", "[progress]") {
   std::ostringstream out;
-  Progress p(100, Progress::Mode::Terminal, out, 80);
+  Progress p(100, Progress::Mode::Terminal, out, 80, 0.0);
   const std::string label(200, 'x');
   for (std::size_t done = 1; done <= 100; ++done)
     p.update(done, "point " + std::to_string(done) + " rep 0 (" + label + ")");
@@ -40,6 +40,17 @@ TEST_CASE("progress on a terminal stays within its width and counts runs", "[pro
   }
   CHECK(parts[49].rfind("[50/100 runs] 50%", 0) == 0);
   CHECK(parts.back().empty());
+
+  // Redrawn at most once per interval: here only the first update, then the clearing finish.
+  std::ostringstream rare;
+  Progress slow(100, Progress::Mode::Terminal, rare, 80, 3600.0);
+  for (std::size_t done = 1; done <= 100; ++done)
+    slow.update(done, "point");
+  slow.finish();
+  const auto few = shown(rare.str());
+  REQUIRE(few.size() == 2);
+  CHECK(few[0].rfind("[1/100 runs] 1%", 0) == 0);
+  CHECK(few[1].empty());
 }
 
 TEST_CASE("progress off a terminal prints plain lines at its interval and the last one",

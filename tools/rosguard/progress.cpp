@@ -37,7 +37,8 @@ std::string duration_text(double s) {
 
 Progress::Progress(std::size_t total, bool enabled)
     : Progress(total, mode_of(enabled), std::cerr,
-               mode_of(enabled) == Mode::Terminal ? terminal_columns() : 80) {}
+               mode_of(enabled) == Mode::Terminal ? terminal_columns() : 80,
+               mode_of(enabled) == Mode::Terminal ? 0.1 : 5.0) {}
 
 Progress::Progress(std::size_t total, Mode mode, std::ostream& out, std::size_t columns,
                    double interval_s)
@@ -67,15 +68,16 @@ std::string Progress::text(std::size_t done, const std::string& what) const {
 void Progress::update(std::size_t done, const std::string& what) {
   done_ = done;
   what_ = what;
+  if (mode_ == Mode::Off) return;
+  const double now = seconds();
+  if (now - last_line_s_ < interval_s_) return;
+  last_line_s_ = now;
   if (mode_ == Mode::Terminal) {
     std::string line = text(done, what);
     // One column spare: writing the last column makes some terminals wrap at once.
     if (columns_ > 1 && line.size() > columns_ - 1) line.resize(columns_ - 1);
     out_ << "\r\033[K" << line << std::flush;
-  } else if (mode_ == Mode::Lines) {
-    const double now = seconds();
-    if (now - last_line_s_ < interval_s_) return;
-    last_line_s_ = now;
+  } else {
     printed_ = done;
     out_ << "progress: " << text(done, what) << "\n" << std::flush;
   }

@@ -1,8 +1,10 @@
 // Progress of `rosguard run` on stderr: "[done/total] percent, elapsed, ETA, what finished last",
 // counting point runs (baselines measured between them are not counted, but named).
-// On a terminal: one line rewritten in place, clipped to the terminal's width so that it never
-// wraps (a wrapped line leaves a stale row behind at every update). Elsewhere (a pipe, a log
-// file, CI, a Slurm job's output): a plain line every `interval` seconds and one at the end.
+// On a terminal: one line rewritten in place at most every `interval` seconds (0.1 s: a sweep
+// finishes hundreds of runs a second, and the terminal's redraws would take CPU from them),
+// clipped to the terminal's width so that it never wraps (a wrapped line leaves a stale row
+// behind at every update). Elsewhere (a pipe, a log file, CI, a Slurm job's output): a plain
+// line every `interval` seconds (5 s) and one at the end.
 #pragma once
 
 #include <chrono>
@@ -18,7 +20,8 @@ class Progress {
 
   // Mode from `enabled` and whether stderr is a terminal.
   Progress(std::size_t total, bool enabled);
-  // Explicit mode and stream (tests): `columns` is the terminal width for Terminal.
+  // Explicit mode and stream (tests): `columns` is the terminal width for Terminal; at most one
+  // line or redraw per `interval_s`.
   Progress(std::size_t total, Mode mode, std::ostream& out, std::size_t columns = 80,
            double interval_s = 5.0);
 

@@ -295,9 +295,10 @@ class TaskRunner {
 };
 
 // Runs' samples and rows on their way to the results folder: written together (one lock, one
-// write per file) once kRows wait or the oldest has waited kDelay, and when flushed. Runs that
-// come slower than that are written as they come; a killed run loses at most those waiting
-// (complete rows only: --resume runs them again).
+// write per file) once kRows wait or kDelay has passed since the last write, and when flushed.
+// A run that comes kDelay or more after the last write is written at once (hw points, slow sim
+// points); a killed run loses at most those waiting (complete rows only: --resume runs them
+// again).
 class RowWriter {
  public:
   RowWriter(const ResultsStore& store, InvocationReport& report) : store_(store), report_(report) {}
@@ -311,16 +312,16 @@ class RowWriter {
   RowWriter& operator=(const RowWriter&) = delete;
 
   void add(const std::pair<std::string, std::string>& rows) {
-    if (waiting_ == 0) since_ = std::chrono::steady_clock::now();
     samples_ += rows.first;
     rows_ += rows.second;
     ++waiting_;
-    if (waiting_ >= kRows || std::chrono::steady_clock::now() - since_ >= kDelay) flush();
+    if (waiting_ >= kRows || std::chrono::steady_clock::now() - written_ >= kDelay) flush();
   }
   std::size_t waiting() const { return waiting_; }
   void flush() {
     if (waiting_ == 0) return;
     store_.append_runs(samples_, rows_);
+    written_ = std::chrono::steady_clock::now();
     report_.rows += waiting_;
     samples_.clear();
     rows_.clear();
@@ -334,7 +335,7 @@ class RowWriter {
   InvocationReport& report_;
   std::string samples_, rows_;
   std::size_t waiting_ = 0;
-  std::chrono::steady_clock::time_point since_;
+  std::chrono::steady_clock::time_point written_ = std::chrono::steady_clock::now() - kDelay;
 };
 
 // The phases in order; after each phase of baselines (or co-runs) they are saved (for resumed

@@ -62,10 +62,13 @@ std::string Baselines::key(const Scenario& s, const WorkloadInfo& workload, int 
   // How many times a baseline is measured does not change one measurement.
   nlohmann::json hw = s.document.at("hw");
   hw.erase("baseline_repetitions");
-  // FNV-1a of backend + platform + workload + sim + hw, the documents' texts compact.
-  std::uint64_t h = fnv1a(s.backend);
-  h = workload.doc.fnv1a(s.platform.doc.fnv1a(h));
-  h = fnv1a(hw.dump(), fnv1a(s.document.at("sim").dump(), h));
+  // FNV-1a of the backend, the platform's and the workload's document hashes (SharedJson::hash:
+  // made once per document, not once per row) and the sim and hw settings.
+  char hashes[40];
+  std::snprintf(hashes, sizeof hashes, "/%016llx/%016llx/",
+                static_cast<unsigned long long>(s.platform.doc.hash()),
+                static_cast<unsigned long long>(workload.doc.hash()));
+  const std::uint64_t h = fnv1a(s.backend + hashes + s.document.at("sim").dump() + hw.dump());
   char buf[20];
   std::snprintf(buf, sizeof buf, "%08llx", static_cast<unsigned long long>(h & 0xffffffffULL));
   return workload.name + "/core" + std::to_string(core) + "/" + buf;

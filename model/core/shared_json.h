@@ -7,7 +7,6 @@
 #include <cstdint>
 #include <initializer_list>
 #include <memory>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
@@ -52,19 +51,9 @@ class SharedJson {
   std::string dump(int indent = -1) const {
     return indent == -1 && text_ ? text_->text : doc_->dump(indent);
   }
-  // fnv1a(dump(), h), the last answer kept: a key that hashes a text after the same prefix
-  // for every point (Baselines::key: the platform's 8 KB after the backend's name) hashes it
-  // once per run.
-  std::uint64_t fnv1a(std::uint64_t h) const {
-    if (!text_) return rosguard::fnv1a(doc_->dump(), h);
-    const std::lock_guard<std::mutex> lock(text_->mutex);
-    if (!text_->hashed || text_->hash_in != h) {
-      text_->hash_in = h;
-      text_->hash_out = rosguard::fnv1a(text_->text, h);
-      text_->hashed = true;
-    }
-    return text_->hash_out;
-  }
+  // fnv1a(dump()), also made once: keys that name a document (Baselines::key, the platform's
+  // 8 KB for every row) hash this instead of its text.
+  std::uint64_t hash() const { return text_ ? text_->hash : fnv1a(doc_->dump()); }
 
   friend bool operator==(const SharedJson& a, const SharedJson& b) {
     return a.doc_ == b.doc_ || *a.doc_ == *b.doc_;
@@ -77,17 +66,15 @@ class SharedJson {
     return e;
   }
   struct Text {
-    std::string text;          // doc_->dump()
-    mutable std::mutex mutex;  // guards the last fnv1a answer below
-    mutable bool hashed = false;
-    mutable std::uint64_t hash_in = 0, hash_out = 0;
+    std::string text;    // doc_->dump()
+    std::uint64_t hash;  // fnv1a(text)
   };
   // Null when dump() throws (a string that is not UTF-8): dump() then throws as json's does.
   static std::shared_ptr<const Text> compact(const nlohmann::json& doc) {
     try {
-      auto t = std::make_shared<Text>();
-      t->text = doc.dump();
-      return t;
+      std::string text = doc.dump();
+      const std::uint64_t hash = fnv1a(text);
+      return std::make_shared<const Text>(Text{std::move(text), hash});
     } catch (const nlohmann::json::exception&) {
       return nullptr;
     }

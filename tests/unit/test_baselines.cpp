@@ -87,26 +87,36 @@ TEST_CASE("a baseline spread above 5 % is too noisy and says so", "[baselines]")
   CHECK_THAT(w, Catch::Contains("over 3 measurements"));
 }
 
-TEST_CASE("a baseline's key hashes backend, platform, workload, sim and hw as one text",
-          "[baselines]") {
+TEST_CASE("a baseline's key hashes backend, platform, workload, sim and hw", "[baselines]") {
   Scenario s = two_node_scenario();
   s.platform.doc = {{"cores", 2}, {"name", "p"}};
   const WorkloadInfo& w = s.nodes.rt[0].workload;
   const auto expected = [&](const Scenario& sc) {
-    const std::string text = sc.backend + sc.platform.doc.dump() + w.doc.dump() +
-                             sc.document.at("sim").dump() + sc.document.at("hw").dump();
+    char hashes[40];
+    std::snprintf(hashes, sizeof hashes, "/%016llx/%016llx/",
+                  static_cast<unsigned long long>(fnv1a(sc.platform.doc.dump())),
+                  static_cast<unsigned long long>(fnv1a(w.doc.dump())));
+    const std::string text =
+        sc.backend + hashes + sc.document.at("sim").dump() + sc.document.at("hw").dump();
     char hex[20];
     std::snprintf(hex, sizeof hex, "%08llx",
                   static_cast<unsigned long long>(fnv1a(text) & 0xffffffffULL));
     return "rt_work/core0/" + std::string(hex);
   };
   CHECK(Baselines::key(s, w, 0) == expected(s));
-  // The platform's hash is kept for the prefix it was made after: another backend, another key.
+  // Each part changes it: the backend, the platform, the workload, the settings, the core.
   Scenario other = s;
   other.backend = "sim";
   CHECK(Baselines::key(other, w, 0) == expected(other));
   CHECK(Baselines::key(other, w, 0) != Baselines::key(s, w, 0));
-  CHECK(Baselines::key(s, w, 0) == expected(s));
+  other = s;
+  other.platform.doc = {{"cores", 4}, {"name", "p"}};
+  CHECK(Baselines::key(other, w, 0) != Baselines::key(s, w, 0));
+  CHECK(Baselines::key(s, s.nodes.nrt[0].workload, 0) != Baselines::key(s, w, 0));
+  other = s;
+  other.document["sim"]["quantum_us"] = 20;
+  CHECK(Baselines::key(other, w, 0) != Baselines::key(s, w, 0));
+  CHECK(Baselines::key(s, w, 1) != Baselines::key(s, w, 0));
   // How many times a baseline is measured is not part of it.
   other = s;
   other.document["hw"]["baseline_repetitions"] = 5;

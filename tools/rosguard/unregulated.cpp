@@ -78,19 +78,26 @@ std::string UnregulatedCoruns::key(const Scenario& s) {
           if (node.is_object())
             for (const char* k : {"budget_mbps", "regulation", "threshold_pct"})
               node.erase(k);
-  // FNV-1a of backend + platform + that document + each node's workload, the texts compact.
-  std::uint64_t h = fnv1a(doc.dump(), s.platform.doc.fnv1a(fnv1a(s.backend)));
+  // FNV-1a of the backend, the platform's document hash, that document and each node's
+  // workload document hash (SharedJson::hash).
+  const auto hex = [](std::uint64_t v) {
+    char b[20];
+    std::snprintf(b, sizeof b, "/%016llx", static_cast<unsigned long long>(v));
+    return std::string(b);
+  };
+  std::string context = s.backend + hex(s.platform.doc.hash()) + "/" + doc.dump();
   std::string names;
   for (const auto& n : s.nodes.rt) {
-    h = fnv1a(n.workload.doc.dump(), h);
+    context += hex(n.workload.doc.hash());
     names += (names.empty() ? "" : "+") + n.workload.name;
   }
   for (const auto& n : s.nodes.nrt) {
-    h = fnv1a(n.workload.doc.dump(), h);
+    context += hex(n.workload.doc.hash());
     names += "+" + n.workload.name;
   }
   char buf[20];
-  std::snprintf(buf, sizeof buf, "%08llx", static_cast<unsigned long long>(h & 0xffffffffULL));
+  std::snprintf(buf, sizeof buf, "%08llx",
+                static_cast<unsigned long long>(fnv1a(context) & 0xffffffffULL));
   return "corun/" + names + "/" + buf;
 }
 

@@ -30,12 +30,14 @@ determinism)
   # Byte-identical results whatever --jobs and sharding were.
   "$bin" run $scenario --out "$tmp/j1" --jobs 1 --quiet || fail "jobs 1"
   "$bin" run $scenario --out "$tmp/j2" --jobs 2 --quiet || fail "jobs 2"
+  # 9 workers: three task hosts (kWorkersPerHost 4), tasks spread over them.
+  "$bin" run $scenario --out "$tmp/j9" --jobs 9 --quiet || fail "jobs 9"
   "$bin" run $scenario --out "$tmp/sh" --shard 1/2 --quiet || fail "shard 1/2"
   [[ $(status "$tmp/sh") == partial ]] || fail "one shard of two: status $(status "$tmp/sh")"
   "$bin" run $scenario --out "$tmp/sh" --shard 0/2 --quiet || fail "shard 0/2"
   [[ $(status "$tmp/sh") == complete ]] || fail "both shards: status $(status "$tmp/sh")"
   [[ $(rows "$tmp/j1") -eq 24 ]] || fail "expected 24 rows, got $(rows "$tmp/j1")"
-  for d in j2 sh; do
+  for d in j2 j9 sh; do
     cmp "$tmp/j1/points.csv" "$tmp/$d/points.csv" || fail "points.csv differs for $d"
     cmp "$tmp/j1/samples.csv" "$tmp/$d/samples.csv" || fail "samples.csv differs for $d"
   done
@@ -129,6 +131,30 @@ containment)
     sleep 0.1
   done
   [[ $left -eq 0 ]] || fail "the task host or a worker outlived the runner killed with SIGKILL"
+
+  # With several task hosts (--jobs 9: three), all of them and their workers die with the runner.
+  ROSGUARD_FAKE_SLEEP_MS=3000 "$bin" run $scenario --out "$tmp/k9" --jobs 9 --quiet &
+  pid=$!
+  for _ in $(seq 300); do
+    hosts=($(pgrep -P $pid))
+    workers=0
+    for h in "${hosts[@]}"; do workers=$((workers + $(pgrep -P "$h" | wc -l))); done
+    [[ ${#hosts[@]} -eq 3 && $workers -ge 9 ]] && break
+    sleep 0.1
+  done
+  [[ ${#hosts[@]} -eq 3 ]] || fail "--jobs 9: ${#hosts[@]} task host(s), expected 3"
+  [[ $workers -ge 9 ]] || fail "--jobs 9: $workers worker(s) running, expected 9"
+  procs=("${hosts[@]}")
+  for h in "${hosts[@]}"; do procs+=($(pgrep -P "$h")); done
+  kill -9 $pid
+  wait $pid 2>/dev/null
+  for _ in $(seq 50); do
+    left=0
+    for p in "${procs[@]}"; do alive "$p" && left=1; done
+    [[ $left -eq 0 ]] && break
+    sleep 0.1
+  done
+  [[ $left -eq 0 ]] || fail "a task host or a worker of --jobs 9 outlived the runner"
 
   "$bin" run $scenario --out "$tmp/ok" --jobs 2 --quiet &
   pid=$!

@@ -212,8 +212,13 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
   return plan;
 }
 
+// --jobs, or the CPUs online when it is 0.
+int requested_jobs(const RunOptions& opt) {
+  return opt.jobs > 0 ? opt.jobs : static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN));
+}
+
 int worker_count(const RunOptions& opt, const Backend& backend) {
-  const int jobs = opt.jobs > 0 ? opt.jobs : static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN));
+  const int jobs = requested_jobs(opt);
   if (backend.process_per_task() || jobs <= 1) return jobs;
   if (opt.jobs > 1)
     std::cerr << "note: the " << backend.name()
@@ -481,7 +486,8 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   // 1. Load and validate everything; errors here are InputErrors and nothing is written. The
   // task host (process-per-task backends) is forked before the points are built: it stays small.
   LoadedScenario loaded = loader.load_base(opt.scenario_file, opt.backend);
-  const std::unique_ptr<TaskHost> host = start_task_host(loader, loaded, backends, opt.trace);
+  const std::vector<std::unique_ptr<TaskHost>> hosts =
+      start_task_hosts(loader, loaded, backends, opt.trace, requested_jobs(opt));
   loader.load_points(loaded);
   std::unique_ptr<Backend> backend = make_backend(loaded, backends);
   const Scenario& first = loaded.points.front().scenario;
@@ -531,8 +537,11 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
                 << store.points_path().string() << ", skipped\n";
     RunState st{&loaded,   backend.get(),     opened.baselines,
                 opt.trace, header_of(loaded), std::move(coruns)};
+    std::vector<TaskHost*> host_ptrs;
+    for (const auto& h : hosts)
+      host_ptrs.push_back(h.get());
     auto exec =
-        make_executor(st, backend->process_per_task(), worker_count(opt, *backend), host.get());
+        make_executor(st, backend->process_per_task(), worker_count(opt, *backend), host_ptrs);
     StopSignalGuard signals;
     Progress progress(plan.runs, !opt.quiet);
     TaskRunner runner(loaded, corun_plan, *exec, progress, report, opened.fallbacks);

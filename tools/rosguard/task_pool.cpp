@@ -467,110 +467,151 @@ bool write_all(int fd, const std::string& payload) {
   ::_exit(0);
 }
 
-// The runner's side: tasks go to the host; results come back through each task's pipe.
+// The runner's side: tasks go to the hosts (to the one with the fewest in flight); results come
+// back through each task's pipe.
 class HostExecutor : public Executor {
  public:
-  HostExecutor(const RunState& st, int jobs, TaskHost& host)
-      : st_(st), jobs_(jobs), host_(host), reader_(host.socket()) {}
+  HostExecutor(const RunState& st, int jobs, const std::vector<TaskHost*>& hosts) : st_(st) {
+    // --jobs split among the hosts as evenly as it goes (each host at least one worker).
+    const int count = static_cast<int>(hosts.size());
+    for (int h = 0; h < count; ++h)
+      links_.emplace_back(*hosts[static_cast<std::size_t>(h)],
+                          std::max(1, jobs / count + (h < jobs % count ? 1 : 0)));
+  }
   ~HostExecutor() override { stop_all(); }
 
-  // --jobs workers run at a time in the host; kQueued more wait there, ready to start.
-  bool can_submit() const override { return static_cast<int>(workers_.size()) < jobs_ + kQueued; }
+  // Each host runs its share of --jobs workers at a time; kQueued more wait there, ready to start.
+  bool can_submit() const override {
+    return std::any_of(links_.begin(), links_.end(), [](const Link& l) { return l.has_room(); });
+  }
   bool busy() const override { return !workers_.empty(); }
 
   void submit(std::size_t id, const Task& task) override {
-    if (host_gone_) throw RunError("the task host process exited (" + host_error() + ")");
-    if (!header_sent_) {
-      if (!send_frame(host_.socket(), {Frame::Header, 0, 0, jobs_}, json(st_.header).dump())) {
-        host_gone_ = true;
-        throw RunError("the task host process exited (" + host_error() + ")");
-      }
-      header_sent_ = true;
+    Link* link = nullptr;
+    for (auto& l : links_)
+      if (l.has_room() && (!link || l.in_flight < link->in_flight)) link = &l;
+    if (!link) throw ContractError("HostExecutor::submit: no host has room (see can_submit)");
+    if (link->gone) throw RunError(link->exited());
+    if (!link->header_sent) {
+      if (!send_frame(link->host.socket(), {Frame::Header, 0, 0, link->jobs},
+                      json(st_.header).dump()))
+        throw RunError(link->lost());
+      link->header_sent = true;
     }
-    send_baselines();
+    send_baselines(*link);
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0) fail_errno("pipe");
     const std::size_t point = st_.loaded->points.at(task.point).sweep.index;
     const std::uint64_t seq = ++seq_;
-    const bool sent = send_frame(host_.socket(), {Frame::Task, 0, seq, 0},
+    const bool sent = send_frame(link->host.socket(), {Frame::Task, 0, seq, 0},
                                  task_to_json(task, point).dump(), fds[1]);
     ::close(fds[1]);
     if (!sent) {
       ::close(fds[0]);
-      host_gone_ = true;
-      throw RunError("the task host process exited (" + host_error() + ")");
+      throw RunError(link->lost());
     }
-    workers_.push_back({id, seq, fds[0], {}, false});
+    ++link->in_flight;
+    workers_.push_back({id, seq, fds[0], {}, false, link});
   }
 
   std::pair<std::size_t, TaskResult> wait_one() override {
     while (true) {
       for (std::size_t i = 0; i < workers_.size(); ++i)
         if (auto r = finished(i)) return {workers_erase(i), std::move(*r)};
-      std::vector<pollfd> pfds;
-      for (const auto& w : workers_)
-        pfds.push_back({w.eof ? -1 : w.fd, POLLIN, 0});
-      pfds.push_back({host_gone_ ? -1 : host_.socket(), POLLIN, 0});
-      const int n = ::poll(pfds.data(), pfds.size(), 200);
-      if (n < 0 && errno != EINTR) fail_errno("poll");
-      for (std::size_t i = 0; n > 0 && i < workers_.size(); ++i)
-        if (pfds[i].revents & (POLLIN | POLLHUP | POLLERR)) read_result(workers_[i]);
-      if (n > 0 && pfds.back().revents) read_host();
+      poll_once([](const Link& l) { return !l.gone; });
     }
   }
 
   void stop_all() override {
     if (workers_.empty()) return;
-    if (!host_gone_ && !send_frame(host_.socket(), {Frame::Stop, 0, 0, 0})) host_gone_ = true;
+    for (auto& l : links_)
+      if (!l.gone && !send_frame(l.host.socket(), {Frame::Stop, 0, 0, 0})) l.gone = true;
     // Until every worker has ended (its exit reported), draining the pipes meanwhile; a host
     // that says nothing for 10 s is given up on (its workers die with it: PR_SET_PDEATHSIG).
     int quiet_polls = 0;
-    while (!host_gone_ && quiet_polls < 50 &&
-           std::any_of(workers_.begin(), workers_.end(), [&](const Worker& w) {
-             return !exits_.count(w.seq) && !failures_.count(w.seq);
+    while (quiet_polls < 50 && std::any_of(workers_.begin(), workers_.end(), [&](const Worker& w) {
+             return !w.link->gone && !exits_.count(w.seq) && !failures_.count(w.seq);
            })) {
-      std::vector<pollfd> pfds;
-      for (const auto& w : workers_)
-        pfds.push_back({w.eof ? -1 : w.fd, POLLIN, 0});
-      pfds.push_back({host_.socket(), POLLIN, 0});
-      const int n = ::poll(pfds.data(), pfds.size(), 200);
-      if (n < 0 && errno != EINTR) break;
+      const int n = poll_once([](const Link& l) { return !l.gone; });
+      if (n < 0) break;
       quiet_polls = n == 0 ? quiet_polls + 1 : 0;
-      for (std::size_t i = 0; n > 0 && i < workers_.size(); ++i)
-        if (pfds[i].revents & (POLLIN | POLLHUP | POLLERR)) read_result(workers_[i]);
-      if (n > 0 && pfds.back().revents) read_host();
     }
     for (const auto& w : workers_) {
       ::close(w.fd);
       exits_.erase(w.seq);
       failures_.erase(w.seq);
+      --w.link->in_flight;
     }
     workers_.clear();
   }
 
  private:
+  // One task host: its socket's frames, its share of the workers, what it was sent.
+  struct Link {
+    Link(TaskHost& h, int j) : host(h), reader(h.socket()), jobs(j) {}
+    TaskHost& host;
+    FrameReader reader;
+    int jobs;           // workers it runs at a time
+    int in_flight = 0;  // tasks sent and not finished
+    bool gone = false;  // its socket closed
+    bool header_sent = false;
+    std::size_t baselines_sent = static_cast<std::size_t>(-1);
+
+    bool has_room() const { return in_flight < jobs + kQueued; }
+    // Why it stopped answering: its exit status, when it has one.
+    std::string exited() const {
+      int status = 0;
+      std::string why = "it closed its socket";
+      if (::waitpid(host.pid(), &status, WNOHANG) == host.pid())
+        why = WIFSIGNALED(status) ? std::string("signal ") + strsignal(WTERMSIG(status))
+                                  : "status " + std::to_string(WEXITSTATUS(status));
+      return "the task host process exited (" + why + ")";
+    }
+    std::string lost() {
+      gone = true;
+      return exited();
+    }
+  };
+
   struct Worker {
     std::size_t id;
     std::uint64_t seq;
     int fd;
     std::string data;
     bool eof;
+    Link* link;  // the host that runs it
   };
 
-  // The host's copy of the baselines and co-runs is brought up to date before a task that may
+  // One poll over the workers' pipes and the sockets of the hosts `watch` accepts; reads what
+  // is ready. Returns poll's count (-1 on an error other than EINTR).
+  template <typename Watch>
+  int poll_once(const Watch& watch) {
+    std::vector<pollfd> pfds;
+    for (const auto& w : workers_)
+      pfds.push_back({w.eof ? -1 : w.fd, POLLIN, 0});
+    for (const auto& l : links_)
+      pfds.push_back({watch(l) ? l.host.socket() : -1, POLLIN, 0});
+    const int n = ::poll(pfds.data(), pfds.size(), 200);
+    if (n < 0 && errno != EINTR) return -1;
+    for (std::size_t i = 0; n > 0 && i < workers_.size(); ++i)
+      if (pfds[i].revents & (POLLIN | POLLHUP | POLLERR)) read_result(workers_[i]);
+    for (std::size_t h = 0; n > 0 && h < links_.size(); ++h)
+      if (pfds[workers_.size() + h].revents) read_host(links_[h]);
+    return std::max(n, 0);
+  }
+
+  // A host's copy of the baselines and co-runs is brought up to date before a task that may
   // read them.
-  void send_baselines() {
+  void send_baselines(Link& link) {
     std::size_t measurements = st_.coruns.measurements();
     for (const auto& [key, runs] : st_.baselines.all())
       measurements += runs.runs.size() + 1;
-    if (measurements == baselines_sent_) return;
+    if (measurements == link.baselines_sent) return;
     const json doc = {{"baselines", baselines_to_json(st_.baselines)},
                       {"coruns", st_.coruns.to_json()}};
-    if (!send_frame(host_.socket(), {Frame::Baselines, 0, 0, 0}, doc.dump())) {
-      host_gone_ = true;
-      throw RunError("the task host process exited (" + host_error() + ")");
-    }
-    baselines_sent_ = measurements;
+    if (!send_frame(link.host.socket(), {Frame::Baselines, 0, 0, 0}, doc.dump()))
+      throw RunError(link.lost());
+    link.baselines_sent = measurements;
   }
 
   void read_result(Worker& w) {
@@ -582,9 +623,9 @@ class HostExecutor : public Executor {
       w.eof = true;  // EOF (or a read error): the worker is done
   }
 
-  void read_host() {
-    if (!reader_.receive()) host_gone_ = true;
-    while (auto frame = reader_.next()) {
+  void read_host(Link& link) {
+    if (!link.reader.receive()) link.gone = true;
+    while (auto frame = link.reader.next()) {
       const auto& [f, payload] = *frame;
       if (f.type == Frame::Exit) exits_[f.seq] = static_cast<int>(f.value);
       if (f.type == Frame::Failed) failures_[f.seq] = payload;
@@ -597,14 +638,6 @@ class HostExecutor : public Executor {
   bool running(std::uint64_t seq) const {
     return std::any_of(workers_.begin(), workers_.end(),
                        [&](const Worker& w) { return w.seq == seq; });
-  }
-
-  std::string host_error() {
-    int status = 0;
-    if (::waitpid(host_.pid(), &status, WNOHANG) == host_.pid())
-      return WIFSIGNALED(status) ? std::string("signal ") + strsignal(WTERMSIG(status))
-                                 : "status " + std::to_string(WEXITSTATUS(status));
-    return "it closed its socket";
   }
 
   // Worker i's result once it is known: a whole result from its pipe (its exit status is not
@@ -627,14 +660,13 @@ class HostExecutor : public Executor {
         if (known) exits_.erase(exit);
         return r;
       } catch (const std::exception&) {
-        if (!known && !host_gone_) return std::nullopt;  // its exit status tells more
+        if (!known && !w.link->gone) return std::nullopt;  // its exit status tells more
       }
     }
     if (known) exits_.erase(exit);
     TaskResult r;
     if (!known) {
-      r.error =
-          "worker process left no readable result, and the task host exited (" + host_error() + ")";
+      r.error = "worker process left no readable result, and " + w.link->exited();
     } else if (WIFSIGNALED(status)) {
       const int sig = WTERMSIG(status);
       r.interrupted = stop_signal() != 0 && (sig == SIGINT || sig == SIGTERM);
@@ -653,23 +685,19 @@ class HostExecutor : public Executor {
     const Worker w = std::move(workers_[i]);
     workers_.erase(workers_.begin() + static_cast<std::ptrdiff_t>(i));
     ::close(w.fd);
+    --w.link->in_flight;
     finished_below_ = std::max(finished_below_, w.seq);
     return w.id;
   }
 
   static constexpr int kQueued = 2;
   const RunState& st_;
-  int jobs_;
-  TaskHost& host_;
-  FrameReader reader_;
+  std::deque<Link> links_;  // a deque: workers point at their link
   std::vector<Worker> workers_;
   std::uint64_t seq_ = 0;
   std::uint64_t finished_below_ = 0;
-  std::size_t baselines_sent_ = static_cast<std::size_t>(-1);
   std::map<std::uint64_t, int> exits_;             // seq -> wait status
   std::map<std::uint64_t, std::string> failures_;  // seq -> why it did not start
-  bool host_gone_ = false;
-  bool header_sent_ = false;
 };
 
 // A point run's points.csv row (with its newline), its unregulated cells filled.
@@ -742,7 +770,8 @@ TaskResult execute(const Task& task, const LoadedPoint& lp, Backend& backend,
   return r;
 }
 
-TaskHost::TaskHost(std::function<void()> warm_up, TaskFunction run) {
+TaskHost::TaskHost(std::function<void()> warm_up, TaskFunction run,
+                   const std::vector<std::unique_ptr<TaskHost>>& others) {
   int sv[2];
   if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) fail_errno("socketpair");
   std::cout.flush();
@@ -758,6 +787,8 @@ TaskHost::TaskHost(std::function<void()> warm_up, TaskFunction run) {
   }
   if (pid_ == 0) {
     ::close(sv[0]);
+    for (const auto& other : others)
+      ::close(other->socket());
     host_main(sv[1], warm_up, run, runner);
   }
   ::close(sv[1]);
@@ -770,10 +801,12 @@ TaskHost::~TaskHost() {
   waitpid_retrying(pid_, status);
 }
 
-std::unique_ptr<TaskHost> start_task_host(Loader& loader, const LoadedScenario& base,
-                                          const BackendRegistry& backends, bool trace) {
+std::vector<std::unique_ptr<TaskHost>> start_task_hosts(Loader& loader, const LoadedScenario& base,
+                                                        const BackendRegistry& backends, bool trace,
+                                                        int jobs) {
+  std::vector<std::unique_ptr<TaskHost>> hosts;
   const BackendInfo* info = backends.find(base.expanded.value("backend", ""));
-  if (!info || !info->make()->process_per_task()) return nullptr;
+  if (!info || !info->make()->process_per_task()) return hosts;
   // Made in the host (shared by its workers through the fork), like the runner's own.
   auto backend = std::make_shared<std::unique_ptr<Backend>>();
   // The platform and workload files every worker needs are read once, in the host: one point
@@ -807,14 +840,18 @@ std::unique_ptr<TaskHost> start_task_host(Loader& loader, const LoadedScenario& 
     }
     return r;
   };
-  return std::make_unique<TaskHost>(warm_up, run);
+  const int count = (std::max(1, jobs) + kWorkersPerHost - 1) / kWorkersPerHost;
+  for (int h = 0; h < count; ++h)
+    hosts.push_back(std::make_unique<TaskHost>(warm_up, run, hosts));
+  return hosts;
 }
 
 std::unique_ptr<Executor> make_executor(const RunState& st, bool process_per_task, int jobs,
-                                        TaskHost* host) {
+                                        const std::vector<TaskHost*>& hosts) {
   if (!process_per_task) return std::make_unique<InProcessExecutor>(st);
-  if (!host) throw ContractError("make_executor: a process-per-task backend needs a task host");
-  return std::make_unique<HostExecutor>(st, std::max(1, jobs), *host);
+  if (hosts.empty())
+    throw ContractError("make_executor: a process-per-task backend needs a task host");
+  return std::make_unique<HostExecutor>(st, std::max(1, jobs), hosts);
 }
 
 }  // namespace rosguard

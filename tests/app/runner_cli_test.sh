@@ -119,18 +119,25 @@ containment)
   grep -q "worker process died with signal 11" "$tmp/err" || fail "no signal named: $(cat "$tmp/err")"
   for p in "${procs[@]}"; do alive "$p" && fail "process $p outlived the failed run"; done
 
+  # Kills runner $1 with SIGKILL; fails with $2 unless the processes after it are gone in 5 s.
+  kill_runner_expect_gone() {
+    local runner=$1 why=$2
+    shift 2
+    kill -9 "$runner"
+    wait "$runner" 2>/dev/null
+    for _ in $(seq 50); do
+      left=0
+      for p in "$@"; do alive "$p" && left=1; done
+      [[ $left -eq 0 ]] && return 0
+      sleep 0.1
+    done
+    fail "$why"
+  }
   ROSGUARD_FAKE_SLEEP_MS=3000 "$bin" run $scenario --out "$tmp/k" --jobs 2 --quiet &
   pid=$!
   procs=($(host_and_workers $pid 2))
-  kill -9 $pid
-  wait $pid 2>/dev/null
-  for _ in $(seq 50); do
-    left=0
-    for p in "${procs[@]}"; do alive "$p" && left=1; done
-    [[ $left -eq 0 ]] && break
-    sleep 0.1
-  done
-  [[ $left -eq 0 ]] || fail "the task host or a worker outlived the runner killed with SIGKILL"
+  kill_runner_expect_gone $pid "the task host or a worker outlived the runner killed with SIGKILL" \
+    "${procs[@]}"
 
   # With several task hosts (--jobs 9: three), all of them and their workers die with the runner.
   ROSGUARD_FAKE_SLEEP_MS=3000 "$bin" run $scenario --out "$tmp/k9" --jobs 9 --quiet &
@@ -146,15 +153,8 @@ containment)
   [[ $workers -ge 9 ]] || fail "--jobs 9: $workers worker(s) running, expected 9"
   procs=("${hosts[@]}")
   for h in "${hosts[@]}"; do procs+=($(pgrep -P "$h")); done
-  kill -9 $pid
-  wait $pid 2>/dev/null
-  for _ in $(seq 50); do
-    left=0
-    for p in "${procs[@]}"; do alive "$p" && left=1; done
-    [[ $left -eq 0 ]] && break
-    sleep 0.1
-  done
-  [[ $left -eq 0 ]] || fail "a task host or a worker of --jobs 9 outlived the runner"
+  kill_runner_expect_gone $pid "a task host or a worker of --jobs 9 outlived the runner" \
+    "${procs[@]}"
 
   "$bin" run $scenario --out "$tmp/ok" --jobs 2 --quiet &
   pid=$!

@@ -186,14 +186,7 @@ def _read_tune(path: Path) -> dict:
     or rt_slowdown / nrt_slowdown); null means none was found."""
     if not path.is_file():
         return {}
-    try:
-        tune = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as e:
-        raise InvalidInput(f"{path}: invalid JSON (line {e.lineno}: {e.msg})") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise InvalidInput(f"{path}: cannot read: {e}") from None
-    if not isinstance(tune, dict):
-        raise InvalidInput(f"{path}: expected a JSON object")
+    tune = _read_json_object(path)
     bound = tune.get("rt_slowdown_max")
     if bound is not None and (isinstance(bound, bool) or not isinstance(bound, (int, float))
                               or not math.isfinite(bound) or bound <= 0):
@@ -208,15 +201,22 @@ def _read_tune(path: Path) -> dict:
     return tune
 
 
-def _read_manifest(path: Path) -> dict:
+def _read_json_object(path: Path) -> dict:
+    """The JSON object in `path`; InvalidInput naming the file when it cannot be read, is not
+    JSON, or is not an object."""
     try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
+        doc = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
         raise InvalidInput(f"{path}: invalid JSON (line {e.lineno}: {e.msg})") from None
     except (OSError, UnicodeDecodeError) as e:
         raise InvalidInput(f"{path}: cannot read: {e}") from None
-    if not isinstance(manifest, dict):
+    if not isinstance(doc, dict):
         raise InvalidInput(f"{path}: expected a JSON object")
+    return doc
+
+
+def _read_manifest(path: Path) -> dict:
+    manifest = _read_json_object(path)
     version = manifest.get("schema_version", SCHEMA_VERSION)
     if version != SCHEMA_VERSION:
         raise InvalidInput(f"{path}: schema_version {version} is not supported "

@@ -840,7 +840,9 @@ std::vector<std::unique_ptr<TaskHost>> start_task_hosts(Loader& loader, const Lo
     }
     return r;
   };
-  const int count = (std::max(1, jobs) + kWorkersPerHost - 1) / kWorkersPerHost;
+  // No more hosts than CPUs online: more could not fork at the same time.
+  const int cpus = std::max(1, static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN)));
+  const int count = std::min((std::max(1, jobs) + kWorkersPerHost - 1) / kWorkersPerHost, cpus);
   for (int h = 0; h < count; ++h)
     hosts.push_back(std::make_unique<TaskHost>(warm_up, run, hosts));
   return hosts;

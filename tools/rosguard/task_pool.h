@@ -130,7 +130,8 @@ class TaskHost {
 constexpr int kWorkersPerHost = 4;
 
 // The task hosts for `base` (from Loader::load_base: no point built yet) when its backend
-// needs a process per task: one per kWorkersPerHost of `jobs` workers; else none (also when the
+// needs a process per task: one per kWorkersPerHost of `jobs` workers, at most one per CPU
+// online; else none (also when the
 // backend is not built in: the runner says so later). Each worker builds its task's point with
 // `loader` (Loader::point, without checking the schema again: the runner checks every point)
 // and runs it on a backend its host makes.

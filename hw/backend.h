@@ -22,8 +22,8 @@
 namespace rosguard::hw {
 
 struct HwOptions {
-  // Fault injection for tests: the controller stops answering this long after the first
-  // activation (negative: never).
+  // Fault injection for tests: the controller stops answering this long after its first throttle
+  // command (negative: never).
   TimeNs controller_fail_after_ns = -1;
   // How long nRT loop workloads run before the RT nodes start.
   TimeNs warmup_ns = 20 * kNsPerMs;

@@ -74,6 +74,7 @@ void Controller::send(const DriverCommand& c) {
     throw RunError("control topic of nRT entity " + std::to_string(c.entity) +
                    " is full: a command was lost");
   trace_.instant(now - origin_, cfg_.entity_cores[c.entity], nullptr, to_string(c.command).data());
+  if (c.command == Command::Thr && first_throttle_ < 0) first_throttle_ = now;
   ControllerNote n;
   n.kind = ControllerNote::Kind::Command;
   n.t = now;
@@ -111,7 +112,6 @@ void Controller::handle() {
         note(n);
       }
       if (ev.kind == EngineEvent::Kind::ActivationBegin) {
-        if (first_activation_ < 0) first_activation_ = ev.t;
         trace_.instant(ev.t - origin_, cfg_.core, nullptr, "activation");
         opened_.fetch_add(1, std::memory_order_acq_rel);
         engine_waker_.notify();
@@ -213,8 +213,8 @@ bool Controller::serve() {
 void Controller::main() {
   while (!stop_.load(std::memory_order_acquire)) {
     const auto epoch = waker_.epoch();
-    if (cfg_.fail_after_ns >= 0 && first_activation_ >= 0 &&
-        cfg_.clock() - first_activation_ >= cfg_.fail_after_ns) {
+    if (cfg_.fail_after_ns >= 0 && first_throttle_ >= 0 &&
+        cfg_.clock() - first_throttle_ >= cfg_.fail_after_ns) {
       faulted_.store(true, std::memory_order_release);
       engine_waker_.notify();
       return;  // silent from now on: no OFF, no keepalive
@@ -223,8 +223,8 @@ void Controller::main() {
     if (cfg_.notes_waker) cfg_.notes_waker->notify();
     if (busy) continue;
     TimeNs deadline = driver_.next_wakeup().value_or(-1);
-    if (cfg_.fail_after_ns >= 0 && first_activation_ >= 0) {
-      const TimeNs fail = first_activation_ + cfg_.fail_after_ns;
+    if (cfg_.fail_after_ns >= 0 && first_throttle_ >= 0) {
+      const TimeNs fail = first_throttle_ + cfg_.fail_after_ns;
       deadline = deadline < 0 ? fail : std::min(deadline, fail);
     }
     waker_.wait(epoch, deadline);

@@ -9,8 +9,10 @@
 //   thread is not started: tests), with non-decreasing times from config.clock.
 // - The driver's accounting reads the entities through the EntityMeter given here, on the
 //   controller thread, at each activation edge.
-// - fail_after_ns (tests only) makes the thread stop answering that long after the first
-//   activation, without sending OFF: a crashed controller.
+// - fail_after_ns (tests only) makes the thread stop answering that long after its first THR
+//   command, without sending OFF: a controller that crashes while an nRT node is throttled
+//   (counted from the command, not from a clock time, so that a slow start cannot move the fault
+//   before the first throttle).
 #pragma once
 
 #include <atomic>
@@ -145,7 +147,7 @@ class Controller {
   std::unique_ptr<std::atomic<int>[]> finished_;
   std::vector<SignalRecord> signals_;
   std::atomic<bool> faulted_{false};
-  TimeNs first_activation_ = -1;
+  TimeNs first_throttle_ = -1;  // when the first THR command was sent (fail_after_ns)
   TimeNs last_t_ = 0;
   DriverOutput out_;
   std::vector<double> reads_us_;

@@ -249,7 +249,8 @@ TEST_CASE("dds transport: an external command (stress-ng --stream) is regulated"
 void check_watchdog(TransportKind transport) {
   const auto loaded = load("watchdog.json", transport);
   HwOptions opt;
-  opt.controller_fail_after_ns = 30 * kNsPerMs;  // monolithic 1 %: throttled by then, for good
+  // Silent 30 ms after its first throttle command (monolithic 1 %: throttled for good by then).
+  opt.controller_fail_after_ns = 30 * kNsPerMs;
   auto backend = make_hw_backend(test_policies(), opt);
   TestContext ctx;
   Baselines baselines;
@@ -259,7 +260,7 @@ void check_watchdog(TransportKind transport) {
   CHECK(o.nrt[0].throttle_count >= 1);
   REQUIRE(ctx.facts.count("watchdog_fired"));
   CHECK_THAT(ctx.facts["watchdog_fired"], Catch::Contains("nrt0: 1"));
-  // Throttled from before the fault until the watchdog: at most fault + watchdog (+ slack).
+  // Throttled from the first command until the watchdog: at most fault + watchdog (+ slack).
   CHECK(o.nrt[0].throttled_us < (30.0 + 50.0 + 30.0) * 1e3);
   CHECK(realtime_threads().empty());
   CHECK(now_ns() - t0 < 20 * kNsPerS);

@@ -169,7 +169,20 @@ def _json_number(value):
 def _side(results) -> dict:
     return {"folder": str(results.folder), "backend": results.backend,
             "platform": results.platform, "status": results.status,
-            "points": len(results.points)}
+            "points": len(results.points), "prior_dominated": _prior_dominated(results)}
+
+
+def _prior_dominated(results) -> list:
+    """The fitted model's parameters that rest mostly on their priors (a sim run's manifest)."""
+    return list(results.manifest.get("prior_dominated") or [])
+
+
+def _band(q: dict) -> str:
+    """'dram.bandwidth_mbps 5.1e+04 (1.9e+04..1.4e+05)': the value and its one-standard-error
+    band (a factor exp(log_std_error) either way)."""
+    f = math.exp(q["log_std_error"])
+    v = q["value"]
+    return f"{q['parameter']} {v:.3g} ({v / f:.3g}..{v * f:.3g})"
 
 
 def write_summary(comp: Comparison, path: Path) -> Path:
@@ -201,6 +214,11 @@ def print_summary(comp: Comparison, stream) -> None:
     for tag, r in (("A", comp.a), ("B", comp.b)):
         print(f"{tag}: {r.folder} ({r.backend}, {r.platform}, {len(r.points)} points, "
               f"status {r.status})", file=stream)
+        dominated = _prior_dominated(r)
+        if dominated:
+            print(f"   {tag}'s model rests on priors for {len(dominated)} parameter(s), with "
+                  "one-standard-error bands: " + "; ".join(_band(q) for q in dominated),
+                  file=stream)
     print(f"common points: {len(comp.common)}; only in A: {_ids(comp.only_a)}; "
           f"only in B: {_ids(comp.only_b)}", file=stream)
     print(f"{'':5}{'pairs':>6}{'MAPE':>10}{'max |B-A|':>11}  {'at point':<13}"

@@ -113,11 +113,20 @@ bool converged_status(int s) {
   }
 }
 
-// One free parameter: where it lives in the platform, and what identifies it.
+// A prior of one parameter: lognormal, median `median`, `log_sd` the standard deviation of the
+// logarithm (ln 2: a factor 2 either way at one standard deviation), and where it comes from.
+struct Prior {
+  double median = 1.0;
+  double log_sd = 1.0;
+  std::string source;
+};
+
+// One free parameter: where it lives in the platform, what identifies it, and its prior.
 struct Slot {
   std::string name;
   std::function<double&(SimPlatform&)> ref;
   std::string how;
+  Prior prior;
 };
 
 // A run's weight in the fit: kCvFloor / max(cv, kCvFloor). Runs whose repetitions scatter
@@ -129,8 +138,9 @@ double weight_of(const KernelRun& run) {
   return kCvFloor / std::max(std::isfinite(run.cv) ? run.cv : 1.0, kCvFloor);
 }
 
-// The weighted residuals weight * log(predicted / measured) of the used runs as a function of the
-// log parameters, for Eigen's LM (minpack interface: operator() and df()).
+// The residuals of the MAP fit as a function of the log parameters, for Eigen's LM (minpack
+// interface: operator() and df()): first weight * log(predicted / measured) of each used run,
+// then sigma * (x - log prior median) / prior log_sd of each parameter.
 struct Residuals {
   using Scalar = double;
   enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
@@ -140,19 +150,17 @@ struct Residuals {
 
   const SimPlatform* base;
   const std::vector<Slot>* slots;
-  const std::vector<std::function<void(SimPlatform&)>>* ties;  // after the slots, in order
   const std::vector<const KernelRun*>* runs;
+  double sigma = 1.0;  // the runs' weighted residual standard deviation
   mutable int evaluations = 0;
 
   int inputs() const { return static_cast<int>(slots->size()); }
-  int values() const { return static_cast<int>(runs->size()); }
+  int values() const { return static_cast<int>(runs->size() + slots->size()); }
 
   SimPlatform platform_at(const Eigen::VectorXd& x) const {
     SimPlatform p = *base;
     for (std::size_t i = 0; i < slots->size(); ++i)
       (*slots)[i].ref(p) = std::exp(x[static_cast<Eigen::Index>(i)]);
-    for (const auto& tie : *ties)
-      tie(p);
     return p;
   }
 
@@ -166,7 +174,19 @@ struct Residuals {
           weight_of(*(*runs)[i]) *
           (std::isfinite(pred) && pred > 0 ? std::log(pred / (*runs)[i]->ns_per_line) : 10.0);
     }
+    for (std::size_t j = 0; j < slots->size(); ++j) {
+      const Prior& pr = (*slots)[j].prior;
+      f[static_cast<Eigen::Index>(runs->size() + j)] =
+          sigma * (x[static_cast<Eigen::Index>(j)] - std::log(pr.median)) / pr.log_sd;
+    }
     return 0;
+  }
+
+  // The runs' part of the objective at x.
+  double data_ssr(const Eigen::VectorXd& x) const {
+    Eigen::VectorXd f(values());
+    (*this)(x, f);
+    return f.head(static_cast<Eigen::Index>(runs->size())).squaredNorm();
   }
 
   // Central differences with a fixed step on the log scale (a relative step of 1e-5 in each
@@ -293,6 +313,21 @@ CostFit fit_cost(std::vector<double> samples) {
 
 namespace {
 
+const double kLn2 = std::log(2.0), kLn3 = std::log(3.0), kLn4 = std::log(4.0);
+
+// Typical values for what a host's runs may not show at all (no run beyond the LLC, no co-run at
+// a level). Wide on purpose: the data overrule them wherever they say anything.
+constexpr double kTypicalDramNs = 90.0;  // idle load-to-use latency of DRAM
+constexpr double kTypicalMlp = 10.0;     // a core's L1D misses in flight
+constexpr double kTypicalL3MbpsCore = 20000.0;
+constexpr double kTypicalDramMbps = 51200.0;  // two DDR4-3200 channels (2 x 25.6 GB/s)
+const char* const kTypicalDramSource =
+    "typical idle DRAM load-to-use latency (about 70-130 ns on current servers, desktops and "
+    "SoCs, e.g. Intel MLC idle latencies) less the measured L3 latency";
+const char* const kTypicalMlpSource =
+    "typical misses in flight of a streaming out-of-order core (its L1D miss buffers: 10-16 on "
+    "Intel cores since Skylake, 22-24 on AMD Zen, 12-20 on Arm Cortex-A7x), a factor 3 either way";
+
 FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   const HostFacts& host = m.host;
   if (host.freq_mhz <= 0 || host.l2_kb <= 0 || host.l3_kb_per_cluster <= host.l2_kb)
@@ -307,7 +342,6 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   // Which runs the model covers, and what they can identify.
   std::vector<const KernelRun*> used;
   std::map<std::string, std::map<Level, std::vector<double>>> iso;  // kernel -> level -> ns
-  bool l3_corun = false, dram_corun = false;
   // Co-runner counts of the bandwidth-latency curves: within the L3 (co-runners beyond the L2)
   // and beyond it (co-runners beyond the L3).
   std::set<std::size_t> l3_counts, dram_counts;
@@ -342,13 +376,12 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
       }
       if (lv == Level::L3 && co_l3 > 0) l3_counts.insert(co_l3);
       if (lv == Level::Dram && co_dram > 0) dram_counts.insert(co_dram);
-      l3_corun = l3_corun || (lv == Level::L3 && co_l3 > 0);
-      dram_corun = dram_corun || (lv == Level::Dram && co_dram > 0);
     }
     rep.runs.push_back(fr);
   }
 
-  // What the data must contain; every gap is named.
+  // What the data must contain: each kernel's own speed within the L2 and the L3 (no prior can
+  // stand in for those); every gap is named.
   std::vector<std::string> missing;
   const auto l2s = fmt("%g KB", host.l2_kb), l3s = fmt("%g KB", host.l3_kb_per_cluster);
   for (const char* need : {"bandwidth_read", "latency"})
@@ -358,26 +391,37 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
       missing.push_back("an isolation run of " + k + " within the L2 (<= " + l2s + ")");
     if (!levels.count(Level::L3))
       missing.push_back("an isolation run of " + k + " within the L3 (" + l2s + " .. " + l3s + ")");
-    if (!beyond_l3.count(k)) missing.push_back("a run of " + k + " beyond the L3 (> " + l3s + ")");
   }
-  if (iso.count("latency") && !iso.at("latency").count(Level::Dram))
-    missing.push_back("an isolation run of latency beyond the L3 (the DRAM latency)");
-  if (!l3_corun && !(opt.fixed.count("l3.queue_ns") && opt.fixed.count("l3.bandwidth_mbps")))
-    missing.push_back(
-        "a co-run within the L3 (a kernel within the L3 with a co-runner beyond "
-        "the L2): the L3 queue and bandwidth");
-  if (!dram_corun && !(opt.fixed.count("dram.queue_ns") && opt.fixed.count("dram.bandwidth_mbps")))
-    missing.push_back(
-        "a co-run beyond the L3 (a kernel and a co-runner beyond the L3): the DRAM "
-        "queue and bandwidth");
   if (!missing.empty()) {
     std::string msg = "calibration: insufficient measurements to fit the memory model; missing: ";
     for (std::size_t i = 0; i < missing.size(); ++i)
       msg += (i ? "; " : "") + missing[i];
     throw RunError(msg);
   }
+  // What the data do not show directly: named here; what then rests on its prior is named per
+  // parameter below (runs whose sets overflow the L3 together may still show it).
+  for (const auto& [k, levels] : iso)
+    if (k != "latency" && !beyond_l3.count(k))
+      rep.notes.push_back("no run of " + k + " beyond the L3 (> " + l3s + "): kernels." + k +
+                          ".mlp is seen only where sets overflow the L3 "
+                          "together, else its prior stands");
+  const bool dram_latency_measured = iso.at("latency").count(Level::Dram) > 0;
+  if (!dram_latency_measured)
+    rep.notes.push_back("no isolation run of latency beyond the L3 (> " + l3s +
+                        "): dram.latency_ns is seen only where sets overflow the L3 together, "
+                        "else its prior stands");
+  if (l3_counts.empty())
+    rep.notes.push_back(
+        "no co-run within the L3 (a kernel within the L3 with a co-runner beyond the L2): "
+        "l3.queue_ns and l3.bandwidth_mbps rest on their priors");
+  if (dram_counts.empty())
+    rep.notes.push_back(
+        "no co-run beyond the L3 (a kernel and a co-runner beyond the L3): dram.queue_ns and "
+        "dram.bandwidth_mbps are seen only where sets overflow the L3 together, else their "
+        "priors stand");
 
-  // Starting point from the data directly, and the free parameters.
+  // Starting point and priors from the data directly where they show the parameter, else from
+  // typical values.
   for (const auto& [k, levels] : iso) {
     sim::KernelModel km;
     km.ns_per_line_l2 = geomean(levels.at(Level::L2));
@@ -385,18 +429,34 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
     base.kernels[k] = km;
   }
   const double lat_l3 = base.kernels.at("latency").ns_per_line_l3;
-  const double lat_dram = geomean(iso.at("latency").at(Level::Dram));
   base.l3.latency_ns = lat_l3;
-  base.dram.latency_ns = std::max(lat_dram - lat_l3, 0.5 * lat_dram);
+  Prior dram_latency_prior;
+  if (dram_latency_measured) {
+    const double lat_dram = geomean(iso.at("latency").at(Level::Dram));
+    dram_latency_prior = {std::max(lat_dram - lat_l3, 0.5 * lat_dram), kLn2,
+                          "the latency kernel's isolation runs beyond the L3 less its L3 latency, "
+                          "a factor 2 either way"};
+  } else {
+    dram_latency_prior = {std::max(kTypicalDramNs - lat_l3, 0.5 * kTypicalDramNs), kLn2,
+                          kTypicalDramSource + std::string(", a factor 2 either way")};
+  }
+  base.dram.latency_ns = dram_latency_prior.median;
+  std::map<std::string, Prior> mlp_priors;
   for (auto& [k, km] : base.kernels) {
     km.mlp = 1.0;
     if (k == "latency") continue;
     const auto d = iso.at(k).find(Level::Dram);
     const double extra = d == iso.at(k).end() ? 0.0 : geomean(d->second) - km.ns_per_line_l3;
-    km.mlp = extra > 0 ? std::clamp(base.dram.latency_ns / extra, 1.0, 64.0) : 8.0;
+    if (extra > 0)
+      mlp_priors[k] = {std::clamp(base.dram.latency_ns / extra, 1.0, 64.0), kLn3,
+                       "the DRAM latency over the extra ns per line of " + k +
+                           "'s isolation runs beyond the L3, a factor 3 either way"};
+    else
+      mlp_priors[k] = {kTypicalMlp, kLn3, kTypicalMlpSource};
+    km.mlp = mlp_priors[k].median;
   }
-  // Bandwidths: 1.5x the largest traffic a run shows at each level (every core beyond the L2 at
-  // the measured kernel's rate); queues: the unloaded latencies.
+  // Bandwidths: the largest traffic a run shows at each level (every core beyond the L2 at the
+  // measured kernel's rate) is a floor; twice it, a factor 4 either way.
   double l3_peak = 0.0, dram_peak = 0.0;
   for (const KernelRun* r : used) {
     const double rate = lines_moved(r->kernel) / r->ns_per_line;
@@ -409,9 +469,24 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
     l3_peak = std::max(l3_peak, mbps_of(rate * l3_cores));
     dram_peak = std::max(dram_peak, mbps_of(rate * dram_cores));
   }
-  base.l3.bandwidth_mbps = 1.5 * l3_peak;
+  const auto bandwidth_prior = [](double peak, double typical, const std::string& typical_source) {
+    if (peak > 0)
+      return Prior{2.0 * peak, kLn4,
+                   "twice the largest traffic the runs moved through it (" + fmt("%.0f", peak) +
+                       " MB/s: a floor), a factor 4 either way"};
+    return Prior{typical, kLn4, typical_source + ", a factor 4 either way"};
+  };
+  const Prior l3_bw_prior =
+      bandwidth_prior(l3_peak, kTypicalL3MbpsCore * base.cores_per_cluster,
+                      "typical L3 bandwidth of 20 GB/s per core of the cluster (no run reached "
+                      "the L3)");
+  const Prior dram_bw_prior =
+      bandwidth_prior(dram_peak, kTypicalDramMbps,
+                      "typical DRAM bandwidth of two DDR4-3200 channels, 51.2 GB/s (no run "
+                      "reached DRAM)");
+  base.l3.bandwidth_mbps = l3_bw_prior.median;
   base.l3.queue_ns = lat_l3;
-  base.dram.bandwidth_mbps = 1.5 * dram_peak;
+  base.dram.bandwidth_mbps = dram_bw_prior.median;
   base.dram.queue_ns = base.dram.latency_ns;
   base.mshr.per_core = opt.mshr_per_core;
   base.mshr.per_cluster = opt.mshr_per_cluster;
@@ -419,71 +494,57 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   std::vector<Slot> slots;
   std::vector<FittedParameter> fixed_params;
   const auto add = [&](const std::string& name, std::function<double&(SimPlatform&)> ref,
-                       const std::string& how) {
+                       const std::string& how, Prior prior) {
     if (const auto it = opt.fixed.find(name); it != opt.fixed.end()) {
       if (!(it->second > 0))
         throw RunError("calibration: fixed value of " + name + " must be positive");
       ref(base) = it->second;
-      fixed_params.push_back({name, it->second, 0.0, false, "fixed by the caller"});
+      FittedParameter p;
+      p.name = name;
+      p.value = it->second;
+      p.how = "fixed by the caller";
+      fixed_params.push_back(p);
       rep.notes.push_back(name + " fixed by the caller at " + fmt("%g", it->second));
       return;
     }
-    slots.push_back({name, std::move(ref), how});
+    slots.push_back({name, std::move(ref), how, std::move(prior)});
   };
   for (const auto& [k, km] : base.kernels) {
     const std::string kk = k;
-    add(
-        "kernels." + k + ".ns_per_line_l2",
+    add("kernels." + k + ".ns_per_line_l2",
         [kk](SimPlatform& p) -> double& { return p.kernels.at(kk).ns_per_line_l2; },
-        "isolation runs of " + k + " within the L2");
-    add(
-        "kernels." + k + ".ns_per_line_l3",
+        "isolation runs of " + k + " within the L2",
+        {km.ns_per_line_l2, kLn4, "the isolation runs within the L2, a factor 4 either way"});
+    add("kernels." + k + ".ns_per_line_l3",
         [kk](SimPlatform& p) -> double& { return p.kernels.at(kk).ns_per_line_l3; },
-        "isolation runs of " + k + " within the L3");
+        "isolation runs of " + k + " within the L3",
+        {km.ns_per_line_l3, kLn4, "the isolation runs within the L3, a factor 4 either way"});
     if (k != "latency")
       add(
           "kernels." + k + ".mlp", [kk](SimPlatform& p) -> double& { return p.kernels.at(kk).mlp; },
-          "runs of " + k + " beyond the L3, given the DRAM latency");
+          "runs of " + k + " beyond the L3, given the DRAM latency", mlp_priors.at(k));
   }
-  // One loaded level per resource (a 2-core cluster: 0 or 1 co-runner) shows how much the
-  // latency grows, not how it bends: the queue and the bandwidth then trade off against each
-  // other, so the queue is tied to the unloaded latency (the delay doubles at half load) and the
-  // bandwidth is fitted. Two or more co-runner counts identify both.
-  std::vector<std::function<void(SimPlatform&)>> ties;
-  const auto tie = [&](const std::string& name, std::function<void(SimPlatform&)> f,
-                       const std::string& how) {
-    ties.push_back(std::move(f));
-    rep.notes.push_back(name + " " + how);
-    fixed_params.push_back({name, 0.0, 0.0, false, how});
-  };
-  if (l3_counts.size() >= 2 || opt.fixed.count("l3.queue_ns"))
-    add(
-        "l3.queue_ns", [](SimPlatform& p) -> double& { return p.l3.queue_ns; },
-        "co-runs within the L3 at " + std::to_string(l3_counts.size()) + " co-runner counts");
-  else
-    tie(
-        "l3.queue_ns",
-        [](SimPlatform& p) { p.l3.queue_ns = p.kernels.at("latency").ns_per_line_l3; },
-        "tied to l3.latency_ns: the co-runs within the L3 have one co-runner count, which "
-        "cannot separate the queue from the bandwidth");
+  // A queue's prior is its level's unloaded latency (the delay doubles at half load): with one
+  // co-runner count (a 2-core cluster) the runs show how much the latency grows, not how it
+  // bends, so the queue and the bandwidth trade off and the prior decides between them.
+  add("l3.queue_ns", [](SimPlatform& p) -> double& { return p.l3.queue_ns; },
+      "co-runs within the L3 at " + std::to_string(l3_counts.size()) + " co-runner count(s)",
+      {lat_l3, kLn3,
+       "the unloaded L3 latency (the delay doubles at half load), a factor 3 either way"});
   add(
       "l3.bandwidth_mbps", [](SimPlatform& p) -> double& { return p.l3.bandwidth_mbps; },
-      "co-runs within the L3");
+      "co-runs within the L3", l3_bw_prior);
   add(
       "dram.latency_ns", [](SimPlatform& p) -> double& { return p.dram.latency_ns; },
-      "the latency kernel (one load in flight) beyond the L3");
-  if (dram_counts.size() >= 2 || opt.fixed.count("dram.queue_ns"))
-    add(
-        "dram.queue_ns", [](SimPlatform& p) -> double& { return p.dram.queue_ns; },
-        "co-runs beyond the L3 at " + std::to_string(dram_counts.size()) + " co-runner counts");
-  else
-    tie(
-        "dram.queue_ns", [](SimPlatform& p) { p.dram.queue_ns = p.dram.latency_ns; },
-        "tied to dram.latency_ns: the co-runs beyond the L3 have one co-runner count, which "
-        "cannot separate the queue from the bandwidth");
+      "the latency kernel (one load in flight) beyond the L3", dram_latency_prior);
+  add("dram.queue_ns", [](SimPlatform& p) -> double& { return p.dram.queue_ns; },
+      "co-runs beyond the L3 at " + std::to_string(dram_counts.size()) + " co-runner count(s)",
+      {base.dram.latency_ns, kLn3,
+       "the unloaded DRAM latency's prior (the delay doubles at half load), a factor 3 either "
+       "way"});
   add(
       "dram.bandwidth_mbps", [](SimPlatform& p) -> double& { return p.dram.bandwidth_mbps; },
-      "co-runs beyond the L3");
+      "co-runs beyond the L3", dram_bw_prior);
   // The misses-in-flight bounds: the suite's runs cannot tell a kernel's mlp from the core's
   // buffers (nor, with at most one co-runner count, the cluster's), so both are held where they
   // do not bind unless the caller fixes them. The runs that overflow the L3 together are
@@ -495,75 +556,83 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
         std::tuple{std::string("mshr.per_cluster"), base.mshr.per_cluster,
                    std::function<double&(SimPlatform&)>(
                        [](SimPlatform& p) -> double& { return p.mshr.per_cluster; })}}) {
+    FittedParameter p;
+    p.name = name;
     if (const auto it = opt.fixed.find(name); it != opt.fixed.end()) {
       ref(base) = it->second;
-      fixed_params.push_back({name, it->second, 0.0, false, "fixed by the caller"});
-      continue;
+      p.value = it->second;
+      p.how = "fixed by the caller";
+    } else {
+      p.value = value;
+      p.how = "held at " + fmt("%g", value) +
+              " (not identified: the runs cannot tell a kernel's misses in flight from the "
+              "buffers' bound; this value does not bind)";
     }
-    fixed_params.push_back({name, value, 0.0, false,
-                            "held at " + fmt("%g", value) +
-                                " (not identified: the runs cannot tell a kernel's misses in "
-                                "flight from the buffers' bound; this value does not bind)"});
+    fixed_params.push_back(p);
   }
-  fixed_params.push_back(
-      {"kernels.latency.mlp", 1.0, 0.0, false, "fixed: a pointer chase has one load in flight"});
+  {
+    FittedParameter p;
+    p.name = "kernels.latency.mlp";
+    p.value = 1.0;
+    p.how = "fixed: a pointer chase has one load in flight";
+    fixed_params.push_back(p);
+  }
 
   const auto n = static_cast<Eigen::Index>(slots.size());
   const auto mres = static_cast<Eigen::Index>(used.size());
-  if (mres <= n)
-    throw RunError("calibration: " + std::to_string(mres) + " usable runs for " +
-                   std::to_string(n) +
-                   " free parameters; the fit needs more runs than parameters (to estimate the "
-                   "residual variance)");
-
-  Residuals fn{&base, &slots, &ties, &used};
+  Residuals fn{&base, &slots, &used};
   Eigen::VectorXd x(n);
   for (Eigen::Index i = 0; i < n; ++i)
     x[i] = std::log(slots[static_cast<std::size_t>(i)].ref(base));
-  Eigen::LevenbergMarquardt<Residuals> lm(fn);
-  lm.parameters.maxfev = opt.max_evaluations;
-  lm.parameters.ftol = 1e-12;
-  lm.parameters.xtol = 1e-10;
-  const auto status = lm.minimize(x);
+
+  // MAP: the weighted log residuals of the runs and, per parameter, (log value - log prior
+  // median) / prior log_sd scaled by the runs' noise (sigma), so that a prior counts as one
+  // measurement of the parameter with that spread. sigma is the runs' residual standard deviation
+  // (at least the repeatability floor), re-estimated until it settles.
+  const int dof = static_cast<int>(std::max<Eigen::Index>(1, mres - n));
+  Eigen::LevenbergMarquardtSpace::Status status{};
+  Eigen::Index iterations = 0;
+  double s2 = kCvFloor * kCvFloor;
+  for (int pass = 0; pass < 4; ++pass) {
+    fn.sigma = std::sqrt(s2);
+    Eigen::LevenbergMarquardt<Residuals> lm(fn);
+    lm.parameters.maxfev = opt.max_evaluations;
+    lm.parameters.ftol = 1e-12;
+    lm.parameters.xtol = 1e-10;
+    status = lm.minimize(x);
+    iterations += lm.iter;
+    if (!converged_status(static_cast<int>(status))) break;
+    const double next = std::max(fn.data_ssr(x) / dof, kCvFloor * kCvFloor);
+    const bool settled = std::abs(std::log(next / s2)) < 0.1;
+    s2 = next;
+    if (settled) break;
+  }
+  fn.sigma = std::sqrt(s2);
   rep.lm_status = static_cast<int>(status);
   rep.lm_status_text = status_text(rep.lm_status);
   rep.evaluations = fn.evaluations;
-  rep.iterations = static_cast<int>(lm.iter);
+  rep.iterations = static_cast<int>(iterations);
   rep.converged = converged_status(rep.lm_status);
   const std::string status_msg = " (Levenberg-Marquardt status " + std::to_string(rep.lm_status) +
                                  ": " + rep.lm_status_text + ", " +
                                  std::to_string(rep.evaluations) + " evaluations)";
   if (!rep.converged) throw RunError("calibration: the fit did not converge" + status_msg);
 
-  // Residuals, residual variance, Jacobian at the solution.
-  Eigen::VectorXd f(mres);
+  // Residuals and the Jacobian (runs and priors) at the solution; the posterior covariance of
+  // the log parameters is s^2 (J^T J)^-1, full rank through the priors' rows.
+  Eigen::VectorXd f(mres + n);
   fn(x, f);
-  Eigen::MatrixXd jac(mres, n);
+  Eigen::MatrixXd jac(mres + n, n);
   fn.df(x, jac);
-  const double ssr = f.squaredNorm();
+  const double ssr = f.head(mres).squaredNorm();
   double sum_w2 = 0.0;
   for (const KernelRun* r : used)
     sum_w2 += weight_of(*r) * weight_of(*r);
   rep.rms_residual = std::sqrt(ssr / sum_w2);  // weighted RMS of the log ratios
-  rep.objective = ssr;
-  rep.dof = static_cast<int>(mres - n);
-  const double s2 = ssr / static_cast<double>(mres - n);
-
+  rep.objective = f.squaredNorm();
+  rep.dof = dof;
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeThinV);
   const Eigen::VectorXd sv = svd.singularValues();
-  constexpr double kRankTol = 1e-7;  // of the largest singular value
-  if (sv.size() > 0 && (sv[sv.size() - 1] <= kRankTol * sv[0])) {
-    Eigen::Index worst = 0;
-    svd.matrixV().col(sv.size() - 1).cwiseAbs().maxCoeff(&worst);
-    const Slot& s = slots[static_cast<std::size_t>(worst)];
-    throw UnidentifiedParameter(
-        "calibration: the data cannot identify " + s.name +
-            " (the Jacobian is rank-deficient: singular values " + fmt("%.3g", sv[0]) + " .. " +
-            fmt("%.3g", sv[sv.size() - 1]) + "); measure what identifies it (" + s.how +
-            ") or fix it" + status_msg,
-        s.name, std::exp(x[worst]), std::numeric_limits<double>::infinity());
-  }
-  // (J^T J)^-1 from the SVD: V diag(1/s^2) V^T.
   const Eigen::MatrixXd v = svd.matrixV();
   const Eigen::MatrixXd cov =
       s2 * v * sv.array().square().inverse().matrix().asDiagonal() * v.transpose();
@@ -577,35 +646,42 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   rep.platform.l3.latency_ns = rep.platform.kernels.at("latency").ns_per_line_l3;
   for (Eigen::Index i = 0; i < n; ++i) {
     const Slot& s = slots[static_cast<std::size_t>(i)];
-    const double value = std::exp(x[i]);
-    const double se_log = std::sqrt(std::max(0.0, cov(i, i)));
-    // Numerically full rank, statistically not identified: the data leave the parameter free
-    // over more than a factor exp(max_log_std_error) (e.g. a queue driven towards 0).
-    if (!(se_log <= opt.max_log_std_error))
-      throw UnidentifiedParameter(
-          "calibration: the data cannot identify " + s.name + " (fitted " + fmt("%.4g", value) +
-              ", standard error of its logarithm " + fmt("%.3g", se_log) + " above " +
-              fmt("%.3g", opt.max_log_std_error) + "); measure what identifies it (" + s.how +
-              ") or fix it" + status_msg,
-          s.name, value, se_log);
-    rep.parameters.push_back({s.name, value, value * se_log, true, s.how});
-    if (se_log > 0.3)
+    FittedParameter p;
+    p.name = s.name;
+    p.value = std::exp(x[i]);
+    p.log_std_error = std::sqrt(std::max(0.0, cov(i, i)));
+    p.std_error = p.value * p.log_std_error;
+    p.fitted = true;
+    p.how = s.how;
+    p.prior_median = s.prior.median;
+    p.prior_log_sd = s.prior.log_sd;
+    p.prior_source = s.prior.source;
+    // How much the runs narrowed the prior: 1 - posterior / prior variance of the logarithm.
+    p.data_share = std::clamp(1.0 - cov(i, i) / (s.prior.log_sd * s.prior.log_sd), 0.0, 1.0);
+    p.prior_dominated = p.data_share < opt.min_data_share;
+    if (p.prior_dominated)
+      rep.notes.push_back(s.name + " is prior-dominated: " + fmt("%.4g", p.value) + " (x/ " +
+                          fmt("%.2f", std::exp(p.log_std_error)) + " at one standard error); the " +
+                          "runs narrowed its prior by " + fmt("%.0f %%", 100.0 * p.data_share) +
+                          " of its variance (prior: " + s.prior.source + ")");
+    else if (p.log_std_error > 0.3)
       rep.notes.push_back(s.name + " is poorly determined (relative standard error " +
-                          fmt("%.0f %%", 100.0 * se_log) + ")");
-  }
-  fixed_params.push_back({"l3.latency_ns", rep.platform.l3.latency_ns, 0.0, false,
-                          "derived: = kernels.latency.ns_per_line_l3 (the pointer chase's "
-                          "load-to-use time within the L3); the model only uses latencies above "
-                          "it, so no time measurement identifies it"});
-  for (auto& p : fixed_params) {
-    // Tied and derived values: as the fitted platform holds them.
-    if (p.name == "l3.queue_ns") p.value = rep.platform.l3.queue_ns;
-    if (p.name == "dram.queue_ns") p.value = rep.platform.dram.queue_ns;
+                          fmt("%.0f %%", 100.0 * p.log_std_error) + ")");
     rep.parameters.push_back(p);
   }
+  {
+    FittedParameter p;
+    p.name = "l3.latency_ns";
+    p.value = rep.platform.l3.latency_ns;
+    p.how =
+        "derived: = kernels.latency.ns_per_line_l3 (the pointer chase's load-to-use time within "
+        "the L3); the model only uses latencies above it, so no time measurement identifies it";
+    fixed_params.push_back(p);
+  }
+  for (auto& p : fixed_params)
+    rep.parameters.push_back(p);
 
-  std::size_t k = 0;
-  for (FittedRun& fr : rep.runs) {
+  for (std::size_t k = 0; FittedRun & fr : rep.runs) {
     if (!fr.used) {
       rep.notes.push_back("run " + std::to_string(fr.index) + " (" + fr.label + ") " + fr.note);
       continue;
@@ -620,93 +696,21 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   return rep;
 }
 
-// The objective of the fit with `name` held at `value` (the rest refitted); infinity when that
-// fit is refused.
-double objective_with(const Measurements& m, FitOptions opt, const std::string& name,
-                      double value) {
-  opt.fixed[name] = value;
-  try {
-    return fit_once(m, opt).objective;
-  } catch (const RunError&) {
-    return std::numeric_limits<double>::infinity();
-  }
-}
-
-// The smallest value of `name` (the others refitted) whose objective exceeds the best one's by
-// at most the residual variance (a profile-likelihood one-standard-error bound), searched on the
-// log scale below `best` (the unconstrained fit's value).
-double profile_lower_bound(const Measurements& m, const FitOptions& opt, const std::string& name,
-                           double best) {
-  FitOptions held = opt;
-  held.fixed[name] = best;
-  const FitReport at_best = fit_once(m, held);
-  const double target = at_best.objective + at_best.objective / std::max(1, at_best.dof);  // + s^2
-  double hi = std::log(best), lo = hi;
-  // Step down by factors of e until the objective passes the target (or 40 e-folds).
-  for (int i = 0; i < 40; ++i) {
-    lo -= 1.0;
-    if (objective_with(m, opt, name, std::exp(lo)) > target) break;
-    hi = lo;
-  }
-  for (int i = 0; i < 12; ++i) {  // bisection to ~1e-3 of an e-fold
-    const double mid = 0.5 * (lo + hi);
-    (objective_with(m, opt, name, std::exp(mid)) > target ? lo : hi) = mid;
-  }
-  return std::exp(hi);
-}
-
 }  // namespace
 
 FitReport fit(const Measurements& m, const FitOptions& options) {
-  FitOptions opt = options;
-  std::map<std::string, std::string> held;  // parameter -> why
-  std::set<std::string> holding;            // profile searches under way
-  // Holds the parameter `e` names (FitOptions::hold_unidentified) or rethrows it.
-  std::function<void(const UnidentifiedParameter&)> hold = [&](const UnidentifiedParameter& e) {
-    const std::string& name = e.parameter();
-    const bool bandwidth = name.ends_with(".bandwidth_mbps");
-    // A parameter whose profile search is already under way (two bandwidths each leaving the
-    // other free) cannot be held this way: refuse, naming it.
-    if (!opt.hold_unidentified || !bandwidth || held.count(name) || holding.count(name) ||
-        options.fixed.count(name))
-      throw e;
-    const std::string fitted_as =
-        fmt("%.4g", e.value()) +
-        (std::isfinite(e.log_std_error())
-             ? " with a standard error of its logarithm of " + fmt("%.3g", e.log_std_error())
-             : std::string(", where the fit does not depend on it"));
-    double bound = 0.0;
-    holding.insert(name);
-    for (;;) {
-      try {
-        bound = profile_lower_bound(m, opt, name, e.value());
-        break;
-      } catch (const UnidentifiedParameter& inner) {
-        if (inner.parameter() == name) throw;
-        hold(inner);  // another parameter the profile's fits leave free: hold it first
-      }
-    }
-    opt.fixed[name] = bound;
-    held[name] =
-        "not identified (the co-runs show too little contention to fit it to: its "
-        "best fit is " +
-        fitted_as + "): held at " + fmt("%.4g", bound) +
-        ", the lower end of its one-standard-error profile interval, the most "
-        "contention the measurements allow";
-  };
-  for (;;) {
-    try {
-      FitReport rep = fit_once(m, opt);
-      for (auto& p : rep.parameters)
-        if (const auto it = held.find(p.name); it != held.end()) p.how = it->second;
-      for (auto& note : rep.notes)
-        for (const auto& [name, why] : held)
-          if (note.rfind(name + " fixed by the caller", 0) == 0) note = name + ": " + why;
-      return rep;
-    } catch (const UnidentifiedParameter& e) {
-      hold(e);
-    }
-  }
+  FitReport rep = fit_once(m, options);
+  if (options.strict)
+    for (const auto& p : rep.parameters)
+      if (p.prior_dominated)
+        throw UnidentifiedParameter(
+            "calibration: the data cannot identify " + p.name + " (fitted " + fmt("%.4g", p.value) +
+                ", standard error of its logarithm " + fmt("%.3g", p.log_std_error) +
+                ": the runs narrowed its prior by only " + fmt("%.0f %%", 100.0 * p.data_share) +
+                "); measure what identifies it (" + p.how +
+                ") or leave --strict off to keep the prior-dominated value",
+            p.name, p.value, p.log_std_error);
+  return rep;
 }
 
 json fitted_platform(const Measurements& m, const FitReport& rep, std::string name) {
@@ -731,7 +735,13 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
       const FittedParameter& q = param(n);
       const std::string key = std::string(n).substr(std::string(n).rfind('.') + 1);
       s += (s.empty() ? "" : "; ") + key + " " +
-           (q.fitted ? "fitted +- " + fmt("%.2g", q.std_error) + " (" + q.how + ")" : q.how);
+           (!q.fitted ? q.how
+            : q.prior_dominated
+                ? "PRIOR-DOMINATED +- " + fmt("%.2g", q.std_error) +
+                      " (the runs narrowed its "
+                      "prior by " +
+                      fmt("%.0f %%", 100.0 * q.data_share) + "; prior: " + q.prior_source + ")"
+                : "fitted +- " + fmt("%.2g", q.std_error) + " (" + q.how + ")");
     }
     return s;
   };
@@ -824,6 +834,18 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
                                            ("kernels." + k + ".mlp").c_str()})}};
   doc["kernels"] = kernels;
 
+  json dominated = json::array();
+  for (const auto& q : rep.parameters)
+    if (q.prior_dominated)
+      dominated.push_back({{"parameter", q.name},
+                           {"value", sig(q.value)},
+                           {"log_std_error", round_sig(q.log_std_error, 3)},
+                           {"data_share", round_sig(q.data_share, 3)},
+                           {"prior_source", q.prior_source}});
+  doc["fit"] = {{"rms_residual", round_sig(rep.rms_residual, 4)},
+                {"prior_dominated", dominated},
+                {"source", "the fit of " + by + " (calibration.json has every parameter)"}};
+
   json costs = json::object();
   std::vector<std::string> missing;
   // local_message_latency is optional (older measurements, a suite on one core); the others
@@ -861,12 +883,21 @@ json to_json(const FitReport& rep) {
   j["iterations"] = rep.iterations;
   j["rms_residual"] = rep.rms_residual;
   j["parameters"] = json::array();
-  for (const auto& p : rep.parameters)
-    j["parameters"].push_back({{"name", p.name},
-                               {"value", p.value},
-                               {"std_error", p.std_error},
-                               {"fitted", p.fitted},
-                               {"how", p.how}});
+  for (const auto& p : rep.parameters) {
+    json o = {{"name", p.name},
+              {"value", p.value},
+              {"std_error", p.std_error},
+              {"fitted", p.fitted},
+              {"how", p.how}};
+    if (p.fitted) {
+      o["log_std_error"] = p.log_std_error;
+      o["prior"] = {
+          {"median", p.prior_median}, {"log_sd", p.prior_log_sd}, {"source", p.prior_source}};
+      o["data_share"] = p.data_share;
+      o["prior_dominated"] = p.prior_dominated;
+    }
+    j["parameters"].push_back(o);
+  }
   j["runs"] = json::array();
   for (const auto& r : rep.runs) {
     json o = {

@@ -1,12 +1,17 @@
 // The sim platform model fitted to host measurements (issue 11, `rosguard calibrate`).
 //
 // Called by the calibrate command with what the hw suite measured (model/calibration/
-// measurements.h). fit() chooses the model's free parameters from what the data can identify,
-// fits them by non-linear least squares (Eigen's Levenberg-Marquardt) on relative residuals
-// log(predicted / measured ns_per_line), each weighted by the run's repeatability (0.02 / max(cv,
-// 0.02): a run whose repetitions scatter counts less), and reports every parameter with its
-// standard error and every run with its (unweighted) residual. Predictions are exactly the sim's:
-// the kernel's profile (sim/workload/profile.h: kernel_profile) on the memory model's steady state
+// measurements.h). fit() is a maximum a posteriori (regularised) non-linear least-squares fit
+// (Eigen's Levenberg-Marquardt) of the model's free parameters, on a log scale: the runs' relative
+// residuals log(predicted / measured ns_per_line), each weighted by the run's repeatability
+// (0.02 / max(cv, 0.02): a run whose repetitions scatter counts less), plus one residual per
+// parameter for its prior (lognormal: a median and a spread, each with its source: the runs that
+// show it most directly, or a typical value where the runs cannot show it). The priors are scaled
+// by the runs' residual standard deviation, so a prior weighs as one measurement of its
+// parameter. Every parameter is reported with its posterior standard error and how far the runs
+// narrowed its prior (data_share); one the runs narrowed by less than half is prior-dominated: a
+// note says so, and the model is still written. Predictions are exactly the sim's: the kernel's
+// profile (sim/workload/profile.h: kernel_profile) on the memory model's steady state
 // (sim/platform/contention.h), the measured kernel on core 0 of cluster 0 and its co-runners on
 // the next cores of that cluster.
 //
@@ -14,8 +19,10 @@
 //   fitted: per kernel ns_per_line_l2 (isolation within the L2), ns_per_line_l3 (isolation within
 //     the L3), mlp (runs beyond the L3, given the DRAM latency); l3.queue_ns and
 //     l3.bandwidth_mbps (co-runs within the L3); dram.latency_ns (the latency kernel beyond the
-//     L3); dram.queue_ns and dram.bandwidth_mbps (co-runs beyond the L3). Runs whose working sets
-//     together overflow the L3 are predicted by the shared-LRU model (no parameter).
+//     L3); dram.queue_ns and dram.bandwidth_mbps (co-runs beyond the L3). With one co-runner count
+//     the runs cannot separate a queue from its bandwidth: the queue's prior (the level's
+//     unloaded latency) decides between them. Runs whose working sets together overflow the L3
+//     are predicted by the shared-LRU model (no parameter).
 //   fixed or derived: kernels.latency.mlp = 1 (a pointer chase has one load in flight);
 //     l3.latency_ns = the fitted kernels.latency.ns_per_line_l3 (the model only uses latencies
 //     above it, so no time measurement can identify it; the pointer chase within the L3 is its
@@ -24,10 +31,10 @@
 //     they do not bind); anything named in FitOptions::fixed.
 //
 // Contract: pure C++ (no SystemC, no OS calls). fit() throws RunError naming what is missing
-// when the data cannot identify a parameter it must fit, and RunError with the LM status when
-// the fit does not converge, the Jacobian is rank-deficient for a fitted parameter (or its
-// standard error exceeds FitOptions::max_log_std_error), or the RMS residual exceeds
-// FitOptions::max_rms_residual.
+// when the runs lack a kernel's own speed within the L2 or the L3 (no prior stands in for
+// those), RunError with the LM status when the fit does not converge or the RMS residual exceeds
+// FitOptions::max_rms_residual (the runs contradict the model or each other), and
+// UnidentifiedParameter for a prior-dominated parameter when FitOptions::strict is set.
 #pragma once
 
 #include <map>
@@ -44,27 +51,23 @@ namespace rosguard::calibration {
 struct FitOptions {
   int max_evaluations = 400;      // LM residual evaluations (each one predicts every run)
   double max_rms_residual = 0.5;  // refuse a fit worse than this (log units: 0.5 is ~65 %)
-  // Refuse a fitted parameter whose logarithm has a larger standard error (1: the data leave it
-  // free within a factor e either way): the data do not identify it.
-  double max_log_std_error = 1.0;
+  // A fitted parameter whose prior the runs narrowed by less than this share of its variance is
+  // prior-dominated.
+  double min_data_share = 0.5;
   // The misses-in-flight bounds, held where they do not bind (the platform schema's largest
   // values): a kernel's fitted mlp stays below the core's, and no co-run reaches the cluster's.
   double mshr_per_core = 1024.0;
   double mshr_per_cluster = 4096.0;
   // Parameters held at a given value instead of fitted, by their report name
-  // ("l3.queue_ns", "kernels.bandwidth_read.mlp", ...): for what this host's data cannot
-  // identify. Reported as fixed.
+  // ("l3.queue_ns", "kernels.bandwidth_read.mlp", ...). Reported as fixed.
   std::map<std::string, double> fixed;
-  // A bandwidth (l3 / dram .bandwidth_mbps) the data leave free — the co-runs show too little
-  // contention to fit it to — is held at the lower end of its one-standard-error profile
-  // interval (the smallest bandwidth, the others refitted, whose objective exceeds the best by
-  // at most the residual variance: the most contention the measurements allow), with a note,
-  // instead of refusing the fit. `rosguard calibrate` sets it (--strict clears it).
-  bool hold_unidentified = false;
+  // Refuse a fit with a prior-dominated parameter (UnidentifiedParameter) instead of writing it
+  // (`rosguard calibrate --strict`).
+  bool strict = false;
 };
 
-// fit() refuses: the data leave `parameter` free (the standard error of its logarithm,
-// `log_std_error`, exceeds FitOptions::max_log_std_error) at the fitted `value`.
+// fit() refuses (FitOptions::strict): the runs leave `parameter` to its prior (the standard error
+// of its logarithm `log_std_error` at the fitted `value`).
 class UnidentifiedParameter : public RunError {
  public:
   UnidentifiedParameter(const std::string& message, std::string parameter, double value,
@@ -86,10 +89,19 @@ class UnidentifiedParameter : public RunError {
 struct FittedParameter {
   std::string name;  // "dram.latency_ns", "kernels.bandwidth_read.mlp"
   double value = 0.0;
-  double std_error = 0.0;  // in the parameter's units (delta method from the log scale); 0 if
-                           // not fitted
-  bool fitted = false;     // false: fixed or derived (see `how`)
-  std::string how;         // what identifies it, or why and from what it is fixed
+  double std_error = 0.0;      // posterior, in the parameter's units (delta method from the log
+                               // scale); 0 if not fitted
+  double log_std_error = 0.0;  // posterior standard error of its logarithm
+  bool fitted = false;         // false: fixed or derived (see `how`)
+  std::string how;             // what identifies it, or why and from what it is fixed
+  // Fitted parameters: the prior (lognormal median and spread of the logarithm, its source), the
+  // share of the prior's variance the runs removed, and whether that is below
+  // FitOptions::min_data_share.
+  double prior_median = 0.0;
+  double prior_log_sd = 0.0;
+  std::string prior_source;
+  double data_share = 1.0;
+  bool prior_dominated = false;
 };
 
 struct FittedRun {
@@ -116,12 +128,12 @@ struct FitReport {
   double rms_residual = 0.0;             // over the used runs, log units, weighted (weight_of)
   int lm_status = 0;                     // Eigen's LevenbergMarquardtSpace::Status
   std::string lm_status_text;
-  double objective = 0.0;  // the weighted sum of squared residuals at the solution
-  int dof = 0;             // used runs minus fitted parameters
+  double objective = 0.0;  // the sum of squared residuals (runs and priors) at the solution
+  int dof = 0;             // used runs minus fitted parameters (at least 1)
   int evaluations = 0;
   int iterations = 0;
   bool converged = false;
-  std::vector<std::string> notes;  // fixed parameters, runs left out, poorly determined values
+  std::vector<std::string> notes;  // fixed parameters, runs left out, prior-dominated values
 };
 
 // The model's skeleton for `host`: CPU, caches (L2, L3 capacity), and placeholder memory

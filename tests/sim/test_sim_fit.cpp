@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <set>
 
 #include "calibration/fit.h"
 #include "core/error.h"
@@ -114,14 +115,18 @@ TEST_CASE("fit: noise-free synthetic measurements give back the true parameters"
   const sim::SimPlatform t = truth(h);
   const FitReport r = fit(synthetic(t, h, 0.0, 1));
   CHECK(r.converged);
-  CHECK(r.rms_residual < 1e-6);
+  // The priors pull each value towards their medians as one measurement with the runs' noise
+  // floor (2 %) would: a small bias, well within a quarter of each parameter's tolerance at 2 %
+  // noise, and no parameter prior-dominated.
+  CHECK(r.rms_residual < 0.005);
   for (const auto& [name, value, tol] : targets(t)) {
     INFO(name);
-    CHECK(param(r, name).value == Approx(value).epsilon(1e-4));
+    CHECK(param(r, name).value == Approx(value).epsilon(tol / 4));
     CHECK(param(r, name).fitted);
+    CHECK_FALSE(param(r, name).prior_dominated);
   }
   CHECK_FALSE(param(r, "kernels.latency.mlp").fitted);
-  CHECK(param(r, "l3.latency_ns").value == Approx(t.l3.latency_ns).epsilon(1e-4));
+  CHECK(param(r, "l3.latency_ns").value == param(r, "kernels.latency.ns_per_line_l3").value);
   // The runs within the L1d are reported, not fitted.
   std::size_t unused = 0;
   for (const auto& run : r.runs)
@@ -149,18 +154,22 @@ TEST_CASE("fit: 2 % noise, parameters recovered within the stated tolerances", "
   }
 }
 
-TEST_CASE("fit: a 2-core host (one co-runner) ties the queues and fits the rest", "[sim][fit]") {
+TEST_CASE("fit: a 2-core host (one co-runner): the queues' priors decide the ridge", "[sim][fit]") {
   const HostFacts h = host(2);
   const sim::SimPlatform t = truth(h);
   const FitReport r = fit(synthetic(t, h, 0.02, 7));
   INFO(to_json(r).dump(1));
   CHECK(r.converged);
-  // One co-runner count: the queues cannot be told from the bandwidths, so they are tied to the
-  // unloaded latencies (and the bandwidths absorb the difference).
-  CHECK_FALSE(param(r, "dram.queue_ns").fitted);
-  CHECK(param(r, "dram.queue_ns").value == Approx(param(r, "dram.latency_ns").value));
-  CHECK_FALSE(param(r, "l3.queue_ns").fitted);
-  CHECK(param(r, "l3.queue_ns").value == Approx(param(r, "l3.latency_ns").value));
+  // One co-runner count: a queue trades off against its bandwidth along a ridge, and its prior
+  // (the unloaded latency) says where on it the fit sits; whatever the runs leave to the prior
+  // is flagged.
+  for (const char* name :
+       {"l3.queue_ns", "dram.queue_ns", "l3.bandwidth_mbps", "dram.bandwidth_mbps"}) {
+    const FittedParameter& p = param(r, name);
+    CHECK(p.fitted);
+    CHECK(p.prior_dominated == (p.data_share < 0.5));
+    CHECK(std::abs(std::log(p.value / p.prior_median)) < 3.0 * p.prior_log_sd);
+  }
   // What a single co-runner identifies is still recovered, and every run is predicted within
   // the noise.
   CHECK(param(r, "dram.latency_ns").value == Approx(t.dram.latency_ns).epsilon(0.05));
@@ -179,15 +188,76 @@ TEST_CASE("fit: insufficient data is refused, naming what is missing", "[sim][fi
     CHECK_THROWS_WITH(fit(m), Catch::Contains("insufficient measurements") &&
                                   Catch::Contains("isolation runs of latency"));
   }
-  SECTION("no co-run beyond the L3") {
+  SECTION("no isolation run of bandwidth_write within the L3") {
     std::erase_if(m.runs, [&](const KernelRun& r) {
-      return r.working_set_kb > h.l3_kb_per_cluster && !r.corunners.empty();
+      return r.kernel == "bandwidth_write" && r.corunners.empty() && r.working_set_kb > h.l2_kb &&
+             r.working_set_kb <= h.l3_kb_per_cluster;
     });
-    CHECK_THROWS_WITH(fit(m), Catch::Contains("a co-run beyond the L3"));
+    CHECK_THROWS_WITH(fit(m), Catch::Contains("an isolation run of bandwidth_write within the L3"));
+  }
+}
+
+TEST_CASE("fit: what the runs cannot show rests on its prior, named as prior-dominated",
+          "[sim][fit]") {
+  const HostFacts h = host();
+  const sim::SimPlatform t = truth(h);
+  Measurements m = synthetic(t, h, 0.02, 1);
+  const auto dominated = [](const FitReport& r, const std::string& name) {
+    return param(r, name).prior_dominated;
+  };
+  SECTION("no co-run beyond the L3: the DRAM queue and bandwidth") {
+    // Isolation runs beyond the L3 stay; every run with a co-runner beyond it, or whose sets
+    // overflow the L3 together, goes.
+    std::erase_if(m.runs, [&](const KernelRun& r) {
+      double total = r.working_set_kb;
+      for (const auto& c : r.corunners)
+        total += c.working_set_kb;
+      return !r.corunners.empty() && total > h.l3_kb_per_cluster;
+    });
+    const FitReport r = fit(m);
+    INFO(to_json(r).dump(1));
+    CHECK(r.converged);
+    // A single stream beyond the L3 loads DRAM too, so the isolation runs still say something of
+    // the bandwidth; the queue needs co-runs.
+    CHECK(dominated(r, "dram.queue_ns"));
+    CHECK_FALSE(dominated(r, "dram.latency_ns"));
+    CHECK_FALSE(dominated(r, "l3.bandwidth_mbps"));
+    CHECK(param(r, "dram.latency_ns").value == Approx(t.dram.latency_ns).epsilon(0.06));
+    bool noted = false;
+    for (const auto& note : r.notes)
+      noted = noted || note.find("no co-run beyond the L3") != std::string::npos;
+    CHECK(noted);
+    FitOptions strict;
+    strict.strict = true;
+    CHECK_THROWS_WITH(fit(m, strict), Catch::Contains("the data cannot identify dram.") &&
+                                          Catch::Contains("--strict"));
+  }
+  SECTION("no run beyond the L3 at all (an LLC larger than the suite's largest set)") {
+    std::erase_if(m.runs, [&](const KernelRun& r) {
+      double total = r.working_set_kb;
+      for (const auto& c : r.corunners)
+        total += c.working_set_kb;
+      return total > h.l3_kb_per_cluster;
+    });
+    const FitReport r = fit(m);
+    INFO(to_json(r).dump(1));
+    CHECK(r.converged);
+    for (const char* name : {"dram.latency_ns", "dram.queue_ns", "dram.bandwidth_mbps"})
+      CHECK(dominated(r, name));
+    // The typical values stand in: the DRAM latency near 90 ns less the L3's.
+    CHECK(param(r, "dram.latency_ns").prior_median ==
+          Approx(90.0 - param(r, "l3.latency_ns").value).epsilon(0.02));
+    // What the runs show is still theirs (a kernel's misses in flight also shape its co-runs
+    // within the L3, so its mlp is seen there, trading a little against its L3 time).
+    for (const char* name : {"kernels.bandwidth_read.ns_per_line_l3", "kernels.bandwidth_read.mlp",
+                             "l3.bandwidth_mbps"})
+      CHECK_FALSE(dominated(r, name));
+    CHECK(param(r, "kernels.bandwidth_read.ns_per_line_l3").value ==
+          Approx(t.kernels.at("bandwidth_read").ns_per_line_l3).epsilon(0.1));
   }
   SECTION("fewer runs than parameters") {
-    // Each kernel alone in the L2, the L3 and beyond; one co-run at each level: 11 runs for 11
-    // parameters (one co-runner count: both queues tied, no capacity exponent).
+    // Each kernel alone in the L2, the L3 and beyond; one co-run at each level: 11 runs for 13
+    // parameters.
     Measurements few = m;
     few.runs.clear();
     for (const auto& r : m.runs) {
@@ -200,25 +270,43 @@ TEST_CASE("fit: insufficient data is refused, naming what is missing", "[sim][fi
       if (iso || co) few.runs.push_back(r);
     }
     REQUIRE(few.runs.size() == 11);
-    CHECK_THROWS_WITH(fit(few), Catch::Contains("needs more runs than parameters"));
+    const FitReport r = fit(few);
+    INFO(to_json(r).dump(1));
+    CHECK(r.converged);
+    CHECK(r.rms_residual < 0.05);
   }
 }
 
-TEST_CASE("fit: data the model cannot follow is refused with the LM status", "[sim][fit]") {
+TEST_CASE("fit: data the model cannot follow is refused or left to the priors", "[sim][fit]") {
   const HostFacts h = host();
   Measurements m = synthetic(truth(h), h, 0.02, 1);
   SECTION("co-runs within the L3 faster than alone: the contention terms collapse") {
-    for (auto& r : m.runs)
+    std::set<std::size_t> faster;
+    for (std::size_t i = 0; i < m.runs.size(); ++i) {
+      KernelRun& r = m.runs[i];
       if (!r.corunners.empty() && r.working_set_kb <= h.l3_kb_per_cluster &&
           r.working_set_kb > h.l2_kb)
         for (const auto& iso : m.runs)
           if (iso.corunners.empty() && iso.kernel == r.kernel &&
-              iso.working_set_kb == r.working_set_kb)
+              iso.working_set_kb == r.working_set_kb) {
             r.ns_per_line = iso.ns_per_line * 0.9;
-    // The fit drives the capacity exponent (and the L3 queue) towards 0 to make them as fast
-    // as alone: the Jacobian loses rank there.
-    CHECK_THROWS_WITH(fit(m), Catch::Contains("calibration: the data cannot identify") &&
-                                  Catch::Contains("Levenberg-Marquardt status"));
+            faster.insert(i);
+          }
+    }
+    REQUIRE_FALSE(faster.empty());
+    // No contention can make a co-run faster than alone: the fit drives the L3 queue towards 0
+    // and the bandwidth up until their priors hold them, and predicts those runs slower than
+    // measured. The runs say little about the two there: prior-dominated.
+    const FitReport r = fit(m);
+    INFO(to_json(r).dump(1));
+    CHECK(r.converged);
+    CHECK(
+        (param(r, "l3.queue_ns").prior_dominated || param(r, "l3.bandwidth_mbps").prior_dominated));
+    for (const auto& run : r.runs)
+      if (faster.count(run.index)) CHECK(run.residual > 0);
+    FitOptions strict;
+    strict.strict = true;
+    CHECK_THROWS_WITH(fit(m, strict), Catch::Contains("calibration: the data cannot identify l3."));
   }
   SECTION("too few evaluations to converge") {
     FitOptions o;
@@ -337,4 +425,60 @@ TEST_CASE("fit: the fitted platform validates, and sim runs it as the fit predic
   };
   check(0, "bandwidth_read", 2048, 1314);
   check(1, "bandwidth_write", 65536, 2);
+}
+
+// Real measurements that the fit of main 7b6769e refused (tests/sim/fixtures/measured/, copied
+// from shared/measured/ with their source): three quick suites and a full one on the 2-vCPU
+// development VM of 2026-11-26 (an Intel Xeon, L3 35.8 MB: rank-deficient DRAM bandwidth, an L3
+// bandwidth left free), and a quick suite on a 16-vCPU Xeon with a 300 MB L3 that measured no run
+// beyond it. Each now fits: what the runs do not show rests on its prior, named as
+// prior-dominated; the platform validates; --strict refuses exactly those fits.
+TEST_CASE("fit: the measured suites of two real hosts fit, prior-dominated parameters named",
+          "[sim][fit][measured]") {
+  const SchemaSet schemas(Home::locate().schemas());
+  for (const char* file :
+       {"devvm-xeon-2026-11-26-quick-1.json", "devvm-xeon-2026-11-26-quick-2.json",
+        "devvm-xeon-2026-11-26-quick-3.json", "devvm-xeon-2026-11-26-full-1.json",
+        "xeon16-2026-11-26-quick.json"}) {
+    const auto path = test::source_dir() / "tests/sim/fixtures/measured" / file;
+    const json doc = json::parse(test::read_text(path));
+    const Measurements m = measurements_from_json(doc.at("measurements"), path.string());
+    const FitReport r = fit(m);
+    INFO(file << ": " << to_json(r).dump(1));
+    CHECK(r.converged);
+    CHECK(r.rms_residual < FitOptions{}.max_rms_residual);
+    std::vector<std::string> dominated;
+    for (const auto& p : r.parameters) {
+      if (!p.fitted) continue;
+      CHECK(std::isfinite(p.value));
+      CHECK(p.value > 0);
+      CHECK(p.log_std_error > 0);
+      // The posterior is never wider than the prior.
+      CHECK(p.log_std_error <= p.prior_log_sd * (1 + 1e-9));
+      CHECK_FALSE(p.prior_source.empty());
+      if (p.prior_dominated) dominated.push_back(p.name);
+    }
+    for (const auto& name : dominated) {
+      bool noted = false;
+      for (const auto& note : r.notes)
+        noted = noted || note.rfind(name + " is prior-dominated", 0) == 0;
+      CHECK(noted);
+    }
+    if (std::string(file).starts_with("xeon16")) {
+      // No run beyond its 300 MB L3 alone: the gap is named (the DRAM side is seen only where
+      // 262 MB sets overflow the L3 together).
+      bool noted = false;
+      for (const auto& note : r.notes)
+        noted = noted || note.starts_with("no isolation run of latency beyond the L3");
+      CHECK(noted);
+    }
+    const json platform = fitted_platform(m, r, "replayed");
+    CHECK_FALSE(schemas.first_error(platform, SchemaKind::Platform).has_value());
+    FitOptions strict;
+    strict.strict = true;
+    if (dominated.empty())
+      CHECK_NOTHROW(fit(m, strict));
+    else
+      CHECK_THROWS_AS(fit(m, strict), UnidentifiedParameter);
+  }
 }

@@ -133,7 +133,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   calibration::FitReport report;
   try {
     calibration::FitOptions fit_options;
-    fit_options.hold_unidentified = !opt.strict;
+    fit_options.strict = opt.strict;
     report = calibration::fit(m, fit_options);
   } catch (const RunError& e) {
     json doc = calibration_document(m, notes, probe, "fit refused");
@@ -159,11 +159,23 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   std::cout << "fit converged (" << report.lm_status_text << ") in " << report.iterations
             << " iterations: RMS residual " << fmt(100.0 * (std::exp(report.rms_residual) - 1.0))
             << " % over " << used << " of " << report.runs.size() << " measurements\n";
-  for (const auto& p : report.parameters)
+  std::vector<std::string> prior_dominated;
+  for (const auto& p : report.parameters) {
     std::cout << "  " << p.name << " = " << fmt(p.value, 4)
-              << (p.fitted ? " +- " + fmt(p.std_error, 2) : " (" + p.how + ")") << "\n";
+              << (p.fitted ? " +- " + fmt(p.std_error, 2) : " (" + p.how + ")")
+              << (p.prior_dominated ? "  [prior-dominated]" : "") << "\n";
+    if (p.prior_dominated) prior_dominated.push_back(p.name);
+  }
   for (const auto& note : report.notes)
     std::cout << "  note: " << note << "\n";
+  if (!prior_dominated.empty()) {
+    std::cerr << "warning: " << prior_dominated.size()
+              << " parameter(s) rest mostly on their priors, not on this host's runs:";
+    for (const auto& name : prior_dominated)
+      std::cerr << " " << name;
+    std::cerr << " (their uncertainty is in " << cal_file.string()
+              << "; --strict refuses such a fit)\n";
+  }
 
   const int plot = run_analysis(loader.home(), {"calibration", dir.string()});
   if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";

@@ -17,7 +17,7 @@ struct CalibrateOptions {
   std::string from;      // refit the measurements of an earlier calibration.json, measure nothing
   bool quiet = false;    // no progress
   std::string name = "host";  // the fitted platform's name
-  bool strict = false;        // refuse a fit that leaves a bandwidth unidentified (else: held)
+  bool strict = false;        // refuse a fit with a prior-dominated parameter (else: written)
   std::string transport = "inproc";  // message costs over inproc rings or DDS (hw.transport)
 };
 

@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <set>
 #include <sstream>
@@ -180,6 +182,30 @@ SweepPlan plan_sweep(const json& expanded, const std::vector<std::string>& keys,
 
 // The controller may share a core with an application node (2-CPU machines): allowed, said
 // once per node and core.
+// A fitted platform (rosguard calibrate) some of whose parameters rest mostly on their priors:
+// sim predictions on it carry their uncertainty. Said once per platform, for sim points.
+std::vector<std::string> prior_dominated_warnings(const std::vector<LoadedPoint>& points) {
+  std::vector<std::string> warnings;
+  std::set<std::string> said;
+  for (const auto& lp : points) {
+    const Scenario& s = lp.scenario;
+    if (s.backend != "sim") continue;
+    const nlohmann::json& doc = s.platform.doc.get();
+    if (!doc.contains("fit") || doc["fit"]["prior_dominated"].empty()) continue;
+    if (!said.insert(s.platform.name).second) continue;
+    std::ostringstream w;
+    w << "platform '" << s.platform.name << "': " << doc["fit"]["prior_dominated"].size()
+      << " fitted parameter(s) rest mostly on their priors, not on measurements:";
+    for (const auto& q : doc["fit"]["prior_dominated"])
+      w << " " << q["parameter"].get<std::string>() << " " << q["value"].get<double>() << " (x/ "
+        << std::setprecision(3) << std::exp(q["log_std_error"].get<double>())
+        << std::setprecision(6) << ")";
+    w << "; sim results that depend on them are that uncertain";
+    warnings.push_back(w.str());
+  }
+  return warnings;
+}
+
 std::vector<std::string> controller_sharing_warnings(const std::vector<LoadedPoint>& points) {
   std::vector<std::string> warnings;
   std::set<std::string> said;
@@ -671,6 +697,8 @@ void Loader::load_points(LoadedScenario& out, PointSelection selection) {
   for (auto& w : controller_sharing_warnings(out.points))
     out.warnings.push_back(std::move(w));
   for (auto& w : ineffective_budget_warnings(out.points))
+    out.warnings.push_back(std::move(w));
+  for (auto& w : prior_dominated_warnings(out.points))
     out.warnings.push_back(std::move(w));
   out.host_platform = host_used_;
 }

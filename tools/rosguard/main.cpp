@@ -265,8 +265,8 @@ int main(int argc, char** argv) {
                    "(Cyclone DDS with ROS 2 names, as hw.transport dds)")
       ->check(CLI::IsMember({"inproc", "dds"}));
   calibrate->add_flag("--strict", cal.strict,
-                      "Refuse the fit when the co-runs leave a memory bandwidth unidentified "
-                      "(default: hold it at the most contention the data allow, with a note)");
+                      "Refuse the fit when a parameter rests mostly on its prior (default: write "
+                      "the model, name such parameters with their uncertainty)");
   calibrate->footer(
       "Runs built-in kernels alone and against co-runners on this host's cores (hw backend), "
       "times the middleware and OS costs, fits the memory model and the cost distributions by "

@@ -85,6 +85,18 @@ json describe_run(const LoadedScenario& loaded, const std::string& backend,
   m["host"] = host_facts();
   m["start_time"] = iso_time_now();
   m["warnings"] = loaded.warnings;
+  // sim on a fitted platform: the parameters that rest mostly on their priors (platform "fit"),
+  // so that whoever reads the results (rosguard compare) sees how uncertain the model is.
+  json dominated = json::array();
+  if (backend == "sim")
+    for (const auto& p : loaded.points) {
+      const nlohmann::json& doc = p.scenario.platform.doc.get();
+      if (doc.contains("fit") && !doc["fit"]["prior_dominated"].empty()) {
+        dominated = doc["fit"]["prior_dominated"];
+        break;
+      }
+    }
+  m["prior_dominated"] = dominated;
   // Where a policy's own defaults (memguard: overflow sampling, 1 ms periods) filled in keys.
   json defaults = json::array();
   for (const auto& [what, points] : loaded.policy_defaults)

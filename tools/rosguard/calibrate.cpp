@@ -1,7 +1,5 @@
 #include "calibrate.h"
 
-#include <unistd.h>
-
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -65,20 +63,27 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
   suite.stop = &stop;
   // The suite calls progress between its timed windows, from this thread: the place to see a
   // SIGINT / SIGTERM that the handler recorded.
-  // On a terminal one line rewritten in place; otherwise (a pipe, a log) a line every 5 s.
+  // "[step/steps steps] %, elapsed, ETA, what" (a step: one timed window, or a cost block): on a
+  // terminal one line rewritten in place, otherwise (a pipe, a log) a line every 5 s and the
+  // last. The suite lowers `steps` as measurements reach their precision before their cap, so
+  // the ETA is re-estimated as it goes (from the most windows left: an upper bound).
   std::optional<Progress> bar;
-  const bool tty = ::isatty(STDERR_FILENO) != 0;
-  double printed = -1e9;
   suite.progress = [&](int step, int steps, const std::string& what) {
     if (stop_signal()) stop = true;
     if (opt.quiet) return;
-    if (!bar) bar.emplace(static_cast<std::size_t>(steps), tty);
-    bar->update(static_cast<std::size_t>(step), what);
-    if (!tty && (bar->seconds() - printed >= 5.0 || step == steps)) {
-      printed = bar->seconds();
-      std::cerr << "calibrate: [" << step << "/" << steps << "] " << fmt(printed, 3) << " s  "
-                << what << "\n";
+    if (!bar) {
+      bar.emplace(static_cast<std::size_t>(steps), true);
+      bar->set_unit("steps");
     }
+    bar->set_total(static_cast<std::size_t>(steps));
+    bar->update(static_cast<std::size_t>(step), what);
+  };
+  suite.planned = [&](const hw::SuitePlan& plan) {
+    if (opt.quiet) return;
+    std::cerr << "calibrate: " << plan.configurations << " measurements, at most "
+              << plan.max_windows << " timed windows (fewer where a measurement reaches its "
+              << "precision early), buffers of " << fmt(plan.peak_mb / 1024.0, 3)
+              << " GB at the peak; at most about " << fmt(plan.seconds / 60.0, 2) << " min\n";
   };
   std::cerr << "calibrate: measuring " << suite.host.hostname << " (" << suite.host.cpus
             << " CPUs, " << (opt.quick ? "quick" : "full") << " suite)\n";

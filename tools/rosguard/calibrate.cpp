@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <utility>
 
 #include "calibration/measurements.h"
 #include "commands.h"
@@ -68,6 +69,7 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
   // last. The suite lowers `steps` as measurements reach their precision before their cap, so
   // the ETA is re-estimated as it goes (from the most windows left: an upper bound).
   std::optional<Progress> bar;
+  std::pair<int, int> last{0, 0};  // the last step and steps reported
   suite.progress = [&](int step, int steps, const std::string& what) {
     if (stop_signal()) stop = true;
     if (opt.quiet) return;
@@ -76,19 +78,28 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
       bar->set_unit("steps");
     }
     bar->set_total(static_cast<std::size_t>(steps));
-    bar->update(static_cast<std::size_t>(step), what);
+    // The suite names a step as it begins it: step - 1 are done (the ETA's rate).
+    bar->update(static_cast<std::size_t>(step - 1), what);
+    last = {step, steps};
   };
   suite.planned = [&](const hw::SuitePlan& plan) {
     if (opt.quiet) return;
     std::cerr << "calibrate: " << plan.configurations << " measurements, at most "
               << plan.max_windows << " timed windows (fewer where a measurement reaches its "
               << "precision early), buffers of " << fmt(plan.peak_mb / 1024.0, 3)
-              << " GB at the peak; at most about " << fmt(plan.seconds / 60.0, 2) << " min\n";
+              << " GB at the peak; at most about "
+              << (plan.seconds < 120.0 ? fmt(plan.seconds, 2) + " s"
+                                       : fmt(plan.seconds / 60.0, 2) + " min")
+              << "\n";
   };
   std::cerr << "calibrate: measuring " << suite.host.hostname << " (" << suite.host.cpus
             << " CPUs, " << (opt.quick ? "quick" : "full") << " suite)\n";
   hw::SuiteResult result = hw::run_suite(suite);
-  if (bar) bar->finish();
+  if (bar) {
+    if (!result.stopped && last.first == last.second)
+      bar->update(static_cast<std::size_t>(last.second), "");  // the last step, done
+    bar->finish();
+  }
   notes = std::move(result.notes);
   return std::move(result.measurements);
 #else

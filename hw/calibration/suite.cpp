@@ -8,6 +8,8 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -154,6 +156,82 @@ struct Config {
   bool operator<(const Config& o) const { return key() < o.key(); }
 };
 
+// One block of configurations measured with their rounds interleaved: the isolation block (no
+// co-runner) or one co-runner kind.
+struct Block {
+  std::optional<Corunner> co;
+  std::vector<Config> configs;
+};
+
+// The suite's kernel measurements, isolation first.
+std::vector<Block> blocks_for(const SuiteShape& shape, int cores) {
+  std::vector<Block> out;
+  // Isolation: every kernel over every working set (the curve's and the matrix's included: their
+  // zero-co-runner points).
+  std::set<double> iso(shape.isolation_kb.begin(), shape.isolation_kb.end());
+  iso.insert({shape.in_l3_kb, shape.dram_kb, shape.workload_kb});
+  Block isolation;
+  for (const char* k : {kBwRead, kBwWrite, kLatency})
+    for (double kb : iso)
+      isolation.configs.push_back({k, kb, 0});
+  out.push_back(std::move(isolation));
+
+  // Co-run blocks, one per co-runner kind: the bandwidth-latency curve (the shape's co-runner
+  // counts) and the pair matrix (one co-runner).
+  const int max_n = cores - 1;
+  std::set<int> counts;
+  for (int nco = 1; nco <= max_n; ++nco)
+    if (shape.corunner_counts.empty() ||
+        std::find(shape.corunner_counts.begin(), shape.corunner_counts.end(), nco) !=
+            shape.corunner_counts.end())
+      counts.insert(nco);
+  std::map<Corunner, std::set<Config>> blocks;
+  for (const char* ck : {kBwRead, kBwWrite})
+    for (double ckb : {shape.dram_kb, shape.workload_kb}) {
+      auto& b = blocks[{ck, ckb}];
+      for (int nco : counts)
+        for (const char* k : {kLatency, kBwRead, kBwWrite})
+          for (double kb : {shape.in_l3_kb, shape.dram_kb})
+            b.insert({k, kb, nco});
+      if (max_n >= 1)
+        for (const char* k : {kBwRead, kBwWrite})
+          for (double kb : {shape.workload_kb, shape.dram_kb})
+            b.insert({k, kb, 1});
+    }
+  for (auto& [co, configs] : blocks)
+    if (!configs.empty()) out.push_back({co, std::vector<Config>(configs.begin(), configs.end())});
+  return out;
+}
+
+int max_corunners(const Block& b) {
+  int n = 0;
+  for (const auto& c : b.configs)
+    n = std::max(n, c.n);
+  return n;
+}
+
+// The measured kernels the co-run blocks use (kept from the isolation block for them).
+std::set<std::pair<std::string, double>> corun_measured(const std::vector<Block>& blocks) {
+  std::set<std::pair<std::string, double>> out;
+  for (const auto& b : blocks)
+    if (b.co)
+      for (const auto& c : b.configs)
+        out.insert({c.kernel, c.kb});
+  return out;
+}
+
+constexpr int kCostSteps = 5;  // the cost blocks, one progress step each
+
+std::string mb_text(double kb) {
+  return std::to_string(static_cast<long long>(std::lround(kb / 1024.0))) + " MB";
+}
+
+std::string pct_text(double pct) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %%", pct);
+  return buf;
+}
+
 class Suite {
  public:
   Suite(const SuiteOptions& o, const SuiteShape& shape, std::vector<int> cores)
@@ -168,12 +246,13 @@ class Suite {
     if (opt_.progress) opt_.progress(step_, steps_, what);
   }
   BuiltinWorkload& measured_kernel(const std::string& kernel, double kb);
-  void measure_block(const std::vector<Config>& configs, const Corunner* co,
-                     const std::string& label);
+  std::vector<std::unique_ptr<BuiltinWorkload>> build_corunners(const Corunner& co, int n);
+  void build_measured(const std::vector<Config>& configs);
+  void measure_block(const Block& block, const std::string& label);
   std::optional<double> window(BuiltinWorkload& w, double kb,
                                const std::vector<std::unique_ptr<BuiltinWorkload>>& co_work,
                                double co_kb, int n);
-  void record(const Config& c, const Corunner* co, const std::vector<double>& ns);
+  void record(const Config& c, const Corunner* co, const std::vector<double>& ns, int rounds);
   void measure_costs();
   void paced(const std::function<void(int)>& sample, int count);
 
@@ -184,6 +263,9 @@ class Suite {
   Measurements m_;
   int step_ = 0, steps_ = 0;
   int retaken_ = 0, dropped_ = 0;  // windows where a kernel was off its core
+  int precise_ = 0, capped_ = 0;   // measurements that reached the precision / the cap
+  double widest_ = 0.0;            // the widest CI (%) of those stopped at the cap
+  std::vector<int> windows_;       // windows per measurement
   std::map<std::pair<std::string, double>, std::unique_ptr<BuiltinWorkload>> measured_;
 };
 
@@ -191,6 +273,44 @@ BuiltinWorkload& Suite::measured_kernel(const std::string& kernel, double kb) {
   auto& w = measured_[{kernel, kb}];
   if (!w) w = make_kernel(kernel, kb);
   return *w;
+}
+
+// The measured kernels of `configs` not built yet, built (and their buffers first touched) on the
+// measuring core, so that their pages are local to it.
+void Suite::build_measured(const std::vector<Config>& configs) {
+  std::vector<std::pair<std::string, double>> missing;
+  for (const auto& c : configs)
+    if (!measured_.count({c.kernel, c.kb})) missing.emplace_back(c.kernel, c.kb);
+  if (missing.empty()) return;
+  std::vector<std::unique_ptr<BuiltinWorkload>> built(missing.size());
+  RtThread t(ThreadSpec{"cal-mk0", cores_[0], SchedClass::Other, prio::kNct}, [&] {
+    for (std::size_t i = 0; i < missing.size() && !stopping(); ++i)
+      built[i] = make_kernel(missing[i].first, missing[i].second);
+  });
+  t.join();
+  notes_.sched(t.outcome());
+  rethrow_if_failed(t);
+  for (std::size_t i = 0; i < missing.size(); ++i)
+    if (built[i]) measured_[missing[i]] = std::move(built[i]);
+}
+
+// The co-runners' kernels, one per co-runner core, each built on its core at once (first touch
+// in parallel, pages local to the core that streams them).
+std::vector<std::unique_ptr<BuiltinWorkload>> Suite::build_corunners(const Corunner& co, int n) {
+  std::vector<std::unique_ptr<BuiltinWorkload>> work(static_cast<std::size_t>(n));
+  std::vector<std::unique_ptr<RtThread>> builders;
+  for (int i = 0; i < n; ++i)
+    builders.push_back(std::make_unique<RtThread>(
+        ThreadSpec{"cal-mk" + std::to_string(i + 1), cores_[static_cast<std::size_t>(i) + 1],
+                   SchedClass::Other, prio::kNct},
+        [&, i] { work[static_cast<std::size_t>(i)] = make_kernel(co.kernel, co.kb); }));
+  for (auto& b : builders) {
+    b->join();
+    notes_.sched(b->outcome());
+  }
+  for (auto& b : builders)
+    rethrow_if_failed(*b);
+  return work;
 }
 
 // One timed window: the measured kernel and n co-runners stream, then the measured kernel's
@@ -234,7 +354,7 @@ std::optional<double> Suite::window(BuiltinWorkload& w, double kb,
   return static_cast<double>(t1 - t0) / static_cast<double>(u1 - u0);
 }
 
-void Suite::record(const Config& c, const Corunner* co, const std::vector<double>& ns) {
+void Suite::record(const Config& c, const Corunner* co, const std::vector<double>& ns, int rounds) {
   if (ns.empty()) return;
   KernelRun r;
   r.kernel = c.kernel;
@@ -244,26 +364,43 @@ void Suite::record(const Config& c, const Corunner* co, const std::vector<double
   r.ns_per_line = median(ns);
   r.cv = ns.size() < 2 ? 0.0 : coefficient_of_variation(ns);  // one window: no spread seen
   r.samples = static_cast<int>(ns.size());
+  const double ci = median_ci95_pct(ns);
+  if (std::isfinite(ci)) r.ci95_pct = ci;
+  windows_.push_back(r.samples);
+  if (ns.size() >= static_cast<std::size_t>(shape_.repetitions.min_windows) &&
+      ci <= shape_.repetitions.precision_pct) {
+    ++precise_;
+  } else if (rounds >= shape_.repetitions.max_windows) {
+    ++capped_;
+    widest_ = std::max(widest_, ci);
+  }
   m_.runs.push_back(std::move(r));
 }
 
-// Repetition r of every configuration before repetition r + 1 of any (drift hits all alike).
-// The co-runners' buffers (one per co-runner core) live for the block.
-void Suite::measure_block(const std::vector<Config>& configs, const Corunner* co,
-                          const std::string& label) {
-  int max_n = 0;
-  for (const auto& c : configs)
-    max_n = std::max(max_n, c.n);
+// Round r of every unfinished configuration before round r + 1 of any (drift hits all alike); a
+// configuration is finished when repetitions_done() says so. The co-runners' buffers (one per
+// co-runner core) live for the block.
+void Suite::measure_block(const Block& block, const std::string& label) {
+  const Corunner* co = block.co ? &*block.co : nullptr;
+  const auto& configs = block.configs;
+  const RepetitionRule& rule = shape_.repetitions;
+  build_measured(configs);
   std::vector<std::unique_ptr<BuiltinWorkload>> co_work;
-  for (int i = 0; i < max_n; ++i)
-    co_work.push_back(make_kernel(co->kernel, co->kb));
+  if (co && !stopping()) co_work = build_corunners(*co, max_corunners(block));
   std::vector<std::vector<double>> ns(configs.size());
-  for (int rep = 0; rep < shape_.repetitions && !stopping(); ++rep)
+  std::vector<int> rounds(configs.size(), 0);
+  std::vector<bool> done(configs.size(), false);
+  for (bool any = true; any && !stopping();) {
+    any = false;
     for (std::size_t i = 0; i < configs.size() && !stopping(); ++i) {
+      if (done[i]) continue;
+      any = true;
       const auto& c = configs[i];
+      const double ci = median_ci95_pct(ns[i]);
       step(label + ": " + c.kernel + " " + kb_text(c.kb) +
            (c.n ? " with " + std::to_string(c.n) + "x " + co->kernel + " " + kb_text(co->kb) : "") +
-           " (" + std::to_string(rep + 1) + "/" + std::to_string(shape_.repetitions) + ")");
+           " (window " + std::to_string(rounds[i] + 1) +
+           (std::isfinite(ci) ? ", +-" + pct_text(ci) : "") + ")");
       for (int attempt = 0; attempt < kAttempts && !stopping(); ++attempt) {
         if (auto v =
                 window(measured_kernel(c.kernel, c.kb), c.kb, co_work, co ? co->kb : 0.0, c.n)) {
@@ -272,9 +409,15 @@ void Suite::measure_block(const std::vector<Config>& configs, const Corunner* co
         }
         ++(attempt + 1 < kAttempts ? retaken_ : dropped_);
       }
+      ++rounds[i];
+      if (repetitions_done(ns[i], rounds[i], rule)) {
+        done[i] = true;
+        steps_ -= rule.max_windows - rounds[i];  // the rounds it will not take
+      }
     }
+  }
   for (std::size_t i = 0; i < configs.size(); ++i)
-    record(configs[i], co, ns[i]);
+    record(configs[i], co, ns[i], rounds[i]);
 }
 
 // Runs sample(i) for i < count on the calling thread, one every cost_spacing_us (absolute
@@ -686,53 +829,38 @@ SuiteResult Suite::run() {
   ScopedSched engine(ThreadSpec{"", -1, SchedClass::Fifo, prio::kEngine});
   notes_.sched(engine.outcome());
 
-  // Isolation: every kernel over every working set (the curve's and the matrix's included: their
-  // zero-co-runner points).
-  std::set<double> iso(shape_.isolation_kb.begin(), shape_.isolation_kb.end());
-  iso.insert({shape_.in_l3_kb, shape_.dram_kb, shape_.workload_kb});
-  std::vector<Config> isolation;
-  for (const char* k : {kBwRead, kBwWrite, kLatency})
-    for (double kb : iso)
-      isolation.push_back({k, kb, 0});
+  const auto blocks = blocks_for(shape_, static_cast<int>(cores_.size()));
+  if (cores_.size() < 2)
+    notes_.add("one core only: no co-run measurements (bandwidth-latency, matrix)");
+  // Every configuration to its cap, and the cost blocks; lowered as configurations finish early.
+  steps_ = kCostSteps;
+  for (const auto& b : blocks)
+    steps_ += static_cast<int>(b.configs.size()) * shape_.repetitions.max_windows;
 
-  // Co-run blocks, one per co-runner kind: the bandwidth-latency curve (1..N-1 co-runners) and
-  // the pair matrix (one co-runner).
-  const int max_n = static_cast<int>(cores_.size()) - 1;
-  std::set<int> counts;
-  for (int nco = 1; nco <= max_n; ++nco)
-    if (shape_.corunner_counts.empty() ||
-        std::find(shape_.corunner_counts.begin(), shape_.corunner_counts.end(), nco) !=
-            shape_.corunner_counts.end())
-      counts.insert(nco);
-  std::map<Corunner, std::set<Config>> blocks;
-  for (const char* ck : {kBwRead, kBwWrite})
-    for (double ckb : {shape_.dram_kb, shape_.workload_kb}) {
-      auto& b = blocks[{ck, ckb}];
-      for (int nco : counts)
-        for (const char* k : {kLatency, kBwRead, kBwWrite})
-          for (double kb : {shape_.in_l3_kb, shape_.dram_kb})
-            b.insert({k, kb, nco});
-      if (max_n >= 1)
-        for (const char* k : {kBwRead, kBwWrite})
-          for (double kb : {shape_.workload_kb, shape_.dram_kb})
-            b.insert({k, kb, 1});
-    }
-  if (max_n < 1) notes_.add("one core only: no co-run measurements (bandwidth-latency, matrix)");
-
-  // + one step per cost block: pmc_callback/publish/message_latency, local_message_latency,
-  // throttle_activation, external_read, controller_callback.
-  steps_ = static_cast<int>(isolation.size()) * shape_.repetitions + 5;
-  for (const auto& [co, configs] : blocks)
-    steps_ += static_cast<int>(configs.size()) * shape_.repetitions;
-
-  measure_block(isolation, nullptr, "isolation");
-  for (const auto& [co, configs] : blocks) {
+  const auto keep = corun_measured(blocks);
+  for (const auto& b : blocks) {
     if (stopping()) break;
-    if (configs.empty()) continue;
-    measure_block(std::vector<Config>(configs.begin(), configs.end()), &co, "co-run");
+    if (b.configs.empty()) continue;
+    measure_block(b, b.co ? "co-run" : "isolation");
+    if (!b.co)  // the isolation-only buffers, before the co-runners' own
+      std::erase_if(measured_, [&](const auto& kv) { return !keep.count(kv.first); });
   }
   measured_.clear();  // the buffers, before the costs' own
   if (!stopping()) measure_costs();
+  if (!windows_.empty()) {
+    std::vector<double> w(windows_.begin(), windows_.end());
+    std::string text = std::to_string(precise_) + " of " + std::to_string(windows_.size()) +
+                       " measurements reached +-" + pct_text(shape_.repetitions.precision_pct) +
+                       " (95 % confidence interval of the median window)";
+    if (capped_ > 0)
+      text += "; " + std::to_string(capped_) + " stopped at the cap of " +
+              std::to_string(shape_.repetitions.max_windows) + " windows (widest +-" +
+              (std::isfinite(widest_) ? pct_text(widest_) : std::string("unknown")) + ")";
+    text += "; windows per measurement: median " +
+            std::to_string(static_cast<int>(std::lround(median(w)))) + ", at most " +
+            std::to_string(*std::max_element(windows_.begin(), windows_.end()));
+    notes_.add(text);
+  }
   if (retaken_ + dropped_ > 0)
     notes_.add(std::to_string(retaken_ + dropped_) +
                " timed windows had a kernel off its core for more than " +
@@ -749,44 +877,168 @@ SuiteResult Suite::run() {
   return r;
 }
 
-double available_bytes() {
-  const long pages = ::sysconf(_SC_AVPHYS_PAGES);
-  const long page = ::sysconf(_SC_PAGESIZE);
-  return pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
-}
-
 }  // namespace
 
-SuiteShape shape_for(const calibration::HostFacts& host, bool quick, int cores) {
+double median_ci95_pct(std::vector<double> values) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const std::size_t n = values.size();
+  if (n < 6) return kInf;
+  std::sort(values.begin(), values.end());
+  const double med = n % 2 ? values[n / 2] : (values[n / 2 - 1] + values[n / 2]) / 2.0;
+  if (!(med > 0.0)) return kInf;
+  // k: the largest with P(B <= k - 1) <= 2.5 %, B ~ Binomial(n, 1/2) (log-space: 0.5^n underflows).
+  const double nd = static_cast<double>(n);
+  double below = 0.0;  // P(B <= j)
+  std::size_t k = 0;
+  for (std::size_t j = 0; j < n / 2; ++j) {
+    const double jd = static_cast<double>(j);
+    below += std::exp(std::lgamma(nd + 1.0) - std::lgamma(jd + 1.0) - std::lgamma(nd - jd + 1.0) -
+                      nd * std::log(2.0));
+    if (below > 0.025) break;
+    k = j + 1;
+  }
+  if (k == 0) return kInf;
+  return (values[n - k] - values[k - 1]) / 2.0 / med * 100.0;
+}
+
+bool repetitions_done(const std::vector<double>& windows, int rounds, const RepetitionRule& rule) {
+  if (rounds >= rule.max_windows) return true;
+  return static_cast<int>(windows.size()) >= std::max(1, rule.min_windows) &&
+         median_ci95_pct(windows) <= rule.precision_pct;
+}
+
+SuitePlan plan_suite(const SuiteShape& shape, int cores) {
+  SuitePlan p;
+  const auto blocks = blocks_for(shape, std::max(1, cores));
+  // Every measured kernel is built once (the isolation block builds them all); the co-run blocks
+  // keep those they use, and build one co-runner per co-runner core for their block.
+  std::set<std::pair<std::string, double>> measured;
+  double iso_kb = 0.0;
+  for (const auto& b : blocks) {
+    p.configurations += static_cast<int>(b.configs.size());
+    for (const auto& c : b.configs)
+      if (measured.insert({c.kernel, c.kb}).second && !b.co) iso_kb += c.kb;
+  }
+  double touched_kb = 0.0, chase_lines = 0.0, kept_kb = 0.0;
+  for (const auto& [kernel, kb] : measured) {
+    touched_kb += kb;
+    if (kernel == kLatency) chase_lines += static_cast<double>(lines_of(kb));
+  }
+  for (const auto& [kernel, kb] : corun_measured(blocks))
+    kept_kb += kb;
+  double peak_kb = iso_kb;
+  for (const auto& b : blocks)
+    if (b.co) {
+      const double co_kb = max_corunners(b) * b.co->kb;
+      touched_kb += co_kb;
+      peak_kb = std::max(peak_kb, kept_kb + co_kb);
+    }
+  p.max_windows = p.configurations * std::max(0, shape.repetitions.max_windows);
+  p.touched_mb = touched_kb / 1024.0;
+  p.peak_mb = peak_kb / 1024.0;
+  p.seconds = p.max_windows * (shape.window_ms + shape.warmup_ms + kWindowOverheadMs) / 1e3 +
+              p.touched_mb / kFirstTouchMBps + chase_lines * kChaseNsPerLine * 1e-9 +
+              kCostSteps * shape.cost_samples * shape.cost_spacing_us * 1e-6;
+  return p;
+}
+
+double read_mem_available_kb() {
+  std::ifstream f("/proc/meminfo");
+  for (std::string line; std::getline(f, line);)
+    if (line.rfind("MemAvailable:", 0) == 0) {
+      try {
+        return std::stod(line.substr(13));  // "MemAvailable:   22524000 kB"
+      } catch (const std::exception&) {
+        return 0.0;
+      }
+    }
+  return 0.0;
+}
+
+SuiteShape shape_for(const calibration::HostFacts& host, bool quick, int cores,
+                     double mem_available_kb) {
+  cores = std::max(1, cores);
   SuiteShape s;
   const double l2 = host.l2_kb > 0.0 ? host.l2_kb : 256.0;
   const double l3 = host.l3_kb_per_cluster > 0.0 ? host.l3_kb_per_cluster : 8192.0;
-  double dram = std::clamp(4.0 * l3, 16384.0, 262144.0);
-  // The measuring core holds every kernel's isolation buffers (about 6x the DRAM set in all);
-  // each co-runner core one DRAM set. Keep that within a quarter of the available memory.
-  const double avail_kb = available_bytes() / 1024.0;
-  while (avail_kb > 0.0 && (6.0 + cores) * dram > avail_kb / 4.0 && dram > 2.0 * l3)
-    dram /= 2.0;
-  s.dram_kb = std::round(dram);
   s.in_l3_kb = std::clamp(std::max(4.0 * l2, 2048.0), 16.0, std::max(16.0, l3 / 2.0));
   s.workload_kb = 2048.0;
+  for (int n = 1; n < cores - 1; n *= 2)
+    s.corunner_counts.push_back(n);
+  if (cores > 1) s.corunner_counts.push_back(cores - 1);
+  int ceiling = 0;
+  double budget_s = 0.0;
   if (quick) {
-    s.isolation_kb = {std::max(16.0, l2 / 2.0)};
-    for (int n = 1; n < cores - 1; n *= 2)
-      s.corunner_counts.push_back(n);
-    if (cores > 1) s.corunner_counts.push_back(cores - 1);
-    s.repetitions = 7;
+    s.repetitions = {6, 0, 4.0};
+    ceiling = 30;
+    budget_s = kQuickBudgetS;
     s.window_ms = 20.0;
     s.warmup_ms = 20.0;
     s.cost_samples = 1000;
   } else {
-    for (double kb = 16.0; kb < s.dram_kb; kb *= 2.0)
-      s.isolation_kb.push_back(kb);
-    s.repetitions = 9;
+    s.repetitions = {9, 0, 2.0};
+    ceiling = 100;
+    budget_s = kFullBudgetS;
     s.window_ms = 30.0;
     s.warmup_ms = 30.0;
     s.cost_samples = 3000;
   }
+  s.repetitions.max_windows = s.repetitions.min_windows;  // the plan's memory does not depend on it
+
+  // The DRAM set: 4x the LLC, else 3x or 2x where the buffers would not fit in memory.
+  const auto set_dram = [&](double dram) {
+    s.dram_kb = std::round(std::max(dram, 16384.0));
+    s.isolation_kb.clear();
+    if (quick)
+      s.isolation_kb = {std::max(16.0, l2 / 2.0)};
+    else
+      for (double kb = 16.0; kb < s.dram_kb; kb *= 2.0)
+        s.isolation_kb.push_back(kb);
+  };
+  const double budget_kb = kMemFraction * mem_available_kb;
+  const std::string fraction = std::to_string(static_cast<int>(std::lround(kMemFraction * 100))) +
+                               " % of MemAvailable (" + mb_text(mem_available_kb) + ")";
+  double first_peak_kb = 0.0;
+  for (const double factor : {4.0, 3.0, 2.0}) {
+    set_dram(factor * l3);
+    const double peak_kb = plan_suite(s, cores).peak_mb * 1024.0;
+    if (mem_available_kb <= 0.0 || peak_kb <= budget_kb) {
+      if (factor < 4.0)
+        s.notes.push_back("DRAM working set " + kb_text(s.dram_kb) + ", " +
+                          std::to_string(static_cast<int>(factor)) +
+                          "x the LLC, not 4x: 4x would hold " + mb_text(first_peak_kb) +
+                          " of buffers at once, over " + fraction);
+      break;
+    }
+    if (factor == 4.0) first_peak_kb = peak_kb;
+    if (factor == 2.0)
+      throw RunError(
+          "calibration suite: not enough memory for a working set beyond the last-level cache: "
+          "a DRAM set of " +
+          mb_text(s.dram_kb) + " (2x the " + mb_text(l3) +
+          " LLC, the least that measures DRAM) on the measuring core and on each of its " +
+          std::to_string(cores - 1) + " co-runner cores needs " + mb_text(peak_kb) +
+          " of buffers at once; " + mb_text(budget_kb) + " are available to it (" + fraction + ")");
+  }
+
+  // The cap on rounds: the worst case (every configuration to its cap) within the time budget.
+  const SuitePlan one = [&] {
+    SuiteShape t = s;
+    t.repetitions.max_windows = 1;
+    return plan_suite(t, cores);
+  }();
+  const double per_round_s =
+      one.configurations * (s.window_ms + s.warmup_ms + kWindowOverheadMs) / 1e3;
+  const double fixed_s = one.seconds - per_round_s;
+  const int fits = per_round_s > 0.0
+                       ? static_cast<int>(std::floor((budget_s - fixed_s) / per_round_s))
+                       : ceiling;
+  s.repetitions.max_windows = std::clamp(fits, s.repetitions.min_windows, ceiling);
+  if (fits < s.repetitions.min_windows)
+    s.notes.push_back("even " + std::to_string(s.repetitions.min_windows) +
+                      " windows per measurement exceed the suite's time budget of " +
+                      std::to_string(static_cast<int>(budget_s)) + " s on " +
+                      std::to_string(cores) + " cores");
   return s;
 }
 
@@ -798,9 +1050,13 @@ SuiteResult run_suite(const SuiteOptions& options) {
     cores.assign(usable.begin(), usable.begin() + static_cast<long>(std::min(n, usable.size())));
   }
   if (cores.empty()) throw RunError("calibration suite: no usable CPU");
+  const int ncores = static_cast<int>(cores.size());
+  const double avail_kb =
+      options.mem_available_kb > 0.0 ? options.mem_available_kb : read_mem_available_kb();
   const SuiteShape shape =
-      options.shape ? *options.shape
-                    : shape_for(options.host, options.quick, static_cast<int>(cores.size()));
+      options.shape ? *options.shape : shape_for(options.host, options.quick, ncores, avail_kb);
+  const SuitePlan plan = plan_suite(shape, ncores);
+  if (options.planned) options.planned(plan);
   Suite suite(options, shape, cores);
   SuiteResult r = suite.run();
   std::string used = "cores: measured on CPU " + std::to_string(cores[0]);
@@ -809,11 +1065,46 @@ SuiteResult run_suite(const SuiteOptions& options) {
     for (std::size_t i = 1; i < cores.size(); ++i)
       used += (i > 1 ? "," : " ") + std::to_string(cores[i]);
   }
-  const std::vector<std::string> head = {
-      used, "working sets: DRAM " + kb_text(shape.dram_kb) + ", in-L3 " + kb_text(shape.in_l3_kb) +
-                ", workloads " + kb_text(shape.workload_kb) + "; " +
-                std::to_string(shape.repetitions) + " windows of " +
-                std::to_string(static_cast<int>(shape.window_ms)) + " ms per measurement"};
+  std::string sets = "working sets: DRAM " + kb_text(shape.dram_kb);
+  if (options.host.l3_kb_per_cluster > 0.0) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", shape.dram_kb / options.host.l3_kb_per_cluster);
+    sets += std::string(" (") + buf + "x the LLC, " + kb_text(options.host.l3_kb_per_cluster) + ")";
+  }
+  sets += ", in-L3 " + kb_text(shape.in_l3_kb) + ", workloads " + kb_text(shape.workload_kb);
+  if (!shape.isolation_kb.empty())
+    sets += ", isolation also at " + kb_text(shape.isolation_kb.front()) +
+            (shape.isolation_kb.size() > 1 ? " to " + kb_text(shape.isolation_kb.back()) : "");
+  std::string counts = "co-runner counts";
+  const auto blocks = blocks_for(shape, ncores);
+  std::set<int> ns;
+  for (const auto& b : blocks)
+    for (const auto& c : b.configs)
+      if (c.n > 0) ns.insert(c.n);
+  for (int n : ns)
+    counts += (n == *ns.begin() ? " " : ", ") + std::to_string(n);
+  if (ns.empty()) counts += " none";
+  sets += "; " + counts + " (each co-runner streams its own set)";
+  const auto& rule = shape.repetitions;
+  std::string windows = "windows of " + std::to_string(static_cast<int>(shape.window_ms)) +
+                        " ms (after up to " + std::to_string(static_cast<int>(shape.warmup_ms)) +
+                        " ms of warm-up) until the 95 % confidence interval of their median is "
+                        "within +-" +
+                        pct_text(rule.precision_pct) + ", at least " +
+                        std::to_string(rule.min_windows) + ", at most " +
+                        std::to_string(rule.max_windows) + " per measurement";
+  char est[64];
+  std::snprintf(est, sizeof est, "%.0f s", plan.seconds);
+  std::string planned = "plan: " + std::to_string(plan.configurations) + " measurements, at most " +
+                        std::to_string(plan.max_windows) + " windows; buffers " +
+                        mb_text(plan.peak_mb * 1024.0) + " at the peak";
+  if (avail_kb > 0.0) planned += " (MemAvailable " + mb_text(avail_kb) + ")";
+  planned +=
+      ", " + mb_text(plan.touched_mb * 1024.0) + " first-touched in all; worst case about " + est;
+  std::vector<std::string> head = {used, sets, windows, planned};
+  if (avail_kb <= 0.0 && !options.shape)
+    head.push_back("MemAvailable unknown (/proc/meminfo): working sets not checked against memory");
+  head.insert(head.end(), shape.notes.begin(), shape.notes.end());
   r.notes.insert(r.notes.begin(), head.begin(), head.end());
   return r;
 }

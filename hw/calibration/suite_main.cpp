@@ -134,8 +134,12 @@ int main(int argc, char** argv) {
     for (const auto& k : m.runs)
       if (k.corunners.empty()) alone[{k.kernel, k.working_set_kb}] = k.ns_per_line;
     for (const auto& k : m.runs) {
-      std::printf("%-16s %8.0f KB %6.2f ns/line cv %5.3f n %d", k.kernel.c_str(), k.working_set_kb,
+      std::printf("%-16s %8.0f KB %6.2f ns/line cv %5.3f n %2d", k.kernel.c_str(), k.working_set_kb,
                   k.ns_per_line, k.cv, k.samples);
+      if (k.ci95_pct)
+        std::printf(" ci95 +-%4.1f %%", *k.ci95_pct);
+      else
+        std::printf(" ci95     -  ");
       if (!k.corunners.empty()) {
         const auto& c = k.corunners.front();
         std::printf("  with %zux %s %.0f KB: slowdown %.3f", k.corunners.size(), c.kernel.c_str(),

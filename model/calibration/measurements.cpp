@@ -40,12 +40,11 @@ void to_json(json& j, const Measurements& m) {
     json co = json::array();
     for (const auto& c : r.corunners)
       co.push_back({{"kernel", c.kernel}, {"working_set_kb", c.working_set_kb}});
-    j["runs"].push_back({{"kernel", r.kernel},
-                         {"working_set_kb", r.working_set_kb},
-                         {"corunners", co},
-                         {"ns_per_line", r.ns_per_line},
-                         {"cv", r.cv},
-                         {"samples", r.samples}});
+    json run = {{"kernel", r.kernel}, {"working_set_kb", r.working_set_kb},
+                {"corunners", co},    {"ns_per_line", r.ns_per_line},
+                {"cv", r.cv},         {"samples", r.samples}};
+    if (r.ci95_pct) run["ci95_pct"] = *r.ci95_pct;
+    j["runs"].push_back(std::move(run));
   }
 }
 
@@ -78,6 +77,8 @@ Measurements measurements_from_json(const json& j, const std::string& file,
     k.ns_per_line = field<double>(r, "ns_per_line", file, rp);
     k.cv = field<double>(r, "cv", file, rp);
     k.samples = field<int>(r, "samples", file, rp);
+    if (r.contains("ci95_pct") && !r.at("ci95_pct").is_null())  // optional: older files lack it
+      k.ci95_pct = field<double>(r, "ci95_pct", file, rp);
     const json co = field<json>(r, "corunners", file, rp);
     if (!co.is_array()) throw InputError(file, rp + "/corunners", "not an array");
     for (std::size_t c = 0; c < co.size(); ++c) {

@@ -12,6 +12,7 @@
 
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,7 +34,9 @@ struct HostFacts {
 // One built-in kernel ("bandwidth_read", "bandwidth_write", "latency") over one working set,
 // alone on `core` (idle cores around it), or with `corunners` running on the other cores of the
 // same cluster for the whole measurement (each entry a kernel at a working set). `ns_per_line`
-// is the median over `samples` runs; `cv` their coefficient of variation (sd / mean).
+// is the median over `samples` runs; `cv` their coefficient of variation (sd / mean);
+// `ci95_pct` the half-width of the 95 % confidence interval of that median, in % of it (absent in
+// files written before the suite recorded it, and where too few runs give no such interval).
 struct KernelRun {
   std::string kernel;
   double working_set_kb = 0.0;
@@ -45,6 +48,9 @@ struct KernelRun {
   double ns_per_line = 0.0;
   double cv = 0.0;
   int samples = 0;
+  // Initialised, so that a run brace-initialised without it compiles under
+  // -Wmissing-field-initializers.
+  std::optional<double> ci95_pct = std::nullopt;
 };
 
 struct Measurements {

@@ -1,10 +1,12 @@
-// The calibration suite: the latency kernel's chase (one cycle through every line), and a tiny
-// suite run that returns well-formed Measurements which survive the JSON round trip. No timing
-// targets: only positive, finite values.
+// The calibration suite: the latency kernel's chase (one cycle through every line), a tiny suite
+// run that returns well-formed Measurements which survive the JSON round trip, the shape sized to
+// fixture hosts (working sets from the caches, memory, co-runner counts, the time plan), and the
+// adaptive repetition rule. No timing targets: only positive, finite values, and plans.
 #include <algorithm>
 #include <atomic>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <regex>
 #include <set>
 #include <string>
 #include <vector>
@@ -41,7 +43,7 @@ SuiteShape tiny_shape() {
   s.dram_kb = 256;
   s.workload_kb = 32;
   s.corunner_counts = {1};
-  s.repetitions = 2;
+  s.repetitions = {6, 8, 5.0};  // some stop at 6 windows, the noisier at the cap
   s.window_ms = 2.0;
   s.warmup_ms = 2.0;
   s.cost_samples = 20;
@@ -103,21 +105,50 @@ TEST_CASE("a tiny calibration suite returns well-formed measurements", "[hw][cal
   opt.cores = test_cores();
   opt.shape = &shape;
   int last_step = 0, steps = 0;
-  bool monotonic = true;
+  bool monotonic = true, shrinking = true;
+  std::vector<std::string> labels;
   opt.progress = [&](int step, int n, const std::string& what) {
     monotonic = monotonic && step == last_step + 1 && !what.empty();
+    shrinking = shrinking && (steps == 0 || n <= steps) && step <= n;
     last_step = step;
     steps = n;
+    labels.push_back(what);
+  };
+  int plans = 0;
+  opt.planned = [&](const SuitePlan& p) {
+    ++plans;
+    CHECK(p.configurations == 12 + (opt.cores.size() > 1 ? 32 : 0));
+    CHECK(p.max_windows == p.configurations * shape.repetitions.max_windows);
   };
   const SuiteResult r = run_suite(opt);
   const auto& m = r.measurements;
   CHECK_FALSE(r.stopped);
   CHECK(monotonic);
+  CHECK(shrinking);  // the total is re-estimated downwards only
   CHECK(last_step == steps);
+  CHECK(plans == 1);
+  // Rounds interleaved: within a block, window w + 1 of any configuration only after window w of
+  // every unfinished one; a new block starts again at window 1.
+  int last_window = 0;
+  for (const auto& what : labels) {
+    const auto at = what.find("(window ");
+    if (at == std::string::npos) continue;  // a cost block
+    const int w = std::stoi(what.substr(at + 8));
+    INFO(what);
+    CHECK((w == last_window || w == last_window + 1 || w == 1));
+    last_window = w;
+  }
   CHECK(m.wall_s > 0.0);
   CHECK_FALSE(m.host.date.empty());
   CHECK(r.notes.size() >= 2);  // cores, working sets
 
+  // Windows dropped (a kernel off its core three times) end a measurement with fewer windows
+  // than rounds; without any, fewer windows than the cap means the precision was reached.
+  int dropped = 0;
+  for (const auto& n : r.notes) {
+    std::smatch hit;
+    if (std::regex_search(n, hit, std::regex("(\\d+) dropped after"))) dropped = std::stoi(hit[1]);
+  }
   std::set<std::pair<std::string, double>> alone;
   int coruns = 0;
   for (const auto& k : m.runs) {
@@ -127,7 +158,17 @@ TEST_CASE("a tiny calibration suite returns well-formed measurements", "[hw][cal
     CHECK(std::isfinite(k.cv));
     CHECK(k.cv >= 0.0);
     CHECK(k.samples >= 1);
-    CHECK(k.samples <= shape.repetitions);
+    CHECK(k.samples <= shape.repetitions.max_windows);
+    if (k.samples >= 6) {  // a 95 % interval of the median exists
+      REQUIRE(k.ci95_pct.has_value());
+      CHECK(std::isfinite(*k.ci95_pct));
+      CHECK(*k.ci95_pct >= 0.0);
+      // Stopped before the cap only when within the precision.
+      if (k.samples < shape.repetitions.max_windows && dropped == 0)
+        CHECK(*k.ci95_pct <= shape.repetitions.precision_pct);
+    } else {
+      CHECK_FALSE(k.ci95_pct.has_value());
+    }
     if (k.corunners.empty()) alone.insert({k.kernel, k.working_set_kb});
     for (const auto& c : k.corunners) {
       CHECK((c.kernel == "bandwidth_read" || c.kernel == "bandwidth_write"));
@@ -177,22 +218,175 @@ TEST_CASE("a calibration suite asked to stop returns at once, marked partial",
   CHECK(r.measurements.costs_us.empty());
 }
 
-TEST_CASE("the suite's shape follows the host's caches and cores", "[hw][calibration]") {
+namespace {
+
+// The 16-core server VM of /work/shared/measured/xeon16-2026-11-26 (platform-probe.json): 16
+// usable CPUs sharing one LLC of 300 MB (307200 KB), L2 2 MB, 125 GB of RAM.
+calibration::HostFacts xeon16() {
   calibration::HostFacts h;
+  h.cpus = 16;
+  h.clusters = 1;
+  h.cores_per_cluster = 16;
+  h.l1d_kb = 48;
+  h.l2_kb = 2048;
+  h.l3_kb_per_cluster = 307200;
+  return h;
+}
+
+// The development VM: 2 CPUs (AMD EPYC), L2 1 MB, L3 32 MB.
+calibration::HostFacts vm2() {
+  calibration::HostFacts h;
+  h.cpus = 2;
+  h.cores_per_cluster = 2;
+  h.l1d_kb = 32;
   h.l2_kb = 1024;
   h.l3_kb_per_cluster = 32768;
-  const SuiteShape quick = shape_for(h, true, 16);
-  // 4x the L3, or less (not under 2x) where memory is short.
-  CHECK(quick.dram_kb <= 4 * 32768);
-  CHECK(quick.dram_kb >= 2 * 32768);
-  CHECK(quick.in_l3_kb == 4096);  // 4x the L2, within half the L3
+  return h;
+}
+
+constexpr double kGb = 1024.0 * 1024.0;  // KB
+
+}  // namespace
+
+TEST_CASE("the suite's shape on a 16-core host with a 300 MB LLC reaches 4x beyond it",
+          "[hw][calibration]") {
+  const double mem = 120 * kGb;
+  for (const bool quick : {true, false}) {
+    INFO((quick ? "quick" : "full"));
+    const SuiteShape s = shape_for(xeon16(), quick, 16, mem);
+    CHECK(s.dram_kb == 4 * 307200.0);  // >= 1.2 GB, no fixed cap
+    CHECK(s.dram_kb >= 1.2e6);
+    CHECK(s.in_l3_kb == 8192);  // 4x the L2, within the LLC
+    CHECK(s.in_l3_kb < 307200);
+    CHECK(s.corunner_counts == std::vector<int>{1, 2, 4, 8, 15});
+    CHECK(s.notes.empty());
+    REQUIRE_FALSE(s.isolation_kb.empty());
+    CHECK(s.isolation_kb.front() < 2048);  // below the L2
+    const SuitePlan p = plan_suite(s, 16);
+    // Each of the 15 co-runners holds its own DRAM set, beside the measuring core's kernels.
+    CHECK(p.peak_mb * 1024 >= 15 * s.dram_kb);
+    CHECK(p.peak_mb * 1024 <= kMemFraction * mem);
+    CHECK(s.repetitions.max_windows >= s.repetitions.min_windows);
+    if (quick) {
+      CHECK(s.isolation_kb == std::vector<double>{1024});
+      CHECK(s.repetitions.precision_pct <= 5.0);
+      CHECK(p.configurations == 140);
+      CHECK(p.seconds < 180.0);  // the plan's worst case, windows to their cap
+    } else {
+      CHECK(s.isolation_kb.front() == 16);
+      CHECK(s.isolation_kb.back() * 2 > s.dram_kb);  // doubling up to the DRAM set
+      CHECK(s.isolation_kb.back() < s.dram_kb);
+      CHECK(s.repetitions.precision_pct <= 2.0);
+      CHECK(p.seconds < 20 * 60.0);
+    }
+  }
+}
+
+TEST_CASE("the suite refuses a host without memory for a set beyond its LLC", "[hw][calibration]") {
+  using Catch::Matchers::Contains;
+  // 8 GB MemAvailable, half of it usable: a set 2x the LLC (600 MB) on the measuring core and on
+  // each of 15 co-runner cores needs 10828 MB at once.
+  CHECK_THROWS_WITH(shape_for(xeon16(), true, 16, 8 * kGb),
+                    Contains("not enough memory") && Contains("600 MB") &&
+                        Contains("needs 10828 MB") && Contains("4096 MB are available") &&
+                        Contains("MemAvailable (8192 MB)"));
+  // Between the two: 2x the LLC fits where 4x and 3x do not, and a note says so.
+  const SuiteShape s = shape_for(xeon16(), true, 16, 24 * kGb);
+  CHECK(s.dram_kb == 2 * 307200.0);
+  REQUIRE(s.notes.size() == 1);
+  CHECK_THAT(s.notes[0], Contains("2x the LLC, not 4x"));
+  CHECK(plan_suite(s, 16).peak_mb * 1024 <= kMemFraction * 24 * kGb);
+  // Fewer cores need less: on 4 cores 16 GB holds 4x the LLC (7228 MB at once), 8 GB 2x.
+  CHECK(shape_for(xeon16(), true, 4, 16 * kGb).dram_kb == 4 * 307200.0);
+  CHECK(shape_for(xeon16(), true, 4, 8 * kGb).dram_kb == 2 * 307200.0);
+  // Memory unknown (0): not checked.
+  CHECK(shape_for(xeon16(), true, 16, 0.0).dram_kb == 4 * 307200.0);
+}
+
+TEST_CASE("the suite's shape on a 2-core VM", "[hw][calibration]") {
+  const SuiteShape quick = shape_for(vm2(), true, 2, 20 * kGb);
+  CHECK(quick.dram_kb == 4 * 32768.0);
+  CHECK(quick.in_l3_kb == 4096);
   CHECK(quick.isolation_kb == std::vector<double>{512});
-  CHECK(quick.corunner_counts == std::vector<int>{1, 2, 4, 8, 15});
-  const SuiteShape full = shape_for(h, false, 16);
-  CHECK(full.corunner_counts.empty());  // every count
+  CHECK(quick.corunner_counts == std::vector<int>{1});
+  const SuitePlan qp = plan_suite(quick, 2);
+  CHECK(qp.configurations == 44);
+  CHECK(qp.seconds < 180.0);
+  const SuiteShape full = shape_for(vm2(), false, 2, 20 * kGb);
+  CHECK(full.corunner_counts == std::vector<int>{1});
   REQUIRE_FALSE(full.isolation_kb.empty());
   CHECK(full.isolation_kb.front() == 16);
   CHECK(full.isolation_kb.back() * 2 == full.dram_kb);
-  CHECK(full.repetitions > quick.repetitions);
-  CHECK(shape_for(h, true, 2).corunner_counts == std::vector<int>{1});
+  CHECK(full.repetitions.max_windows > quick.repetitions.max_windows);
+  CHECK(full.repetitions.precision_pct < quick.repetitions.precision_pct);
+  CHECK(plan_suite(full, 2).seconds < 20 * 60.0);
+  // Co-runner counts 1, 2, 4, ... and N - 1.
+  CHECK(shape_for(vm2(), true, 3, 20 * kGb).corunner_counts == std::vector<int>{1, 2});
+  CHECK(shape_for(vm2(), false, 8, 20 * kGb).corunner_counts == std::vector<int>{1, 2, 4, 7});
+  CHECK(shape_for(vm2(), true, 1, 20 * kGb).corunner_counts.empty());
+}
+
+TEST_CASE("the median's 95 % interval is distribution-free, from order statistics",
+          "[hw][calibration]") {
+  // Fewer than 6 values: no 95 % interval (the range of 5 covers the median with 93.75 %).
+  CHECK(std::isinf(median_ci95_pct({1, 2, 3, 4, 5})));
+  CHECK(std::isinf(median_ci95_pct({})));
+  // 6 values: the range (96.9 %); half of it, in % of the median 3.5.
+  CHECK(median_ci95_pct({6, 1, 5, 2, 4, 3}) == Approx(2.5 / 3.5 * 100));
+  // 20 values: x(6) to x(15) (P(B <= 5) = 2.07 %, P(B <= 6) = 5.77 %).
+  std::vector<double> v;
+  for (int i = 20; i >= 1; --i)
+    v.push_back(i);
+  CHECK(median_ci95_pct(v) == Approx((15.0 - 6.0) / 2.0 / 10.5 * 100));
+  // One stray value moves it by one rank, not by its size.
+  std::vector<double> stray(12, 10.0);
+  stray[3] = 1000.0;
+  CHECK(median_ci95_pct(stray) == 0.0);
+  CHECK(std::isinf(median_ci95_pct({0, 0, 0, 0, 0, 0})));
+}
+
+TEST_CASE("repetitions stop when the median is precise enough, or at the cap",
+          "[hw][calibration]") {
+  const RepetitionRule rule{6, 20, 3.0};
+  const std::vector<double> tight = {100.0, 101.0, 99.5, 100.5, 99.0, 100.2};  // +-1 %
+  CHECK(repetitions_done(tight, 6, rule));
+  CHECK_FALSE(repetitions_done({tight.begin(), tight.end() - 1}, 5, rule));  // under 6: no CI
+  std::vector<double> noisy = {100.0, 130.0, 80.0, 120.0, 90.0, 110.0};      // +-25 %
+  CHECK_FALSE(repetitions_done(noisy, 6, rule));
+  CHECK(repetitions_done(noisy, 20, rule));  // the cap
+  CHECK(repetitions_done({}, 20, rule));     // every window dropped: still the cap
+  CHECK_FALSE(repetitions_done({}, 19, rule));
+  // More windows narrow it: a spread of +-10 % around 100 in a repeating pattern stops before
+  // the cap once enough of it sits near the middle.
+  const RepetitionRule loose{6, 200, 3.0};
+  std::vector<double> w;
+  int stopped_at = 0;
+  for (int round = 1; round <= 200 && !stopped_at; ++round) {
+    const double pattern[] = {90, 95, 98, 99, 100, 100, 101, 102, 105, 110};
+    w.push_back(pattern[(round * 7) % 10]);
+    if (repetitions_done(w, round, loose)) stopped_at = round;
+  }
+  CHECK(stopped_at > 6);
+  CHECK(stopped_at < 200);
+  CHECK(median_ci95_pct(w) <= 3.0);
+  // min_windows above 6 holds it back even when precise.
+  CHECK_FALSE(repetitions_done(tight, 6, RepetitionRule{9, 20, 3.0}));
+}
+
+TEST_CASE("measurements without ci95_pct still load, and with it round-trip", "[hw][calibration]") {
+  const auto doc = nlohmann::json::parse(test::slurp(std::string(ROSGUARD_TEST_SOURCE_DIR) +
+                                                     "/tests/sim/fixtures/calibration-vm.json"));
+  auto m = calibration::measurements_from_json(doc.at("measurements"), "fixture");
+  REQUIRE_FALSE(m.runs.empty());
+  for (const auto& r : m.runs)
+    CHECK_FALSE(r.ci95_pct.has_value());
+  m.runs[0].ci95_pct = 2.5;
+  const nlohmann::json j = m;
+  CHECK(j.at("runs")[0].at("ci95_pct") == 2.5);
+  CHECK_FALSE(j.at("runs")[1].contains("ci95_pct"));
+  const auto back = calibration::measurements_from_json(j, "test");
+  REQUIRE(back.runs[0].ci95_pct.has_value());
+  CHECK(*back.runs[0].ci95_pct == 2.5);
+  CHECK_FALSE(back.runs[1].ci95_pct.has_value());
+  CHECK(nlohmann::json(back) == j);
 }

@@ -1,7 +1,5 @@
 #include "calibrate.h"
 
-#include <unistd.h>
-
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -9,6 +7,7 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <utility>
 
 #include "calibration/measurements.h"
 #include "commands.h"
@@ -65,25 +64,42 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
   suite.stop = &stop;
   // The suite calls progress between its timed windows, from this thread: the place to see a
   // SIGINT / SIGTERM that the handler recorded.
-  // On a terminal one line rewritten in place; otherwise (a pipe, a log) a line every 5 s.
+  // "[step/steps steps] %, elapsed, ETA, what" (a step: one timed window, or a cost block): on a
+  // terminal one line rewritten in place, otherwise (a pipe, a log) a line every 5 s and the
+  // last. The suite lowers `steps` as measurements reach their precision before their cap, so
+  // the ETA is re-estimated as it goes (from the most windows left: an upper bound).
   std::optional<Progress> bar;
-  const bool tty = ::isatty(STDERR_FILENO) != 0;
-  double printed = -1e9;
+  std::pair<int, int> last{0, 0};  // the last step and steps reported
   suite.progress = [&](int step, int steps, const std::string& what) {
     if (stop_signal()) stop = true;
     if (opt.quiet) return;
-    if (!bar) bar.emplace(static_cast<std::size_t>(steps), tty);
-    bar->update(static_cast<std::size_t>(step), what);
-    if (!tty && (bar->seconds() - printed >= 5.0 || step == steps)) {
-      printed = bar->seconds();
-      std::cerr << "calibrate: [" << step << "/" << steps << "] " << fmt(printed, 3) << " s  "
-                << what << "\n";
+    if (!bar) {
+      bar.emplace(static_cast<std::size_t>(steps), true);
+      bar->set_unit("steps");
     }
+    bar->set_total(static_cast<std::size_t>(steps));
+    // The suite names a step as it begins it: step - 1 are done (the ETA's rate).
+    bar->update(static_cast<std::size_t>(step - 1), what);
+    last = {step, steps};
+  };
+  suite.planned = [&](const hw::SuitePlan& plan) {
+    if (opt.quiet) return;
+    std::cerr << "calibrate: " << plan.configurations << " measurements, at most "
+              << plan.max_windows << " timed windows (fewer where a measurement reaches its "
+              << "precision early), buffers of " << fmt(plan.peak_mb / 1024.0, 3)
+              << " GB at the peak; at most about "
+              << (plan.seconds < 120.0 ? fmt(plan.seconds, 2) + " s"
+                                       : fmt(plan.seconds / 60.0, 2) + " min")
+              << "\n";
   };
   std::cerr << "calibrate: measuring " << suite.host.hostname << " (" << suite.host.cpus
             << " CPUs, " << (opt.quick ? "quick" : "full") << " suite)\n";
   hw::SuiteResult result = hw::run_suite(suite);
-  if (bar) bar->finish();
+  if (bar) {
+    if (!result.stopped && last.first == last.second)
+      bar->update(static_cast<std::size_t>(last.second), "");  // the last step, done
+    bar->finish();
+  }
   notes = std::move(result.notes);
   return std::move(result.measurements);
 #else

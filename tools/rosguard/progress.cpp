@@ -53,7 +53,7 @@ std::string Progress::text(std::size_t done, const std::string& what) const {
   const double elapsed = seconds();
   const double pct =
       total_ ? 100.0 * static_cast<double>(done) / static_cast<double>(total_) : 100.0;
-  std::string line = "[" + std::to_string(done) + "/" + std::to_string(total_) + " runs] ";
+  std::string line = "[" + std::to_string(done) + "/" + std::to_string(total_) + " " + unit_ + "] ";
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.0f%%", pct);
   line += buf;

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <ostream>
 #include <string>
+#include <utility>
 
 namespace rosguard {
 
@@ -26,6 +27,11 @@ class Progress {
            double interval_s = 5.0);
 
   void update(std::size_t done, const std::string& what);
+  // A new total, for work whose size is re-estimated as it goes (the calibration suite's windows:
+  // each measurement's most, lowered as measurements finish early); the ETA follows it.
+  void set_total(std::size_t total) { total_ = total; }
+  // What is counted, shown after the total ("runs" unless set).
+  void set_unit(std::string unit) { unit_ = std::move(unit); }
   // Clears the in-place line (before other output, and at the end); in Lines mode prints the
   // final count once if it was not the last line printed.
   void finish();
@@ -45,6 +51,7 @@ class Progress {
   double last_line_s_ = -1e300;
   std::size_t done_ = 0, printed_ = static_cast<std::size_t>(-1);
   std::string what_;
+  std::string unit_ = "runs";
 };
 
 }  // namespace rosguard

@@ -109,7 +109,9 @@ done
 load_end=$(cut -d' ' -f1 /proc/loadavg)
 echo "validate: suite run in $(($(date +%s) - start)) s (load average $load_start at the" \
      "start, $load_end at the end, on $(nproc) CPUs); writing the report"
-args=(-m analysis validate "$out/hw" "$out/sim" --out "$out"
+# The machine's CPU as lscpu names it, beside the date in the report and the README block.
+cpu=$(LC_ALL=C lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -n 1 || true)
+args=(-m analysis validate "$out/hw" "$out/sim" --out "$out" ${cpu:+--cpu "$cpu"}
       --scenarios "$(IFS=,; echo "${ok[*]}")"
       --note "1-min load average $load_start at the start, $load_end at the end ($(nproc) CPUs)")
 for f in "${failed[@]}"; do args+=(--failed "$f"); done

@@ -282,3 +282,37 @@ def test_run_writes_the_figure_from_awkward_results(tmp_path):
     assert "empty" in [s["name"] for s in report["scenarios"]] + \
         [f["scenario"] for f in report["failed"]]
 
+
+def test_readme_block_names_the_day_and_the_cpu(suite, tmp_path):
+    out = tmp_path / "out"
+    done = run_cli("validate", *suite, "--out", out, "--cpu", "AMD EPYC 7B13")
+    assert done.returncode == 0, done.stderr
+    report = validation.load_report(out / "report.json")
+    assert report["cpu"] == "AMD EPYC 7B13"
+    block = validation.readme_section(report, "f.png")
+    # The earliest start of the hw runs (write_folder: 2026-01-01T00:0<points>:00Z).
+    assert "**Validated on 2026-01-01 on AMD EPYC 7B13 (2 CPUs).**" in block
+    assert "Validated on 2026-01-01 on AMD EPYC 7B13" in (out / "report.md").read_text()
+    # Without --cpu: the manifest's cpu_model.
+    report, _ = validation.build_report(*suite)
+    assert validation.headline(report) == "Validated on 2026-01-01 on Test CPU (2 CPUs)"
+
+
+def test_a_sim_model_of_another_machine_is_said(suite, tmp_path):
+    hw, sim = suite
+    for folder in (sim / "alpha", sim / "beta"):
+        manifest = json.loads((folder / "manifest.json").read_text())
+        manifest["host_platform"] = {"sim": {"machine": {
+            "measured_on": {"cpu_model": "AMD EPYC"}, "matches": False,
+            "differences": ["CPU model 'AMD EPYC' (model) vs 'Test CPU' (this machine)"]}}}
+        (folder / "manifest.json").write_text(json.dumps(manifest))
+    out = tmp_path / "out"
+    done = run_cli("validate", hw, sim, "--out", out)
+    assert done.returncode == 0, done.stderr
+    assert "warning: the sim's host model was measured on another machine" in done.stdout
+    report = validation.load_report(out / "report.json")
+    assert "CPU model 'AMD EPYC' (model) vs 'Test CPU'" in validation.readme_section(report, "f")
+    assert validation._model_line({"sim_model_machine": None}) == ""      # no host model
+    assert validation._model_line({"sim_model_machine": {"matches": True}}) == ""
+    assert "does not record" in validation._model_line(
+        {"sim_model_machine": {"measured_on": None, "matches": None}})

@@ -145,6 +145,10 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
 
   // The platform must be one the loader accepts and the sim can run.
   json platform = calibration::fitted_platform(m, report, opt.name);
+  // The machine the measurements come from (not the one refitting them: --from may run
+  // anywhere): "platform": "host" compares it with the machine it runs on.
+  const calibration::MachineIdentity measured_on = calibration::machine_identity(m.host);
+  platform["measured_on"] = calibration::identity_to_json(measured_on);
   const fs::path platform_file = dir / "platform.json";
   SchemaSet(loader.home().schemas())
       .validate(platform, SchemaKind::Platform, platform_file.string());
@@ -164,6 +168,12 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
               << (p.fitted ? " +- " + fmt(p.std_error, 2) : " (" + p.how + ")") << "\n";
   for (const auto& note : report.notes)
     std::cout << "  note: " << note << "\n";
+  std::cout << "measured on " << calibration::describe(measured_on)
+            << (measured_on.hostname.empty() ? "" : " (" + measured_on.hostname + ")") << "\n";
+  if (measured_on.kernel.empty())
+    std::cout << "  note: the measurements do not record their kernel (made before rosguard "
+                 "recorded it): a run with \"platform\": \"host\" on this model will say that "
+                 "its machine cannot be shown to match\n";
 
   const int plot = run_analysis(loader.home(), {"calibration", dir.string()});
   if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";

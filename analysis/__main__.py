@@ -132,6 +132,10 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("--note", metavar="TEXT", action="append", default=[],
                           help="a line on the conditions (e.g. the load), printed with the "
                                "host (repeatable)")
+    validate.add_argument("--cpu", metavar="TEXT",
+                          help="the machine's CPU as lscpu names it (its 'Model name'), shown "
+                               "with the date in the report and the README block (default: "
+                               "the hw manifest's cpu_model, from /proc/cpuinfo)")
 
     table = sub.add_parser("validate-table", help="the README's validation block",
                            description=VALIDATE_TABLE_HELP)
@@ -167,7 +171,7 @@ def main(argv=None) -> int:
             failed = [dict(zip(("scenario", "reason"), f.split("=", 1) + [""]))
                       for f in args.failed]
             return validation.run(args.hw_root, args.sim_root, args.out, names, failed,
-                                  args.note)
+                                  args.note, cpu=args.cpu)
         return validation.table(args.report, args.readme, args.figure_dir)
     except InvalidInput as e:
         print(f"error: {e}", file=sys.stderr)

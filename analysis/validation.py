@@ -132,11 +132,13 @@ def _description(results) -> str:
     return str(scenario.get("description", "")) if isinstance(scenario, dict) else ""
 
 
-def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None) -> tuple:
+def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
+                 cpu=None) -> tuple:
     """(report dict, [Pair]) for the scenarios in ``names`` (default: every folder of
     hw_root). ``failed``: [{'scenario', 'reason'}] of scenarios that could not be run. A
     scenario whose folders are missing or share no point is added to them; the others are
-    compared. ``notes``: lines about the conditions (e.g. the load), shown with the host."""
+    compared. ``notes``: lines about the conditions (e.g. the load), shown with the host.
+    ``cpu``: the machine's CPU as lscpu names it (default: the hw manifest's cpu_model)."""
     hw_root, sim_root = Path(hw_root), Path(sim_root)
     if names is None:
         if not hw_root.is_dir():
@@ -145,7 +147,7 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None) -
     failed = list(failed)
     if not names and not failed:
         raise InvalidInput(f"{hw_root}: no results folder to validate")
-    scenarios, pairs, manifests = [], [], []
+    scenarios, pairs, manifests, sim_manifests = [], [], [], []
     for name in names:
         try:
             hw, sim = load_results(hw_root / name), load_results(sim_root / name)
@@ -154,6 +156,7 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None) -
             failed.append({"scenario": name, "reason": str(e)})
             continue
         manifests.append(hw.manifest)
+        sim_manifests.append(sim.manifest)
         pairs += found
         errors = _errors(found)
         scenarios.append({
@@ -180,6 +183,8 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None) -
         "measured_to": ends[-1] if ends else None,
         "notes": list(notes),
         "host": manifest.get("host") or {},
+        "cpu": cpu or (manifest.get("host") or {}).get("cpu_model"),
+        "sim_model_machine": _sim_model_machine(sim_manifests),
         "rosguard": manifest.get("tool") or {},
         "platform": {"hw": scenarios[0]["hw"]["platform"] if scenarios else None,
                      "sim": scenarios[0]["sim"]["platform"] if scenarios else None},
@@ -199,6 +204,30 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None) -
                     "excess_error_pct": p.excess_error_pct} for p in pairs],
     }
     return report, pairs
+
+
+def _sim_model_machine(manifests):
+    """The sim runs' host model against the machine they ran on ("platform": "host": the
+    manifest's host_platform.sim.machine, written by rosguard since models record their
+    machine): the first run's record, or None when no run used a host model."""
+    for m in manifests:
+        machine = ((m.get("host_platform") or {}).get("sim") or {}).get("machine")
+        if isinstance(machine, dict):
+            return machine
+    return None
+
+
+def _model_line(report: dict) -> str:
+    """'' when the sim model is of this machine (or no host model was used); else what is
+    wrong with it, for the report and the README block."""
+    machine = report.get("sim_model_machine")
+    if not isinstance(machine, dict) or machine.get("matches") is True:
+        return ""
+    if machine.get("measured_on") is None:
+        return ("the sim's host model does not record which machine it was measured on, so it "
+                "may not be this one")
+    return ("the sim's host model was measured on another machine: "
+            + "; ".join(str(d) for d in machine.get("differences") or []))
 
 
 def _clean(value):
@@ -256,11 +285,12 @@ def summary_table(report: dict) -> list:
 def _host_line(report: dict) -> str:
     host = report.get("host") or {}
     tool = report.get("rosguard") or {}
-    parts = [str(host.get(k)) for k in ("hostname", "cpu_model", "kernel") if host.get(k)]
+    cpu = report.get("cpu") or host.get("cpu_model")
+    parts = [str(v) for v in (host.get("hostname"), cpu, host.get("kernel")) if v]
     if host.get("cpus_online"):
         parts.append(f"{host['cpus_online']} CPUs online")
     version = " ".join(str(tool.get(k)) for k in ("version", "git_revision") if tool.get(k))
-    notes = "".join(f"; {n}" for n in report.get("notes") or [])
+    notes = "".join(f"; {n}" for n in [*(report.get("notes") or []), _model_line(report)] if n)
     when = report.get("measured_from") or "?"
     if report.get("measured_to"):
         when += f" to {report['measured_to']}"
@@ -282,7 +312,8 @@ def verdict(report: dict) -> str:
 def markdown(report: dict) -> str:
     """report.md."""
     lines = ["# rosguard validation: sim vs hw", "",
-             _host_line(report) + f"; report generated {report['generated']}.", "",
+             f"**{headline(report)}.** " + _host_line(report)
+             + f"; report generated {report['generated']}.", "",
              f"**{verdict(report)}.**", "",
              "Goals: RT-slowdown MAPE ≤ 5 %, nRT-slowdown MAPE ≤ 10 %, and the error on the "
              f"excess slowdown (slowdown − 1) ≤ 20 % where the measured excess is ≥ "
@@ -330,11 +361,22 @@ def _signed_pct(value) -> str:
     return f"{value:+.1f} %"
 
 
+def headline(report: dict) -> str:
+    """'Validated on 2026-11-26 on AMD EPYC (2 CPUs)': the day the suite ran and the CPU."""
+    day = str(report.get("measured_from") or report.get("generated") or "?")[:10]
+    host = report.get("host") or {}
+    cpu = report.get("cpu") or host.get("cpu_model") or "an unknown CPU"
+    cpus = f" ({host['cpus_online']} CPUs)" if host.get("cpus_online") else ""
+    return f"Validated on {day} on {cpu}{cpus}"
+
+
 def readme_section(report: dict, figure_path: str) -> str:
-    """The README's validation block (between its markers): figure, verdict, table."""
+    """The README's validation block (between its markers): figure, the day and the CPU,
+    verdict, table."""
     return "\n".join([
         f"![sim vs hw validation]({figure_path})", "",
-        f"{_host_line(report)}. {verdict(report)[0].upper() + verdict(report)[1:]}.", "",
+        f"**{headline(report)}.** {_host_line(report)}. "
+        f"{verdict(report)[0].upper() + verdict(report)[1:]}.", "",
         *summary_table(report), ""])
 
 
@@ -355,9 +397,10 @@ def _figure(report: dict, pairs):
     return figure.draw(pairs, names, titles, EXCESS_MIN, note)
 
 
-def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdout) -> int:
+def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdout,
+        cpu=None) -> int:
     """Builds the report and writes report.json, report.md and the figure into ``out``."""
-    report, pairs = build_report(hw_root, sim_root, names, failed, notes)
+    report, pairs = build_report(hw_root, sim_root, names, failed, notes, cpu=cpu)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = style.save(_figure(report, pairs), out, FIGURE_STEM)
@@ -367,6 +410,8 @@ def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdo
     (out / "report.md").write_text(markdown(_clean(report)), encoding="utf-8")
     print("\n".join(summary_table(_clean(report))), file=stream)
     print(verdict(report), file=stream)
+    if _model_line(report):
+        print(f"warning: {_model_line(report)}", file=stream)
     for f in report["failed"]:
         print(f"not compared: {f['scenario']}: {f['reason']}", file=stream)
     print(f"written: {out / 'report.md'}, {out / 'report.json'}, "

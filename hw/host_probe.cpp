@@ -629,6 +629,7 @@ calibration::HostFacts host_facts(const HostProbe& p) {
   f.l2_kb = p.l2_kb;
   f.l3_kb_per_cluster = p.l3_kb_per_cluster;
   f.date = p.date;
+  f.kernel = p.kernel;
   return f;
 }
 

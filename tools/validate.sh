@@ -32,18 +32,39 @@ if [[ ! -x $rosguard ]]; then
   exit 1
 fi
 
-# The sim side of `platform: host` is the installed calibrated model; make one if missing.
+# The sim side of `platform: host` is the installed calibrated model; it must be a model of THIS
+# machine. Calibrate (quick) when there is none, or when the installed one was measured on another
+# machine or does not say which (`rosguard platform model`: exit 0 this machine, 3 not), and say
+# why.
 if [[ $platform == host ]]; then
   model=${ROSGUARD_HOST_MODEL:-${XDG_DATA_HOME:-$HOME/.local/share}/rosguard/host/platform.json}
+  why=""
   if [[ ! -f $model ]]; then
+    why="no host model at $model"
+  elif "$rosguard" platform --help 2>/dev/null | grep -E '^ +model +' >/dev/null; then
+    rc=0
+    said=$("$rosguard" platform model 2>&1) || rc=$?
+    if ((rc == 3)); then
+      why="the host model at $model is not a model of this machine:
+$(sed 's/^/  /' <<<"$said")"
+    elif ((rc != 0)); then
+      why="rosguard platform model could not read the host model at $model (exit $rc):
+$(sed 's/^/  /' <<<"$said")"
+    fi
+  else
+    echo "validate: this rosguard cannot tell which machine the host model at $model was" \
+         "measured on (no 'rosguard platform model'); using it as it is"
+  fi
+  if [[ -n $why ]]; then
     # (`rosguard calibrate --help` is no test: the top-level --help answers an unknown command.)
     if ! "$rosguard" --help 2>/dev/null | grep -E '^ +calibrate +' >/dev/null; then
-      echo "validate: no host model at $model, and this rosguard has no 'calibrate' command" \
+      echo "validate: $why; and this rosguard has no 'calibrate' command" \
            "to make one; build a rosguard with 'rosguard calibrate', or set PLATFORM in" \
            "tools/validate.sh to a platform file (e.g. vm-2core)" >&2
       exit 1
     fi
-    echo "validate: no host model at $model: calibrating (rosguard calibrate --quick --install)"
+    echo "validate: $why"
+    echo "validate: calibrating this machine (rosguard calibrate --quick --install)"
     "$rosguard" calibrate --quick --install
   fi
   echo "validate: platform host (sim model: $model)"
@@ -109,7 +130,9 @@ done
 load_end=$(cut -d' ' -f1 /proc/loadavg)
 echo "validate: suite run in $(($(date +%s) - start)) s (load average $load_start at the" \
      "start, $load_end at the end, on $(nproc) CPUs); writing the report"
-args=(-m analysis validate "$out/hw" "$out/sim" --out "$out"
+# The machine's CPU as lscpu names it, beside the date in the report and the README block.
+cpu=$(LC_ALL=C lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -n 1 || true)
+args=(-m analysis validate "$out/hw" "$out/sim" --out "$out" ${cpu:+--cpu "$cpu"}
       --scenarios "$(IFS=,; echo "${ok[*]}")"
       --note "1-min load average $load_start at the start, $load_end at the end ($(nproc) CPUs)")
 for f in "${failed[@]}"; do args+=(--failed "$f"); done

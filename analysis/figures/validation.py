@@ -14,6 +14,8 @@ a whole suite): ``analysis.validation`` calls ``draw``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from matplotlib.ticker import FuncFormatter
 
@@ -50,13 +52,35 @@ def draw(pairs, scenarios, summary: dict, excess_min: float, note: str):
     return fig
 
 
-def _errorbars(ax, pts, colours, x_of, y_of) -> None:
+def _finite(v) -> bool:
+    return v is not None and math.isfinite(v)
+
+
+def bar_lengths(centre, low, high) -> tuple:
+    """(below, above): an error bar's lengths from its centre to low and to high, as
+    matplotlib wants them: non-negative distances. 0 where the spread does not reach past the
+    centre (a mean outside min..max: rounding of a mean of equal values, or a centre clipped to a
+    log axis's floor) or where a bound is NaN / infinite."""
+    below, above = centre - low, high - centre
+    return (below if _finite(below) and below > 0 else 0.0,
+            above if _finite(above) and above > 0 else 0.0)
+
+
+def _errorbars(ax, pts, colours, x_of, y_of) -> int:
+    """Draws each point with its min-max bars; a point whose mean is not finite on either side
+    has no place on the axes and is left out. Returns how many were drawn."""
+    drawn = 0
     for p in pts:
         x, y = x_of(p.hw), y_of(p.sim)
-        ax.errorbar([x[0]], [y[0]], xerr=[[x[0] - x[1]], [x[2] - x[0]]],
-                    yerr=[[y[0] - y[1]], [y[2] - y[0]]], linestyle="none",
-                    marker=NODE_MARKERS[p.node], markersize=6, markerfacecolor="none",
-                    color=colours.get(p.scenario, "0.3"), elinewidth=0.7, capsize=2)
+        if not (_finite(x[0]) and _finite(y[0])):
+            continue
+        xerr, yerr = bar_lengths(*x), bar_lengths(*y)
+        ax.errorbar([x[0]], [y[0]], xerr=[[xerr[0]], [xerr[1]]], yerr=[[yerr[0]], [yerr[1]]],
+                    linestyle="none", marker=NODE_MARKERS[p.node], markersize=6,
+                    markerfacecolor="none", color=colours.get(p.scenario, "0.3"),
+                    elinewidth=0.7, capsize=2)
+        drawn += 1
+    return drawn
 
 
 def _slowdown(stat) -> tuple:
@@ -83,7 +107,8 @@ def _limits_note(ax, pts, lim, shift=0.0, y=0.02) -> None:
 def _slowdown_panel(ax, pts, node, colours) -> None:
     # Limits from the means of the undisturbed points: one disturbed repetition must not
     # squeeze every other point into a corner; error bars may run off the panel.
-    values = [v for p in pts if not disturbed(p) for v in (p.hw.mean, p.sim.mean)]
+    values = [v for p in pts if not disturbed(p) for v in (p.hw.mean, p.sim.mean)
+              if _finite(v)]
     lo, hi = (min(values), max(values)) if values else (1.0, 1.0)
     log = lo > 0 and hi / lo > LOG_SPAN
     if log:
@@ -97,8 +122,7 @@ def _slowdown_panel(ax, pts, node, colours) -> None:
         ax.fill_between(x, x * (1 - width), x * (1 + width), color=shade, linewidth=0,
                         label=f"{label} of measured", zorder=0)
     ax.plot(lim, lim, color="0.35", linestyle="--", linewidth=1.0, label="sim = hw", zorder=1)
-    _errorbars(ax, pts, colours, _slowdown, _slowdown)
-    if not pts:
+    if not _errorbars(ax, pts, colours, _slowdown, _slowdown):
         ax.text(0.5, 0.5, f"no {NODE_NAMES[node]} slowdowns on both sides",
                 transform=ax.transAxes, ha="center", va="center", color="0.5")
     if log:
@@ -129,7 +153,7 @@ def _excess_panel(ax, pairs, colours, excess_min) -> None:
     # Error bars end at a small positive value where a repetition's excess is <= 0.
     floor = excess_min / 10.0
     values = [v for p in shown if not disturbed(p)
-              for v in (p.hw.mean - 1, p.sim.mean - 1)]                     # as above
+              for v in (p.hw.mean - 1, p.sim.mean - 1) if _finite(v)]       # as above
     lo, hi = (min(values), max(values)) if values else (excess_min, 1.0)
     lim = (lo / 2.0, hi * 2.0)
     x = np.geomspace(lim[0], lim[1], 50)

@@ -1,5 +1,9 @@
 #include "calibration/measurements.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
 #include "core/error.h"
 
 namespace rosguard::calibration {
@@ -32,7 +36,8 @@ void to_json(json& j, const Measurements& m) {
              {"l1d_kb", h.l1d_kb},
              {"l2_kb", h.l2_kb},
              {"l3_kb_per_cluster", h.l3_kb_per_cluster},
-             {"date", h.date}}},
+             {"date", h.date},
+             {"kernel", h.kernel}}},
            {"runs", json::array()},
            {"costs_us", m.costs_us},
            {"wall_s", m.wall_s}};
@@ -65,6 +70,8 @@ Measurements measurements_from_json(const json& j, const std::string& file,
   m.host.l2_kb = field<double>(h, "l2_kb", file, hp);
   m.host.l3_kb_per_cluster = field<double>(h, "l3_kb_per_cluster", file, hp);
   m.host.date = field<std::string>(h, "date", file, hp);
+  // Measurements made before rosguard recorded the kernel have none.
+  if (h.contains("kernel")) m.host.kernel = field<std::string>(h, "kernel", file, hp);
 
   const json runs = field<json>(j, "runs", file, base);
   if (!runs.is_array()) throw InputError(file, base + "/runs", "not an array");
@@ -92,6 +99,92 @@ Measurements measurements_from_json(const json& j, const std::string& file,
   m.costs_us = field<std::map<std::string, std::vector<double>>>(j, "costs_us", file, base);
   m.wall_s = field<double>(j, "wall_s", file, base);
   return m;
+}
+
+MachineIdentity machine_identity(const HostFacts& host) {
+  MachineIdentity id;
+  id.cpu_model = host.cpu_model;
+  id.cpus = host.cpus;
+  id.l1d_kb = host.l1d_kb;
+  id.l2_kb = host.l2_kb;
+  id.l3_kb_per_cluster = host.l3_kb_per_cluster;
+  id.kernel = host.kernel;
+  id.hostname = host.hostname;
+  id.date = host.date;
+  return id;
+}
+
+namespace {
+
+std::string kb(double v) {
+  if (!(v > 0.0)) return "not reported";
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.6g KB", v);
+  return buf;
+}
+
+bool same_size(double a, double b) {
+  if (a == b) return true;
+  return std::fabs(a - b) <= 0.01 * std::max(std::fabs(a), std::fabs(b));
+}
+
+}  // namespace
+
+std::vector<std::string> identity_differences(const MachineIdentity& model,
+                                              const MachineIdentity& current) {
+  std::vector<std::string> out;
+  const auto differ = [&](const std::string& what, const std::string& a, const std::string& b) {
+    out.push_back(what + " " + a + " (model) vs " + b + " (this machine)");
+  };
+  if (model.cpu_model != current.cpu_model)
+    differ("CPU model", "'" + model.cpu_model + "'", "'" + current.cpu_model + "'");
+  if (model.cpus != current.cpus)
+    differ("usable CPUs", std::to_string(model.cpus), std::to_string(current.cpus));
+  if (!same_size(model.l1d_kb, current.l1d_kb)) differ("L1d", kb(model.l1d_kb), kb(current.l1d_kb));
+  if (!same_size(model.l2_kb, current.l2_kb)) differ("L2", kb(model.l2_kb), kb(current.l2_kb));
+  if (!same_size(model.l3_kb_per_cluster, current.l3_kb_per_cluster))
+    differ("L3 per cluster", kb(model.l3_kb_per_cluster), kb(current.l3_kb_per_cluster));
+  if (model.kernel.empty())
+    out.push_back("kernel not recorded by the model (this machine: " +
+                  (current.kernel.empty() ? std::string("unknown") : current.kernel) + ")");
+  else if (model.kernel != current.kernel)
+    differ("kernel", model.kernel, current.kernel);
+  return out;
+}
+
+std::string describe(const MachineIdentity& id) {
+  const auto size = [](double v) { return v > 0.0 ? kb(v) : std::string("?"); };
+  return (id.cpu_model.empty() ? std::string("unknown CPU") : id.cpu_model) + ", " +
+         std::to_string(id.cpus) + " CPUs, L1d " + size(id.l1d_kb) + ", L2 " + size(id.l2_kb) +
+         ", L3 " + size(id.l3_kb_per_cluster) + ", " +
+         (id.kernel.empty() ? std::string("kernel not recorded") : id.kernel);
+}
+
+json identity_to_json(const MachineIdentity& id) {
+  json j{{"cpu_model", id.cpu_model},
+         {"cpus", id.cpus},
+         {"l1d_kb", id.l1d_kb},
+         {"l2_kb", id.l2_kb},
+         {"l3_kb_per_cluster", id.l3_kb_per_cluster}};
+  if (!id.kernel.empty()) j["kernel"] = id.kernel;
+  if (!id.hostname.empty()) j["hostname"] = id.hostname;
+  if (!id.date.empty()) j["date"] = id.date;
+  return j;
+}
+
+MachineIdentity identity_from_json(const json& j, const std::string& file,
+                                   const std::string& base) {
+  if (!j.is_object()) throw InputError(file, base, "not an object");
+  MachineIdentity id;
+  id.cpu_model = field<std::string>(j, "cpu_model", file, base);
+  id.cpus = field<int>(j, "cpus", file, base);
+  id.l1d_kb = field<double>(j, "l1d_kb", file, base);
+  id.l2_kb = field<double>(j, "l2_kb", file, base);
+  id.l3_kb_per_cluster = field<double>(j, "l3_kb_per_cluster", file, base);
+  if (j.contains("kernel")) id.kernel = field<std::string>(j, "kernel", file, base);
+  if (j.contains("hostname")) id.hostname = field<std::string>(j, "hostname", file, base);
+  if (j.contains("date")) id.date = field<std::string>(j, "date", file, base);
+  return id;
 }
 
 }  // namespace rosguard::calibration

@@ -29,7 +29,43 @@ struct HostFacts {
   int line_bytes = 64;
   double l1d_kb = 0.0, l2_kb = 0.0, l3_kb_per_cluster = 0.0;
   std::string date;  // ISO 8601 UTC, when the suite started
+  // "Linux 6.8.0-45-generic" (uname); empty in measurements made before rosguard recorded it.
+  // Last, with a default initializer: aggregate initializations without it stay valid.
+  std::string kernel{};
 };
+
+// Which machine a host model was measured on (the platform's "measured_on"), or which machine
+// rosguard runs on now: what decides whether a model's numbers describe this machine. Compared:
+// the CPU model, the usable CPUs, the L1d / L2 / L3 sizes (per core, per core, per cluster) and
+// the kernel; hostname and date are for the reader only (a VM's hostname says nothing about the
+// hardware under it).
+struct MachineIdentity {
+  std::string cpu_model;
+  int cpus = 0;  // usable CPUs (online and in the process's affinity mask)
+  double l1d_kb = 0.0, l2_kb = 0.0, l3_kb_per_cluster = 0.0;  // 0: not reported
+  std::string kernel;                                         // empty: not recorded
+  std::string hostname;
+  std::string date;  // ISO 8601 UTC: when it was measured (a model) or read (this machine)
+};
+
+// The identity of the machine a calibration suite measured.
+MachineIdentity machine_identity(const HostFacts& host);
+
+// What differs between the machine a model was measured on and the current one, one line per
+// fact ("L2 1024 KB (model) vs 512 KB (this machine)"); a kernel the model does not record is a
+// difference too (it cannot be shown to match). Empty: the same machine as far as rosguard can
+// tell. Cache sizes match within 1 %. Pure.
+std::vector<std::string> identity_differences(const MachineIdentity& model,
+                                              const MachineIdentity& current);
+
+// "AMD EPYC, 2 CPUs, L1d 32 KB, L2 512 KB, L3 32768 KB, Linux 6.8.0".
+std::string describe(const MachineIdentity& id);
+
+// The platform's "measured_on" object (scenarios/schema/platform.schema.json) and back;
+// identity_from_json throws InputError(file, path) for a document that does not match.
+nlohmann::json identity_to_json(const MachineIdentity& id);
+MachineIdentity identity_from_json(const nlohmann::json& j, const std::string& file,
+                                   const std::string& base);
 
 // One built-in kernel ("bandwidth_read", "bandwidth_write", "latency") over one working set,
 // alone on `core` (idle cores around it), or with `corunners` running on the other cores of the

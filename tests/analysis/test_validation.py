@@ -214,3 +214,105 @@ def test_a_value_just_over_its_bound_does_not_print_as_the_bound():
     assert validation._cell(errors, goals, "nrt", "mape_pct") == "9.2 % met"
     assert validation._cell(errors, goals, "nrt", "excess_error_pct") == \
         "20.01 % (n=3) **missed**"
+
+
+# Data the report step met on real machines (issue 22): a mean just outside min..max (the
+# rounding of a mean over equal repetitions: a deterministic sim repeats its value exactly),
+# NaN, one repetition, a scenario without points. The figure must be drawn, not crash.
+EQUAL_REPS = [1.009] * 7                   # np.mean: 1.0090000000000001 > max
+
+
+def test_error_bars_are_non_negative_distances():
+    from analysis.figures import validation as figure
+    assert float(validation.np.mean(EQUAL_REPS)) > max(EQUAL_REPS)   # the case is real
+    stat = validation.Stat.of(EQUAL_REPS)
+    assert figure.bar_lengths(stat.mean, stat.min, stat.max) == (stat.mean - stat.min, 0.0)
+    assert figure.bar_lengths(1.0, 1.2, 0.8) == (0.0, 0.0)          # spread beside the centre
+    assert figure.bar_lengths(1.0, math.nan, 1.5) == (0.0, 0.5)
+    assert figure.bar_lengths(1.0, 0.5, math.inf) == (0.5, 0.0)
+    below, above = figure.bar_lengths(math.nan, 0.5, 1.5)
+    assert below == 0.0 and above == 0.0
+
+
+def test_figure_is_drawn_from_awkward_pairs(tmp_path):
+    from analysis import style
+    from analysis.figures import validation as figure
+    Stat = validation.Stat
+    equal = Stat.of(EQUAL_REPS)
+    pairs = [
+        validation.Pair("a", "p1", "nrt", Stat.of([2.0, 2.5, 3.0]), equal),
+        validation.Pair("a", "p2", "nrt", Stat(3, 2.0, 2.1, 1.9, 0.1), Stat(3, 2.2, 2.3, 2.25, 0)),
+        validation.Pair("a", "p3", "rt", Stat(2, math.nan, 1.0, 1.1, 0.0), Stat.of([1.05])),
+        validation.Pair("a", "p4", "rt", Stat(2, 1.1, math.nan, math.nan, math.nan),
+                        Stat(1, 1.1, math.nan, 1.2, 0.0)),
+        validation.Pair("b", "p5", "rt", Stat.of([1.2]), Stat.of([1.2])),
+        # Measured excess 0.2, simulated excess 0.001: below the excess panel's bar floor.
+        validation.Pair("b", "p6", "nrt", Stat.of([1.2, 1.2]), Stat.of([1.001, 1.001])),
+    ]
+    fig = figure.draw(pairs, ["a", "b", "empty"], {}, validation.EXCESS_MIN, "note")
+    style.save(fig, tmp_path, "awkward")
+    assert_figure_files(tmp_path, "awkward")
+    fig = figure.draw([], ["empty"], {}, validation.EXCESS_MIN, "note")      # nothing at all
+    style.save(fig, tmp_path, "nothing")
+    assert_figure_files(tmp_path, "nothing")
+
+
+def test_run_writes_the_figure_from_awkward_results(tmp_path):
+    # p2: the sim's nRT excess (0.0025) is below the excess panel's bar floor (excess_min / 10)
+    # while the measured one is 0.55: the data that crashed `make validate` on 2026-11-26 (a
+    # model of another machine predicting no nRT slowdown); p3: one repetition, the sim's nRT
+    # cell empty; "empty": a scenario without points.
+    hw = {"awkward": {"p0000000001": [(1.009, 1.009)] * 7,
+                      "p0000000002": [(1.2, 1.5), (1.25, 1.6)],
+                      "p0000000003": [(1.1, 2.0)]},
+          "empty": {}}
+    sim = {"awkward": {"p0000000001": [(1.009, 1.009)] * 7,
+                       "p0000000002": [(1.21, 1.002), (1.22, 1.003)],
+                       "p0000000003": [(1.1, "")]},
+           "empty": {}}
+    for root, values, backend in (("hw", hw, "hw"), ("sim", sim, "sim")):
+        for name, points in values.items():
+            write_folder(tmp_path / root / name, points, backend)
+    out = tmp_path / "out"
+    done = run_cli("validate", tmp_path / "hw", tmp_path / "sim", "--out", out)
+    assert done.returncode == 0, done.stderr
+    assert_figure_files(out, "validation_scatter")
+    report = json.loads((out / "report.json").read_text())
+    assert "awkward" in [s["name"] for s in report["scenarios"]]
+    assert "empty" in [s["name"] for s in report["scenarios"]] + \
+        [f["scenario"] for f in report["failed"]]
+
+
+def test_readme_block_names_the_day_and_the_cpu(suite, tmp_path):
+    out = tmp_path / "out"
+    done = run_cli("validate", *suite, "--out", out, "--cpu", "AMD EPYC 7B13")
+    assert done.returncode == 0, done.stderr
+    report = validation.load_report(out / "report.json")
+    assert report["cpu"] == "AMD EPYC 7B13"
+    block = validation.readme_section(report, "f.png")
+    # The earliest start of the hw runs (write_folder: 2026-01-01T00:0<points>:00Z).
+    assert "**Validated on 2026-01-01 on AMD EPYC 7B13 (2 CPUs).**" in block
+    assert "Validated on 2026-01-01 on AMD EPYC 7B13" in (out / "report.md").read_text()
+    # Without --cpu: the manifest's cpu_model.
+    report, _ = validation.build_report(*suite)
+    assert validation.headline(report) == "Validated on 2026-01-01 on Test CPU (2 CPUs)"
+
+
+def test_a_sim_model_of_another_machine_is_said(suite, tmp_path):
+    hw, sim = suite
+    for folder in (sim / "alpha", sim / "beta"):
+        manifest = json.loads((folder / "manifest.json").read_text())
+        manifest["host_platform"] = {"sim": {"machine": {
+            "measured_on": {"cpu_model": "AMD EPYC"}, "matches": False,
+            "differences": ["CPU model 'AMD EPYC' (model) vs 'Test CPU' (this machine)"]}}}
+        (folder / "manifest.json").write_text(json.dumps(manifest))
+    out = tmp_path / "out"
+    done = run_cli("validate", hw, sim, "--out", out)
+    assert done.returncode == 0, done.stderr
+    assert "warning: the sim's host model was measured on another machine" in done.stdout
+    report = validation.load_report(out / "report.json")
+    assert "CPU model 'AMD EPYC' (model) vs 'Test CPU'" in validation.readme_section(report, "f")
+    assert validation._model_line({"sim_model_machine": None}) == ""      # no host model
+    assert validation._model_line({"sim_model_machine": {"matches": True}}) == ""
+    assert "does not record" in validation._model_line(
+        {"sim_model_machine": {"measured_on": None, "matches": None}})

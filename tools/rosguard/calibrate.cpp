@@ -161,6 +161,10 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
 
   // The platform must be one the loader accepts and the sim can run.
   json platform = calibration::fitted_platform(m, report, opt.name);
+  // The machine the measurements come from (not the one refitting them: --from may run
+  // anywhere): "platform": "host" compares it with the machine it runs on.
+  const calibration::MachineIdentity measured_on = calibration::machine_identity(m.host);
+  platform["measured_on"] = calibration::identity_to_json(measured_on);
   const fs::path platform_file = dir / "platform.json";
   SchemaSet(loader.home().schemas())
       .validate(platform, SchemaKind::Platform, platform_file.string());
@@ -184,6 +188,12 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   }
   for (const auto& note : report.notes)
     std::cout << "  note: " << note << "\n";
+  std::cout << "measured on " << calibration::describe(measured_on)
+            << (measured_on.hostname.empty() ? "" : " (" + measured_on.hostname + ")") << "\n";
+  if (measured_on.kernel.empty())
+    std::cout << "  note: the measurements do not record their kernel (made before rosguard "
+                 "recorded it): a run with \"platform\": \"host\" on this model will say that "
+                 "its machine cannot be shown to match\n";
   if (!prior_dominated.empty()) {
     std::cerr << "warning: " << prior_dominated.size()
               << " parameter(s) rest mostly on their priors, not on this host's runs:";

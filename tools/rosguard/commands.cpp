@@ -51,7 +51,7 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
       b->validate(p.scenario);
   }
   for (const auto& w : s.warnings)
-    std::cerr << "warning: " << w << "\n";
+    if (!loader.printed(w)) std::cerr << "warning: " << w << "\n";
   // "platform": "host" on hw: what the probe could not find or use.
   if (s.host_platform.contains("hw"))
     for (const auto& note : s.host_platform["hw"]["probe"]["notes"])

@@ -1,8 +1,10 @@
 #include "host_facts.h"
 
+#include <sched.h>
 #include <sys/utsname.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
@@ -42,6 +44,105 @@ json host_facts() {
     }
   }
   return h;
+}
+
+namespace {
+
+std::string first_line(const std::string& path) {
+  std::ifstream f(path);
+  std::string s;
+  if (f) std::getline(f, s);
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ' || s.back() == '\r'))
+    s.pop_back();
+  return s;
+}
+
+// "48K" -> 48, "1M" -> 1024 (sysfs cache sizes).
+double size_kb(const std::string& text) {
+  if (text.empty()) return 0.0;
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(text, &used);
+    const char unit = used < text.size() ? text[used] : 'B';
+    if (unit == 'K' || unit == 'k') return v;
+    if (unit == 'M' || unit == 'm') return v * 1024.0;
+    if (unit == 'G' || unit == 'g') return v * 1024.0 * 1024.0;
+    return v / 1024.0;
+  } catch (const std::exception&) {
+    return 0.0;
+  }
+}
+
+// As hw/common/sys.cpp usable_cpus(): in the affinity mask and online.
+std::vector<int> usable_cpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  std::vector<int> out;
+  if (::sched_getaffinity(0, sizeof set, &set) != 0) return out;
+  const long online = ::sysconf(_SC_NPROCESSORS_ONLN);
+  const long conf = std::max(online, ::sysconf(_SC_NPROCESSORS_CONF));
+  for (int c = 0; c < conf && c < CPU_SETSIZE; ++c) {
+    if (!CPU_ISSET(c, &set)) continue;
+    std::ifstream f("/sys/devices/system/cpu/cpu" + std::to_string(c) + "/online");
+    int on = 1;
+    if (f) f >> on;  // cpu0 often has no "online" file: it is always online
+    if (on) out.push_back(c);
+  }
+  return out;
+}
+
+}  // namespace
+
+calibration::MachineIdentity this_machine() {
+  calibration::MachineIdentity id;
+  std::string arch;
+  utsname u{};
+  if (::uname(&u) == 0) {
+    id.hostname = u.nodename;
+    id.kernel = std::string(u.sysname) + " " + u.release;
+    arch = u.machine;
+  }
+  id.date = iso_time_now();
+  const std::vector<int> cpus = usable_cpus();
+  id.cpus = static_cast<int>(cpus.size());
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  for (std::string line; std::getline(cpuinfo, line);)
+    if (line.rfind("model name", 0) == 0 || line.rfind("Hardware", 0) == 0) {
+      if (const auto colon = line.find(':'); colon != std::string::npos)
+        id.cpu_model = line.substr(std::min(line.size(), colon + 2));
+      break;
+    }
+  if (id.cpu_model.empty()) id.cpu_model = "unknown (" + arch + ")";
+  if (cpus.empty()) return id;
+  // The caches of the first usable CPU (hw/host_probe.cpp probe_caches).
+  bool any = false;
+  for (int i = 0; i < 16; ++i) {
+    const std::string dir = "/sys/devices/system/cpu/cpu" + std::to_string(cpus.front()) +
+                            "/cache/index" + std::to_string(i);
+    const std::string level_text = first_line(dir + "/level");
+    if (level_text.empty()) break;
+    int level = 0;
+    try {
+      level = std::stoi(level_text);
+      const std::string line = first_line(dir + "/coherency_line_size");
+      if (!line.empty()) (void)std::stoi(line);  // the probe skips an entry it cannot parse
+    } catch (const std::exception&) {
+      continue;
+    }
+    any = true;
+    const std::string type = first_line(dir + "/type");
+    const double kb = size_kb(first_line(dir + "/size"));
+    if (level == 1 && type == "Data") id.l1d_kb = kb;
+    if (level == 2 && type != "Instruction") id.l2_kb = kb;
+    if (level == 3 && type != "Instruction") id.l3_kb_per_cluster = kb;
+  }
+  if (!any) {
+    id.l1d_kb = static_cast<double>(std::max(0L, ::sysconf(_SC_LEVEL1_DCACHE_SIZE))) / 1024.0;
+    id.l2_kb = static_cast<double>(std::max(0L, ::sysconf(_SC_LEVEL2_CACHE_SIZE))) / 1024.0;
+    id.l3_kb_per_cluster =
+        static_cast<double>(std::max(0L, ::sysconf(_SC_LEVEL3_CACHE_SIZE))) / 1024.0;
+  }
+  return id;
 }
 
 std::optional<unsigned long long> process_start_ticks(pid_t pid) {

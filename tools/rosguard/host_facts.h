@@ -8,10 +8,19 @@
 #include <optional>
 #include <string>
 
+#include "calibration/measurements.h"
+
 namespace rosguard {
 
 // hostname, kernel, machine, cpus_online, cpu_model (when /proc/cpuinfo names one).
 nlohmann::json host_facts();
+
+// The identity of the machine this process runs on, read without the hw backend, by the rules of
+// the hw probe (hw/host_probe.cpp), so that a model calibrated here compares equal: the CPU model
+// from /proc/cpuinfo ("model name", else "Hardware", else "unknown (ARCH)"), the usable CPUs
+// (online and in this process's affinity mask), the caches of the first usable CPU from sysfs
+// (glibc's sysconf where sysfs has none), the kernel as "SYSNAME RELEASE" (uname).
+calibration::MachineIdentity this_machine();
 
 // name, version, git_revision and build_type, as baked in when the build was configured.
 nlohmann::json tool_facts();

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "files.h"
+#include "host_facts.h"
 #include "loader.h"
 
 #ifdef ROSGUARD_WITH_HW
@@ -26,7 +27,47 @@ std::string env(const char* name) {
   return v ? v : "";
 }
 
+std::string join(const std::vector<std::string>& parts, const std::string& sep) {
+  std::string s;
+  for (const auto& p : parts)
+    s += (s.empty() ? "" : sep) + p;
+  return s;
+}
+
 }  // namespace
+
+ModelMachineCheck check_model_machine(const json& doc, const std::string& origin,
+                                      const calibration::MachineIdentity& current) {
+  ModelMachineCheck c;
+  c.record = json{{"measured_on", nullptr},
+                  {"this_machine", calibration::identity_to_json(current)},
+                  {"differences", json::array()}};
+  const std::string fix = "`rosguard calibrate --install` measures this machine and replaces it";
+  if (!doc.is_object() || !doc.contains("measured_on")) {
+    c.warning = "the host model " + origin +
+                " does not record the machine it was measured on (calibrated before rosguard "
+                "wrote \"measured_on\"): whether it describes this machine (" +
+                calibration::describe(current) + ") is unknown; " + fix;
+    c.record["matches"] = nullptr;  // unknown
+    return c;
+  }
+  const calibration::MachineIdentity model =
+      calibration::identity_from_json(doc.at("measured_on"), origin, "/measured_on");
+  c.known = true;
+  c.record["measured_on"] = doc.at("measured_on");
+  c.differences = calibration::identity_differences(model, current);
+  c.matches = c.differences.empty();
+  c.record["differences"] = c.differences;
+  c.record["matches"] = c.matches;
+  if (!c.matches) {
+    std::string where = model.hostname;
+    if (!model.date.empty()) where += (where.empty() ? "" : ", ") + model.date;
+    c.warning = "the host model " + origin + " was measured on another machine" +
+                (where.empty() ? "" : " (" + where + ")") + ": " + join(c.differences, "; ") +
+                "; its numbers describe that machine, not this one; " + fix;
+  }
+  return c;
+}
 
 fs::path host_model_path() {
   if (const auto explicit_path = env("ROSGUARD_HOST_MODEL"); !explicit_path.empty())
@@ -50,13 +91,15 @@ std::optional<HostPlatform> installed_host_model(const SchemaSet& schemas) {
   json doc = read_json_file(path, shown);
   schemas.validate(doc, SchemaKind::Platform, shown);
   schemas.apply_defaults(doc, SchemaKind::Platform);
-  return HostPlatform{doc, shown,
-                      json{{"backend", "sim"},
-                           {"model", path.string()},
-                           {"how",
-                            "the installed calibrated model of this host "
-                            "(rosguard calibrate --install; ROSGUARD_HOST_MODEL overrides "
-                            "where it is looked for)"}}};
+  ModelMachineCheck machine = check_model_machine(doc, shown, this_machine());
+  json record{{"backend", "sim"},
+              {"model", path.string()},
+              {"how",
+               "the installed calibrated model of this host "
+               "(rosguard calibrate --install; ROSGUARD_HOST_MODEL overrides "
+               "where it is looked for)"},
+              {"machine", machine.record}};
+  return HostPlatform{doc, shown, record, std::move(machine)};
 }
 
 HostPlatform probed_host_platform(const SchemaSet& schemas) {
@@ -78,14 +121,47 @@ HostPlatform probed_host_platform(const SchemaSet& schemas) {
                                 : "probed at load time; reference bandwidth measured by the "
                                   "probe (no installed model)"},
               {"probe", hw::to_json(probe)}};
-  if (installed) record["model"] = installed->record.at("model");
-  return {doc, shown + " at " + probe.date, record};
+  std::optional<ModelMachineCheck> machine;
+  if (installed) {
+    record["model"] = installed->record.at("model");
+    record["machine"] = installed->record.at("machine");
+    machine = installed->machine;
+  }
+  return {doc, shown + " at " + probe.date, record, machine};
 #else
   (void)schemas;
   throw RunError(
       "this rosguard is built without the hw backend (ROSGUARD_WITH_HW=OFF): it cannot probe the "
       "host");
 #endif
+}
+
+int platform_model_command(const SchemaSet& schemas) {
+  const auto installed = installed_host_model(schemas);
+  const calibration::MachineIdentity current = this_machine();
+  std::cout << "this machine: " << calibration::describe(current) << "\n";
+  if (!installed) {
+    std::cout << "no host model installed (looked for " << host_model_path().string()
+              << "): rosguard calibrate --install makes one\n";
+    return kNoModelOfThisMachine;
+  }
+  const ModelMachineCheck& c = *installed->machine;
+  if (c.known) {
+    const auto model = calibration::identity_from_json(installed->doc.at("measured_on"),
+                                                       installed->origin, "/measured_on");
+    std::cout << "host model:   " << installed->origin << ", measured on "
+              << calibration::describe(model)
+              << (model.hostname.empty() ? "" : " (" + model.hostname + ")")
+              << (model.date.empty() ? "" : " at " + model.date) << "\n";
+  } else {
+    std::cout << "host model:   " << installed->origin << "\n";
+  }
+  if (c.matches) {
+    std::cout << "the host model was measured on this machine\n";
+    return 0;
+  }
+  std::cout << c.warning << "\n";
+  return kNoModelOfThisMachine;
 }
 
 int platform_probe_command(const SchemaSet& schemas, const std::string& out) {

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <fstream>
 #include <iomanip>
+#include <iostream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -482,6 +483,7 @@ PlatformInfo Loader::host_platform(const std::string& backend, const std::string
     host_used_[backend] = host_records_.at(backend);
     return it->second;
   }
+  host_warnings_.erase(backend);
   HostPlatform host;
   if (backend == "hw") {
 #ifdef ROSGUARD_WITH_HW
@@ -504,6 +506,13 @@ PlatformInfo Loader::host_platform(const std::string& backend, const std::string
     host = std::move(*installed);
   }
   PlatformInfo info = build_platform(host.doc, host.origin);
+  // A model of another machine (or of an unknown one) is used, with a warning.
+  if (host.machine && !host.machine->warning.empty())
+    host_warnings_[backend] =
+        (backend == "hw" ? "platform \"host\" on hw takes its reference bandwidth, memory model "
+                           "and costs from the installed host model, but "
+                         : "platform \"host\" in sim runs the installed host model, but ") +
+        host.machine->warning;
   host_cache_[backend] = info;
   host_records_[backend] = host.record;
   host_used_[backend] = host.record;
@@ -641,6 +650,7 @@ LoadedScenario Loader::load_base(const std::string& file,
   // probe of the host is kept for the Loader's life (one run).
   host_cache_.erase("sim");
   host_records_.erase("sim");
+  host_warnings_.erase("sim");
   const std::string text = read_text_file(file, file);
   out.given = parse_json_text(text, file);
   schemas_.validate(out.given, SchemaKind::Scenario, file);
@@ -701,6 +711,19 @@ void Loader::load_points(LoadedScenario& out, PointSelection selection) {
   for (auto& w : prior_dominated_warnings(out.points))
     out.warnings.push_back(std::move(w));
   out.host_platform = host_used_;
+  // "platform": "host" with a model of another machine: in the manifest (the warnings) and
+  // printed once per Loader (a tune runs many loads).
+  if (host_used_.is_object())
+    for (const auto& [backend, _] : host_used_.items())
+      if (auto it = host_warnings_.find(backend); it != host_warnings_.end()) {
+        if (std::find(out.warnings.begin(), out.warnings.end(), it->second) == out.warnings.end())
+          out.warnings.push_back(it->second);
+        if (printed_.insert(it->second).second) std::cerr << "warning: " << it->second << "\n";
+      }
+}
+
+bool Loader::printed(const std::string& warning) const {
+  return printed_.count(warning) > 0;
 }
 
 std::vector<CatalogEntry> Loader::platforms() const {

@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,10 @@ class Loader {
 
   const Home& home() const { return home_; }
 
+  // Whether load_points printed `warning` already (a host model of another machine is said
+  // once per Loader, when the points are loaded; `check` need not say it again).
+  bool printed(const std::string& warning) const;
+
  private:
   // One point's scenario from its document (defaults applied here): schema, references, rules.
   Scenario build_point(nlohmann::json document, const std::string& file, bool skip_schema = false);
@@ -127,6 +132,8 @@ class Loader {
   std::map<std::string, PlatformInfo> host_cache_;      // by backend
   std::map<std::string, nlohmann::json> host_records_;  // by backend
   nlohmann::json host_used_;                            // this load's records (manifest)
+  std::map<std::string, std::string> host_warnings_;    // by backend: the model's machine
+  std::set<std::string> printed_;                       // warnings printed by this Loader
 };
 
 // Bounds on what a scenario, platform or workload file may be: past them an input could exhaust

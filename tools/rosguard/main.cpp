@@ -286,6 +286,14 @@ int main(int argc, char** argv) {
       "--install) when there is one; otherwise the reference bandwidth is measured now "
       "(bandwidth_read, under a second) and there is no memory model, so the sim backend "
       "cannot run the result. Notes on what is missing or not usable go to stderr.");
+  auto* model_cmd = platform->add_subcommand(
+      "model",
+      "Say whether the installed host model (rosguard calibrate --install) was measured on this "
+      "machine: its CPU model, usable CPUs, caches and kernel against this machine's.");
+  model_cmd->footer(
+      "Exit status 0 when it was; 3 when no model is installed, the model was measured on another "
+      "machine (what differs is printed), or it does not record its machine (calibrated before "
+      "rosguard wrote \"measured_on\"). make validate recalibrates then.");
 
   ProfileOptions prof;
   auto* profile_cmd = app.add_subcommand(
@@ -368,6 +376,7 @@ int main(int argc, char** argv) {
     if (*calibrate) return calibrate_host(cal, loader);
     if (*list) return list_catalogue(loader, policies, backends, list_what);
     if (*probe) return platform_probe_command(SchemaSet(loader.home().schemas()), probe_out);
+    if (*model_cmd) return platform_model_command(SchemaSet(loader.home().schemas()));
     if (*plot) {
       std::vector<std::string> args = {"plot", plot_dir};
       if (!plot_out.empty()) args.insert(args.end(), {"--out", plot_out});

@@ -874,6 +874,39 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
   return doc;
 }
 
+std::vector<std::pair<std::string, json>> band_platforms(const json& platform,
+                                                         const FitReport& rep) {
+  std::vector<std::pair<std::string, json>> out;
+  const std::string name = platform.value("name", std::string("host"));
+  for (const auto& q : rep.parameters) {
+    if (!q.prior_dominated) continue;
+    // "kernels.<kernel>.<key>" or "<l3|dram>.<key>" (memory).
+    const auto dot = q.name.rfind('.');
+    const std::string key = q.name.substr(dot + 1);
+    const std::string owner = q.name.substr(0, dot);
+    const json::json_pointer section(
+        owner.starts_with("kernels.") ? "/kernels/" + owner.substr(std::string("kernels.").size())
+                                      : "/memory/" + owner);
+    const double factor = std::exp(q.log_std_error);
+    for (const auto& [side, value] : {std::pair{std::string("low"), q.value / factor},
+                                      std::pair{std::string("high"), q.value * factor}}) {
+      json doc = platform;
+      doc[section][key] = round_sig(value, 5);
+      doc[section]["source"] = doc[section].value("source", std::string()) + "; " + q.name +
+                               " moved one standard error " + (side == "low" ? "down" : "up") +
+                               " (x/ " + fmt("%.3g", factor) + ") for the uncertainty band";
+      const std::string variant = name + "-" + q.name + "-" + side;
+      doc["name"] = variant;
+      doc["description"] = "Uncertainty band of " + name + ": " + q.name +
+                           " (prior-dominated) at " + fmt("%.4g", value) +
+                           ", one posterior standard error " + (side == "low" ? "below" : "above") +
+                           " the fitted " + fmt("%.4g", q.value) + "; everything else as fitted.";
+      out.emplace_back(variant, std::move(doc));
+    }
+  }
+  return out;
+}
+
 json to_json(const FitReport& rep) {
   json j;
   j["converged"] = rep.converged;

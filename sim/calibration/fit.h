@@ -161,6 +161,16 @@ CostFit fit_cost(std::vector<double> samples_us);
 nlohmann::json fitted_platform(const Measurements& measurements, const FitReport& report,
                                std::string name);
 
+// The uncertainty band of a fitted platform: for each prior-dominated parameter of `report`, two
+// copies of `platform` (fitted_platform()'s document) with that parameter one posterior standard
+// error lower and higher (value / exp(log_std_error), value x exp(log_std_error)), named
+// "<name>-<parameter>-low" / "-high" with a description saying so. A sim run on each (one
+// parameter at a time) bounds how far the prior-dominated parameters move a prediction; the
+// envelope of those runs and the nominal one is the band `make validate` and `rosguard compare
+// --band` show. Empty when nothing is prior-dominated.
+std::vector<std::pair<std::string, nlohmann::json>> band_platforms(const nlohmann::json& platform,
+                                                                   const FitReport& report);
+
 // The report as the "fit" object of calibration.json.
 nlohmann::json to_json(const FitReport& report);
 

@@ -474,6 +474,25 @@ TEST_CASE("fit: the measured suites of two real hosts fit, prior-dominated param
     }
     const json platform = fitted_platform(m, r, "replayed");
     CHECK_FALSE(schemas.first_error(platform, SchemaKind::Platform).has_value());
+    // The band: each prior-dominated parameter one standard error down and up, nothing else.
+    const auto band = band_platforms(platform, r);
+    REQUIRE(band.size() == 2 * dominated.size());
+    for (std::size_t i = 0; i < band.size(); ++i) {
+      const auto& [variant, doc] = band[i];
+      const FittedParameter& p = param(r, dominated[i / 2]);
+      CHECK(variant == "replayed-" + p.name + (i % 2 ? "-high" : "-low"));
+      CHECK_FALSE(schemas.first_error(doc, SchemaKind::Platform).has_value());
+      const json diff = json::diff(platform, doc);
+      std::set<std::string> changed;
+      for (const auto& op : diff) {
+        const std::string path = op["path"];
+        if (path != "/name" && path != "/description" && !path.ends_with("/source"))
+          changed.insert(path);
+      }
+      REQUIRE(changed.size() == 1);
+      const double moved = doc[json::json_pointer(*changed.begin())].get<double>();
+      CHECK(moved == Approx(p.value * std::exp((i % 2 ? 1 : -1) * p.log_std_error)).epsilon(1e-4));
+    }
     FitOptions strict;
     strict.strict = true;
     if (dominated.empty())

@@ -172,6 +172,17 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   doc["fit"] = calibration::to_json(report);
   write_file_atomic(platform_file, platform.dump(2) + "\n");
   write_file_atomic(cal_file, doc.dump(2) + "\n");
+  // The uncertainty band: one platform per prior-dominated parameter and side, in band/ beside
+  // platform.json (replacing an earlier calibration's).
+  const auto band = calibration::band_platforms(platform, report);
+  const auto write_band = [&](const fs::path& folder) {
+    fs::remove_all(folder, ec);
+    if (band.empty()) return;
+    fs::create_directories(folder, ec);
+    for (const auto& [variant, variant_doc] : band)
+      write_file_atomic(folder / (variant + ".json"), variant_doc.dump(2) + "\n");
+  };
+  write_band(dir / "band");
 
   std::size_t used = 0;
   for (const auto& r : report.runs)
@@ -207,13 +218,23 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";
 
   std::cout << "wrote " << platform_file.string() << ", " << cal_file.string() << ", "
-            << (dir / "figures").string() << "/\n";
+            << (dir / "figures").string() << "/"
+            << (band.empty()
+                    ? ""
+                    : ", " + (dir / "band").string() + "/ (" + std::to_string(band.size()) +
+                          " platforms: the uncertainty band)")
+            << "\n";
   if (opt.install) {
     const fs::path target = host_model_path();
     fs::create_directories(target.parent_path(), ec);
     write_file_atomic(target, platform.dump(2) + "\n");
+    write_band(target.parent_path() / "band");
     std::cout << "installed as this host's model: " << target.string()
-              << " (\"platform\": \"host\" uses it in sim)\n";
+              << " (\"platform\": \"host\" uses it in sim)"
+              << (band.empty()
+                      ? ""
+                      : "; its uncertainty band: " + (target.parent_path() / "band").string() + "/")
+              << "\n";
   }
   return 0;
 #endif

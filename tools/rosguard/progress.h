@@ -26,6 +26,9 @@ class Progress {
            double interval_s = 5.0);
 
   void update(std::size_t done, const std::string& what);
+  // More (or fewer) runs than planned: adaptive repetitions add rounds as they go.
+  void set_total(std::size_t total) { total_ = total; }
+  std::size_t total() const { return total_; }
   // Clears the in-place line (before other output, and at the end); in Lines mode prints the
   // final count once if it was not the last line printed.
   void finish();

@@ -170,9 +170,11 @@ class HwBackend : public Backend {
     const MetricPlan plan = plan_metric(s, sources_);
     ctx.fact("pmc_source", plan.source);
     ctx.fact("isolation",
-             "each workload alone on its core, unregulated, measured hw.baseline_repetitions "
-             "times interleaved with the repetition rounds (median); the scenario's other cores "
-             "held by idle spinner threads meanwhile");
+             std::string("each workload alone on its core, unregulated, measured ") +
+                 (s.hw.precision_pct ? "once before each round of its points (hw.precision_pct)"
+                                     : "hw.baseline_repetitions times interleaved with the "
+                                       "repetition rounds") +
+                 " (median); the scenario's other cores held by idle spinner threads meanwhile");
     const auto rt_before = realtime_tids();
     try {
       warm_up(s, plan, w, core, ctx);

@@ -675,7 +675,7 @@ PrecisionReport report_precision(const LoadedScenario& loaded, const RunOptions&
                                      std::to_string(static_cast<int>(median(reps))) + ")";
   if (widest.empty()) {
     out.summary = "slowdown 95 % CI: not computable (fewer than two repetitions of a slowdown)";
-  } else if (adaptive) {
+  } else if (adaptive && first_rule.target_pct) {
     char target[32];
     std::snprintf(target, sizeof target, "%g %%", *first_rule.target_pct);
     out.summary = "slowdown 95 % CI within " + std::string(target) + " on " +

@@ -12,14 +12,21 @@
 #include "hw/backend.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
+#include <set>
+#include <sstream>
 #include <tuple>
 
 #include "core/error.h"
 #include "hw/common/clock.h"
 #include "hw/common/sys.h"
+#include "hw/cpu_speed.h"
+#include "hw/housekeeping.h"
 #include "hw/isolation.h"
 #include "hw/point_rig.h"
 #include "hw/safety_net.h"
@@ -54,6 +61,57 @@ void report_transport(const Scenario& s, RunContext& ctx) {
                       "/rosguard/...), ROS 2 default QoS (reliable, keep last 10, volatile)");
 }
 
+std::string fixed1(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", v);
+  return buf;
+}
+
+// The cgroup v2 mount point, or empty.
+std::string cgroup2_mount() {
+  std::ifstream in("/proc/self/mountinfo");
+  for (std::string line; std::getline(in, line);) {
+    const auto dash = line.find(" - ");
+    if (dash == std::string::npos || line.compare(dash + 3, 8, "cgroup2 ") != 0) continue;
+    std::istringstream head(line.substr(0, dash));
+    std::string id, parent, devno, root, mount;
+    head >> id >> parent >> devno >> root >> mount;
+    return mount;
+  }
+  return {};
+}
+
+// What this host offers to keep other work off the measured cores, for the manifest: SCHED_FIFO
+// (node threads above every SCHED_OTHER task), and whether a cgroup v2 cpuset could fence the
+// cores off (not used by this version: hw/README.md, Threads).
+std::string host_isolation_offers() {
+  std::string out;
+  if (const auto refused = fifo_refused())
+    out = "SCHED_FIFO refused (" + *refused +
+          "): node threads run under SCHED_OTHER (nice values) or the idle / freezer throttles, "
+          "and other tasks of the host share the measured cores with them";
+  else
+    out =
+        "SCHED_FIFO allowed: node threads preempt every SCHED_OTHER task of the host on their "
+        "cores (within the kernel's real-time budget, sched_rt_runtime_us)";
+  const std::string mount = cgroup2_mount();
+  std::string controllers;
+  if (!mount.empty()) {
+    std::ifstream in(mount + "/cgroup.controllers");
+    std::getline(in, controllers);
+  }
+  if (mount.empty())
+    out += "; no cgroup v2 hierarchy mounted (no cpuset partition possible)";
+  else if (controllers.find("cpuset") == std::string::npos)
+    out += "; cgroup v2 at " + mount + " has no cpuset controller (cgroup.controllers: \"" +
+           controllers + "\")";
+  else
+    out += "; cgroup v2 at " + mount +
+           " offers cpuset: an exclusive partition of the measured cores is possible but not "
+           "made by this version";
+  return out;
+}
+
 class HwBackend : public Backend {
  public:
   HwBackend(const PolicyRegistry& policies, HwOptions options)
@@ -63,6 +121,8 @@ class HwBackend : public Backend {
 
   std::string_view name() const override { return "hw"; }
   bool process_per_task() const override { return false; }
+  bool judges_precision() const override { return true; }
+  RunSetup prepare_run(const std::vector<const Scenario*>& points) override;
   int baseline_repetitions(const Scenario& s) const override { return s.hw.baseline_repetitions; }
 
   void validate(const Scenario& s) const override {
@@ -110,9 +170,11 @@ class HwBackend : public Backend {
     const MetricPlan plan = plan_metric(s, sources_);
     ctx.fact("pmc_source", plan.source);
     ctx.fact("isolation",
-             "each workload alone on its core, unregulated, measured hw.baseline_repetitions "
-             "times interleaved with the repetition rounds (median); the scenario's other cores "
-             "held by idle spinner threads meanwhile");
+             std::string("each workload alone on its core, unregulated, measured ") +
+                 (s.hw.precision_pct ? "once before each round of its points (hw.precision_pct)"
+                                     : "hw.baseline_repetitions times interleaved with the "
+                                       "repetition rounds") +
+                 " (median); the scenario's other cores held by idle spinner threads meanwhile");
     const auto rt_before = realtime_tids();
     try {
       warm_up(s, plan, w, core, ctx);
@@ -184,10 +246,18 @@ class HwBackend : public Backend {
 
   static constexpr TimeNs kWarmUpNs = kNsPerS;
 
+  // Which threads run where while a point runs, once per transport (the manifest's
+  // thread_placement_<transport>); threads on a measured core that is not their node's are a
+  // fallback (a thread rosguard did not place).
+  void audit_threads(const Scenario& s, RunContext& ctx);
+
   const PolicyRegistry& policies_;
   HwOptions options_;
   PmcSourceRegistry sources_;
   bool warmed_up_ = false;
+  std::optional<HousekeepingPin> housekeeping_;  // rosguard's own threads, for the whole run
+  std::vector<int> housekeeping_cpus_;
+  std::set<std::string> audited_;  // transports whose placement is in the manifest
   std::map<std::tuple<ThrottleMode, SchedClass, bool, int>, ThrottleChoice> throttles_;
 };
 
@@ -219,6 +289,7 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   PointRig rig(s, plan, *source, make_point_regulator(s, plan, baselines, policies_), options_,
                ctx.trace() != nullptr, throttle);
   report_sched(rig.start(), ctx);
+  audit_threads(s, ctx);
   rig.drive(ctx);
   rig.teardown();
   engine_sched.reset();
@@ -231,6 +302,131 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   check_no_realtime_threads(rt_before);
   rig.check_errors();
   return rig.outcome(ctx);
+}
+
+RunSetup HwBackend::prepare_run(const std::vector<const Scenario*>& points) {
+  RunSetup setup;
+  if (points.empty()) return setup;
+  std::set<int> measured, controller;
+  for (const Scenario* s : points) {
+    controller.insert(s->nodes.controller_core);
+    for (const auto& n : s->nodes.rt)
+      measured.insert(n.core);
+    for (const auto& n : s->nodes.nrt)
+      measured.insert(n.core);
+  }
+  // 1. rosguard's own threads and processes off the measured cores, for the whole run.
+  const HousekeepingPlan plan = plan_housekeeping(usable_cpus(), measured, controller);
+  housekeeping_.emplace(plan.cpus);
+  if (!housekeeping_->error().empty()) {
+    setup.fallbacks.emplace_back("housekeeping", housekeeping_->error() + "; they run unpinned");
+  } else {
+    housekeeping_cpus_ = plan.cpus;
+    setup.facts["housekeeping"] =
+        plan.detail +
+        ". There: the runner (engine thread, row writes, progress), the DDS participant's "
+        "threads (they inherit the engine thread's mask), the supervisors of external commands "
+        "once their command started; no task host (one point at a time in this process)";
+    std::cerr << "hw: rosguard's own threads on " << plan.detail << "\n";
+    if (plan.kind == HousekeepingPlan::Kind::SharedController)
+      setup.warnings.push_back("rosguard's own threads share a measured core: " + plan.detail);
+  }
+  setup.facts["host_isolation"] = host_isolation_offers();
+
+  // 2. The measured CPUs timed alone, to see a slow one before its figures are taken for
+  // contention.
+  const std::vector<int> cpus(measured.begin(), measured.end());
+  const CpuSpeedReport speed = time_cpus(cpus, sched_of(*points.front()));
+  nlohmann::json per_cpu = nlohmann::json::object();
+  std::string line;
+  for (const auto& c : speed.cpus) {
+    per_cpu[std::to_string(c.cpu)] = {{"mbps", c.mbps},
+                                      {"cv", std::isfinite(c.cv) ? nlohmann::json(c.cv) : nullptr},
+                                      {"windows_mbps", c.windows_mbps},
+                                      {"pinned", c.pinned}};
+    line += (line.empty() ? "" : ", ") + std::string("CPU ") + std::to_string(c.cpu) + " " +
+            fixed1(c.mbps / 1024.0) + " GiB/s" + (c.pinned ? "" : " (unpinned)");
+  }
+  const auto slow = slow_cpus(speed.cpus, kSlowCpuMargin);
+  double fastest = 0.0;
+  int fastest_cpu = -1;
+  for (const auto& c : speed.cpus)
+    if (std::isfinite(c.mbps) && c.mbps > fastest) {
+      fastest = c.mbps;
+      fastest_cpu = c.cpu;
+    }
+  nlohmann::json slow_list = nlohmann::json::array();
+  for (const auto& c : slow)
+    slow_list.push_back(c.cpu);
+  const std::string method = "bandwidth_read " + std::to_string(speed.options.working_set_kb) +
+                             " KB alone on each, median of " +
+                             std::to_string(speed.options.windows) + " windows of " +
+                             fixed1(speed.options.window_ms) + " ms interleaved over the CPUs";
+  setup.manifest["cpu_speed"] = {{"method", method},
+                                 {"margin_pct", 100.0 * kSlowCpuMargin},
+                                 {"passes_per_window", speed.passes},
+                                 {"cpus", per_cpu},
+                                 {"slower_than_fastest", slow_list}};
+  if (!speed.cpus.empty())
+    std::cerr << "hw: measured CPUs alone (" << method << "): " << line << "\n";
+  for (const auto& c : slow)
+    setup.warnings.push_back(
+        "CPU " + std::to_string(c.cpu) + " ran " + method.substr(0, method.find(" alone")) + " " +
+        fixed1(100.0 * (1.0 - c.mbps / fastest)) + " % slower than CPU " +
+        std::to_string(fastest_cpu) + " (" + fixed1(c.mbps / 1024.0) + " against " +
+        fixed1(fastest / 1024.0) + " GiB/s, margin " + fixed1(100.0 * kSlowCpuMargin) +
+        " %): this host's CPUs are not equal (a VM's vCPUs), so a node on it is slower alone "
+        "and its slowdowns compare only with its own baselines; the manifest's cpu_speed has "
+        "every figure");
+  return setup;
+}
+
+void HwBackend::audit_threads(const Scenario& s, RunContext& ctx) {
+  // Node threads by name (hw/nodes: the RT node's name, "<nRT name>-<callback>", "controller";
+  // the kernel keeps 15 characters).
+  std::vector<std::string> node_names{"controller"};
+  for (const auto& n : s.nodes.rt)
+    node_names.push_back(n.name.substr(0, 15));
+  for (const auto& n : s.nodes.nrt)
+    node_names.push_back(n.name.substr(0, 15));
+  const auto is_node = [&](const std::string& thread) {
+    return std::any_of(node_names.begin(), node_names.end(),
+                       [&](const std::string& n) { return thread.rfind(n, 0) == 0; });
+  };
+  const std::set<int> home(housekeeping_cpus_.begin(), housekeeping_cpus_.end());
+  std::map<std::string, int> node_threads;  // CPUs -> how many
+  std::vector<std::string> at_home, stray;
+  for (const auto& t : thread_placements()) {
+    if (is_node(t.name)) {
+      ++node_threads[cpu_ranges(t.cpus)];
+    } else if (!home.empty() && std::all_of(t.cpus.begin(), t.cpus.end(),
+                                            [&](int c) { return home.count(c) > 0; })) {
+      at_home.push_back(t.name);
+    } else {
+      stray.push_back(t.name + " (CPU " + cpu_ranges(t.cpus) + ")");
+    }
+  }
+  const auto join = [](const std::vector<std::string>& v) {
+    std::string out;
+    for (const auto& x : v)
+      out += (out.empty() ? "" : ", ") + x;
+    return out;
+  };
+  const std::string transport(to_string(s.hw.transport));
+  if (audited_.insert(transport).second) {
+    std::string nodes;
+    for (const auto& [cpus, n] : node_threads)
+      nodes += (nodes.empty() ? "" : ", ") + std::to_string(n) + " on CPU " + cpus;
+    ctx.fact("thread_placement_" + transport,
+             "while a point runs: " + std::to_string(at_home.size()) +
+                 " thread(s) of rosguard on CPU " + cpu_ranges(housekeeping_cpus_) + " (" +
+                 join(at_home) + "); node threads: " + (nodes.empty() ? "none" : nodes) +
+                 (stray.empty() ? "" : "; elsewhere: " + join(stray)));
+  }
+  if (!stray.empty() && !home.empty())
+    ctx.fallback("housekeeping", "thread(s) of rosguard neither on CPU " +
+                                     cpu_ranges(housekeeping_cpus_) +
+                                     " nor a node's while a point ran: " + join(stray));
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 
 namespace rosguard::hw {
@@ -27,7 +28,21 @@ pid_t current_tid() {
   return static_cast<pid_t>(::syscall(SYS_gettid));
 }
 
+namespace {
+std::mutex g_override_mutex;
+std::vector<int> g_override;
+}  // namespace
+
+void set_usable_cpus_override(std::vector<int> cpus) {
+  const std::lock_guard lock(g_override_mutex);
+  g_override = std::move(cpus);
+}
+
 std::vector<int> usable_cpus() {
+  {
+    const std::lock_guard lock(g_override_mutex);
+    if (!g_override.empty()) return g_override;
+  }
   cpu_set_t set;
   CPU_ZERO(&set);
   std::vector<int> out;

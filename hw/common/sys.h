@@ -45,8 +45,12 @@ class Fd {
 
 pid_t current_tid();
 
-// CPUs this process may run on (online and in its affinity mask), ascending.
+// CPUs this process may run on (online and in its affinity mask), ascending. While rosguard's
+// own threads are pinned away from the measured cores (hw/housekeeping.h), the mask from before.
 std::vector<int> usable_cpus();
+// Set by hw/housekeeping.h's pin (the mask before it pinned the calling thread), cleared (empty)
+// when it is released.
+void set_usable_cpus_override(std::vector<int> cpus);
 
 // One thread of this process as /proc/self/task/<tid>/stat shows it.
 struct ThreadSchedInfo {

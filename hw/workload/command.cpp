@@ -13,6 +13,7 @@
 #include <cerrno>
 
 #include "core/error.h"
+#include "hw/housekeeping.h"
 #include "hw/workload/supervisor.h"
 #include "hw/workload/workload.h"
 
@@ -56,9 +57,15 @@ CommandProcess::CommandProcess(const std::vector<std::string>& argv, const Threa
   cpu_set_t set;
   CPU_ZERO(&set);
   if (spec.core >= 0) CPU_SET(spec.core, &set);
+  cpu_set_t home;
+  CPU_ZERO(&home);
+  const std::vector<int> home_cpus = housekeeping_cpus();
+  for (int c : home_cpus)
+    CPU_SET(c, &home);
   SupervisorSetup setup;
   setup.argv = cargv.data();
   setup.cpus = spec.core >= 0 ? &set : nullptr;
+  setup.home = home_cpus.empty() ? nullptr : &home;
   setup.nice = prio::nice_for(spec.priority);
   setup.idle = spec.sched == SchedClass::Idle;
   setup.go_fd = go[0];

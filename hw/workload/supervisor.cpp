@@ -253,6 +253,7 @@ void run_supervisor(const SupervisorSetup& s) {
   }
   if (command == 0) exec_command(s, self);
   ::setpgid(command, command);  // also from here: no race with kill_tree()'s group kill
+  if (s.home) ::sched_setaffinity(0, sizeof *s.home, s.home);  // the command keeps `cpus`
   report(s.report_fd, SupervisorReport::kCommandPid, command);
   close_all_fds();  // rosguard's pipes and files: none may be held open by us
   supervise(self, command);

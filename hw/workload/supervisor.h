@@ -42,8 +42,11 @@ struct SupervisorReport {
 struct SupervisorSetup {
   char* const* argv = nullptr;      // the command, null-terminated
   const cpu_set_t* cpus = nullptr;  // affinity of the supervisor and the command; null: inherit
-  int nice = 0;                     // SCHED_OTHER nice value of both
-  bool idle = false;                // SCHED_IDLE instead (the idle throttle's work)
+  // Where the supervisor moves itself once the command is forked (rosguard's housekeeping CPUs,
+  // hw/housekeeping.h: off the measured core); null: it stays with the command.
+  const cpu_set_t* home = nullptr;
+  int nice = 0;        // SCHED_OTHER nice value of both
+  bool idle = false;   // SCHED_IDLE instead (the idle throttle's work)
   int go_fd = -1;      // read end: one byte lets the command exec, EOF makes it give up
   int report_fd = -1;  // write end of the report pipe (close-on-exec)
   pid_t rosguard = 0;  // getpid() before fork: the parent whose death ends the supervision

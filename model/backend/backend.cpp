@@ -61,7 +61,8 @@ int baseline_round(int k, int repetitions, int measurements) {
 std::string Baselines::key(const Scenario& s, const WorkloadInfo& workload, int core) {
   // How many times a baseline is measured does not change one measurement.
   nlohmann::json hw = s.document.at("hw");
-  hw.erase("baseline_repetitions");
+  for (const char* k : {"baseline_repetitions", "precision_pct", "max_repetitions"})
+    hw.erase(k);
   // FNV-1a of the backend, the platform's and the workload's document hashes (SharedJson::hash:
   // made once per document, not once per row) and the sim and hw settings.
   char hashes[40];

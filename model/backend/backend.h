@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "backend/trace.h"
@@ -130,11 +131,32 @@ class RunContext {
   virtual bool stop_requested() const = 0;
 };
 
+// What a backend found or set up for a whole run (Backend::prepare_run), for the manifest: facts
+// and fallbacks as a task's, warnings (also printed), and entries for the manifest's top level.
+struct RunSetup {
+  std::vector<std::pair<std::string, std::string>> fallbacks;  // (what, detail)
+  std::map<std::string, std::string> facts;
+  std::vector<std::string> warnings;
+  nlohmann::json manifest = nlohmann::json::object();
+};
+
 class Backend {
  public:
   virtual ~Backend() = default;
   virtual std::string_view name() const = 0;
   virtual bool process_per_task() const = 0;
+  // Whether repetitions of a point are measurements with noise, whose precision is reported
+  // (the slowdown CI columns, the manifest's `precision`) and may be targeted (hw.precision_pct,
+  // model/results/precision.h): hw. A deterministic backend (sim: repetitions differ only by
+  // their seeds) says false: it runs the scenario's repetitions and leaves the CI cells empty.
+  virtual bool judges_precision() const { return false; }
+  // Called once by the runner before the first task of a run, on the thread that then calls
+  // isolation() and run_point() (not for process_per_task() backends), with every point of the
+  // run (this shard's). What it sets up lasts until the backend is destroyed. Default: nothing.
+  virtual RunSetup prepare_run(const std::vector<const Scenario*>& points) {
+    (void)points;
+    return {};
+  }
   // How many times each distinct isolation baseline of `scenario` is measured: 1 for a
   // deterministic backend (sim), several where the machine is noisy (hw).
   virtual int baseline_repetitions(const Scenario& scenario) const = 0;

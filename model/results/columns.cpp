@@ -19,6 +19,10 @@ const std::vector<ColumnInfo>& rt_node_columns() {
       {"response_p99_us", "us", "99th percentile of the job response times (release to end)"},
       {"response_max_us", "us", "largest job response time"},
       {"deadline_misses", "count", "jobs that ended after their deadline (periodic RT nodes)"},
+      {"slowdown_ci95_pct", "%",
+       "half-width of the 95 % confidence interval (Student t) of the point's mean slowdown over "
+       "its repetitions, in percent of that mean: each repetition's co-run time over the "
+       "baseline measured in the same round (hw; empty in sim and with one repetition)"},
   };
   return c;
 }
@@ -36,6 +40,10 @@ const std::vector<ColumnInfo>& nrt_node_columns() {
        "write-backs / time, divided by 1024^2)"},
       {"throttle_count", "count", "times the nRT node's core was throttled"},
       {"throttled_us", "us", "total time the nRT node's core spent throttled"},
+      {"slowdown_ci95_pct", "%",
+       "half-width of the 95 % confidence interval (Student t) of the point's mean slowdown over "
+       "its repetitions, in percent of that mean: each repetition's co-run time over the "
+       "baseline measured in the same round (hw; empty in sim and with one repetition)"},
   };
   return c;
 }

@@ -158,13 +158,18 @@ std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
   for (const char* c : {"rt_unregulated_time_us", "rt_unregulated_slowdown",
                         "nrt_unregulated_time_us", "nrt_unregulated_slowdown"})
     h.emplace_back(c);
+  // The precision of the point's slowdowns over its repetitions (fill_ci_cells).
+  for (const char* c : {"rt_slowdown_ci95_pct", "nrt_slowdown_ci95_pct"})
+    h.emplace_back(c);
   for (std::size_t i = 1; i < max_rt; ++i)
-    for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "isolation_n",
-                          "isolation_cv", "response_p99_us", "response_max_us", "deadline_misses"})
+    for (const char* c :
+         {"workload", "time_us", "isolation_us", "slowdown", "isolation_n", "isolation_cv",
+          "response_p99_us", "response_max_us", "deadline_misses", "slowdown_ci95_pct"})
       h.push_back("rt" + std::to_string(i) + "_" + c);
   for (std::size_t i = 1; i < max_nrt; ++i)
-    for (const char* c : {"workload", "time_us", "isolation_us", "slowdown", "isolation_n",
-                          "isolation_cv", "bandwidth_mbps", "throttle_count", "throttled_us"})
+    for (const char* c :
+         {"workload", "time_us", "isolation_us", "slowdown", "isolation_n", "isolation_cv",
+          "bandwidth_mbps", "throttle_count", "throttled_us", "slowdown_ci95_pct"})
       h.push_back("nrt" + std::to_string(i) + "_" + c);
   for (const auto& p : sweep_paths)
     h.push_back("param:" + p);
@@ -280,6 +285,71 @@ std::optional<std::string> refresh_isolation_cells(const std::vector<std::string
   }
   if (!changed) return std::nullopt;
   return join_cells(header, cell);
+}
+
+std::vector<double> row_node_times(const std::vector<std::string>& header,
+                                   const std::vector<std::string>& cells, const Scenario& s) {
+  std::vector<double> out;
+  const auto time_of = [&](const std::string& column) {
+    const auto it = std::find(header.begin(), header.end(), column);
+    if (it == header.end()) return kNaN;
+    const auto c = static_cast<std::size_t>(it - header.begin());
+    if (c >= cells.size() || cells[c].empty()) return kNaN;
+    char* end = nullptr;
+    const double v = std::strtod(cells[c].c_str(), &end);
+    return *end == '\0' ? v : kNaN;
+  };
+  for (std::size_t i = 0; i < s.nodes.rt.size(); ++i)
+    out.push_back(time_of(prefix_of("rt", i) + "time_us"));
+  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
+    out.push_back(time_of(prefix_of("nrt", i) + "time_us"));
+  return out;
+}
+
+std::vector<std::string> fill_ci_cells(const std::vector<std::string>& header,
+                                       const std::vector<std::string>& lines, const Scenario& s,
+                                       const Baselines& b, const RoundPairing& pairing) {
+  const auto rep_column = std::find(header.begin(), header.end(), "rep") - header.begin();
+  std::map<int, std::vector<double>> times;
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& line : lines) {
+    rows.push_back(csv_split(line));
+    const auto& cells = rows.back();
+    if (cells.size() != header.size()) continue;
+    char* end = nullptr;
+    const long rep = std::strtol(cells[static_cast<std::size_t>(rep_column)].c_str(), &end, 10);
+    if (*end != '\0' || rep < 0) continue;
+    times[static_cast<int>(rep)] = row_node_times(header, cells, s);
+  }
+  std::vector<const BaselineRuns*> baselines;
+  std::vector<std::string> columns;
+  const auto node = [&](const std::string& prefix, const WorkloadInfo& w, int core) {
+    const auto it = b.all().find(Baselines::key(s, w, core));
+    baselines.push_back(it == b.all().end() ? nullptr : &it->second);
+    columns.push_back(prefix + "slowdown_ci95_pct");
+  };
+  for (std::size_t i = 0; i < s.nodes.rt.size(); ++i)
+    node(prefix_of("rt", i), s.nodes.rt[i].workload, s.nodes.rt[i].core);
+  for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
+    node(prefix_of("nrt", i), s.nodes.nrt[i].workload, s.nodes.nrt[i].core);
+  const std::vector<MeanCi> cis = slowdown_cis(baselines, times, pairing);
+  std::map<std::string, std::string> fresh;
+  for (std::size_t n = 0; n < cis.size(); ++n)
+    fresh[columns[n]] = fixed(cis[n].half_width_pct(), 3);
+  std::vector<std::string> out;
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    if (rows[r].size() != header.size()) {
+      out.push_back(lines[r]);
+      continue;
+    }
+    std::map<std::string, std::string> cell;
+    for (std::size_t c = 0; c < header.size(); ++c)
+      cell[header[c]] = rows[r][c];
+    for (const auto& [column, value] : fresh)
+      if (cell.count(column)) cell[column] = value;
+    out.push_back(join_cells(header, cell));
+  }
+  return out;
 }
 
 std::string samples_rows(const std::string& point_id, int rep, const PointOutcome& o) {

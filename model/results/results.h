@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "backend/backend.h"
+#include "results/precision.h"
 #include "scenario/scenario.h"
 #include "scenario/sweep.h"
 
@@ -37,6 +38,20 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
 std::optional<std::string> refresh_isolation_cells(const std::vector<std::string>& header,
                                                    const std::string& line, const Scenario& s,
                                                    const Baselines& baselines);
+
+// The co-run times of a points.csv row (`cells` for `header`, of a point of scenario `s`): its
+// RT nodes' time_us, then its nRT nodes', in scenario order; NaN for an empty or odd cell.
+std::vector<double> row_node_times(const std::vector<std::string>& header,
+                                   const std::vector<std::string>& cells, const Scenario& s);
+
+// The rows of one point (`lines`, each a points.csv row for `header` without its newline, of a
+// point of scenario `s`) with their slowdown precision cells (rt_slowdown_ci95_pct,
+// nrt_slowdown_ci95_pct, rt<i>_ / nrt<i>_slowdown_ci95_pct) set from all of them together
+// (slowdown_cis over the rows' repetitions, with `pairing`): every row of a point carries the
+// point's CIs; empty where a node's baseline is missing or fewer than two rows have its time.
+std::vector<std::string> fill_ci_cells(const std::vector<std::string>& header,
+                                       const std::vector<std::string>& lines, const Scenario& s,
+                                       const Baselines& baselines, const RoundPairing& pairing);
 
 inline constexpr const char* kSamplesHeader = "point,rep,kind,value_us";
 

@@ -332,6 +332,13 @@ HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const st
                        "must be at least repetitions (" + std::to_string(repetitions) +
                            "): every repetition round needs a baseline measured before it");
   }
+  if (hw.contains("precision_pct")) out.precision_pct = hw.at("precision_pct").get<double>();
+  out.max_repetitions = hw.value("max_repetitions", 20);
+  if (out.precision_pct && out.max_repetitions < repetitions)
+    throw InputError(file, "/hw/max_repetitions",
+                     "must be at least repetitions (" + std::to_string(repetitions) +
+                         "): with hw.precision_pct, repetitions is the fewest rounds a point runs "
+                         "and max_repetitions the most");
   out.transport =
       hw.value("transport", "inproc") == "dds" ? TransportKind::Dds : TransportKind::Inproc;
   if (hw.contains("dds")) {

@@ -113,6 +113,11 @@ struct HwSettings {
   // Measurements of each isolation baseline (hw.baseline_repetitions; absent: the larger of
   // repetitions and 3).
   int baseline_repetitions = 3;
+  // Adaptive repetitions (hw.precision_pct): repeat rounds of baselines and co-runs until the 95 %
+  // CI of every slowdown is within this many percent of it, or max_repetitions rounds ran
+  // (model/results/precision.h). Absent: exactly `repetitions` rounds.
+  std::optional<double> precision_pct;
+  int max_repetitions = 20;
   TransportKind transport = TransportKind::Inproc;
   std::optional<std::uint32_t> dds_domain_id;  // absent: ROS_DOMAIN_ID, else 0
   std::string dds_namespace;                   // "" or "/a[/b]"

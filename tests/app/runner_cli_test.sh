@@ -371,6 +371,77 @@ list)
   [[ $? -eq 2 ]] || fail "list bogus should exit 2"
   grep -q "bogus" "$tmp/err" || fail "list bogus does not name the bad kind"
   ;;
+precision)
+  # hw.precision_pct (adaptive rounds) on the fake hw backend, whose co-run times carry 1 %
+  # noise: a loose target stops every point after the minimum 3 rounds, a target the noise
+  # cannot reach at the cap; one baseline measurement per round; every row with its point's
+  # slowdown CIs; the manifest and the summary line say what was reached; a resume with a higher
+  # cap adds rounds; sim runs the fixed repetitions and leaves the CI cells empty.
+  make() {  # make FILE PRECISION CAP
+    /usr/bin/python3 - "$scenario" "$1" "$2" "$3" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["repetitions"] = 1
+s["hw"] = {"precision_pct": float(sys.argv[3]), "max_repetitions": int(sys.argv[4])}
+json.dump(s, open(sys.argv[2], "w"))
+PY
+  }
+  trap 'rm -rf "$tmp" tests/app/fixtures/precision-*.json' EXIT
+  make tests/app/fixtures/precision-loose.json 50 5
+  make tests/app/fixtures/precision-tight.json 0.0001 4
+  make tests/app/fixtures/precision-tight-more.json 0.0001 6
+  check() {  # check DIR ROUNDS VERDICT TARGET
+    /usr/bin/python3 - "$@" <<'PY' || fail "$1: wrong rounds, CIs or manifest"
+import collections, csv, json, sys
+out, rounds, verdict, target = sys.argv[1], int(sys.argv[2]), sys.argv[3], float(sys.argv[4])
+rows = list(csv.DictReader(open(f"{out}/points.csv")))
+per_point = collections.Counter(r["point"] for r in rows)
+assert len(per_point) == 12 and set(per_point.values()) == {rounds}, per_point
+for r in rows:
+    for c in ("rt_slowdown_ci95_pct", "nrt_slowdown_ci95_pct"):
+        assert r[c] != "" and float(r[c]) >= 0.0, (c, r)
+    assert float(r["rt_slowdown_ci95_pct"]) > 0.0, r          # 1 % noise
+    assert r["rt_isolation_n"] == str(rounds), r              # one baseline per round
+b = json.load(open(f"{out}/baselines.json"))
+assert all([x["rep"] for x in v["runs"]] == list(range(rounds)) for v in b.values()), b
+u = json.load(open(f"{out}/unregulated.json"))
+assert all(len(v["runs"]) == 3 for v in u.values()), u      # the co-run: the first 3 rounds
+m = json.load(open(f"{out}/manifest.json"))
+assert m["status"] == "complete", m["status"]
+p = m["precision"]
+assert p["target_pct"] == target and len(p["points"]) == 12, p
+for e in p["points"].values():
+    assert e["repetitions"] == rounds and e["verdict"] == verdict, e
+    if verdict == "precise":
+        assert e["rt_slowdown_ci95_pct"] <= target and e["nrt_slowdown_ci95_pct"] <= target, e
+    else:
+        assert e["rt_slowdown_ci95_pct"] > target, e
+PY
+  }
+  "$bin" run tests/app/fixtures/precision-loose.json --backend hw --out "$tmp/loose" > "$tmp/out" \
+    2>/dev/null || fail "loose run"
+  check "$tmp/loose" 3 precise 50
+  grep -q "x 3 repetition(s) written .*; slowdown 95 % CI within 50 % on 12 of 12 point(s)" \
+    "$tmp/out" || fail "summary line: $(cat "$tmp/out")"
+  "$bin" run tests/app/fixtures/precision-tight.json --backend hw --out "$tmp/tight" > "$tmp/out" \
+    2>/dev/null || fail "tight run"
+  check "$tmp/tight" 4 capped 0.0001
+  grep -q "within 0.0001 % on 0 of 12 point(s) .*, 12 stopped at the cap" "$tmp/out" ||
+    fail "summary line: $(cat "$tmp/out")"
+  # The same folder resumed with a higher cap: two more rounds, nothing measured twice.
+  "$bin" run tests/app/fixtures/precision-tight-more.json --backend hw --out "$tmp/tight" --resume \
+    --quiet 2>/dev/null || fail "resume with a higher cap"
+  check "$tmp/tight" 6 capped 0.0001
+  # sim: deterministic, the fixed repetitions, empty CI cells, no precision in the manifest.
+  "$bin" run tests/app/fixtures/precision-tight.json --out "$tmp/sim" --quiet || fail "sim run"
+  [[ $(rows "$tmp/sim") -eq 12 ]] || fail "sim: $(rows "$tmp/sim") rows"
+  /usr/bin/python3 - "$tmp/sim" <<'PY' || fail "sim: CI cells or manifest"
+import csv, json, sys
+rows = list(csv.DictReader(open(f"{sys.argv[1]}/points.csv")))
+assert all(r["rt_slowdown_ci95_pct"] == "" and r["nrt_slowdown_ci95_pct"] == "" for r in rows)
+assert "precision" not in json.load(open(f"{sys.argv[1]}/manifest.json"))
+PY
+  ;;
 unregulated)
   # The unregulated co-run (tools/rosguard/unregulated.h): measured once per co-run key, not
   # per threshold or policy (sim: once; hw: as the baselines, 3 times), written into every

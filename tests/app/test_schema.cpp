@@ -202,6 +202,7 @@ TEST_CASE("schema: apply_defaults fills nested objects and array items", "[schem
     CHECK_FALSE(doc["nodes"]["rt"][0].contains("period_us"));
     CHECK(doc["sim"] == json({{"quantum_us", 10}}));
     CHECK(doc["hw"] == json({{"pmc_source", "auto"},
+                             {"max_repetitions", 20},
                              {"scheduler", "fifo"},
                              {"throttle", "auto"},
                              {"watchdog_ms", 100},

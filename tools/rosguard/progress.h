@@ -27,9 +27,10 @@ class Progress {
            double interval_s = 5.0);
 
   void update(std::size_t done, const std::string& what);
-  // A new total, for work whose size is re-estimated as it goes (the calibration suite's windows:
-  // each measurement's most, lowered as measurements finish early); the ETA follows it.
+  // A new total, for work whose size is re-estimated as it goes (adaptive repetitions add rounds;
+  // the calibration suite's windows shrink as measurements finish early); the ETA follows it.
   void set_total(std::size_t total) { total_ = total; }
+  std::size_t total() const { return total_; }
   // What is counted, shown after the total ("runs" unless set).
   void set_unit(std::string unit) { unit_ = std::move(unit); }
   // Clears the in-place line (before other output, and at the end); in Lines mode prints the

@@ -167,14 +167,18 @@ void append_under_lock(const fs::path& path, const std::string& data) {
   file.append(data);
 }
 
-// The folder's status from its shards' entries (see ResultsStore::finish).
-std::string folder_status(const json& shards, bool all_rows) {
+// The folder's status from its shards' entries (see ResultsStore::finish). `adaptive`: rows
+// alone do not say that the points are done (their rounds are not counted in advance).
+std::string folder_status(const json& shards, bool all_rows, bool adaptive) {
   const auto any = [&](const char* status) {
     return std::any_of(shards.begin(), shards.end(),
                        [&](const json& s) { return s.value("status", "") == status; });
   };
   if (any("failed")) return "failed";
-  if (all_rows) return "complete";
+  const bool shards_done = std::all_of(shards.begin(), shards.end(), [](const json& s) {
+    return s.value("status", "") == "complete";
+  });
+  if (all_rows && (!adaptive || shards_done)) return "complete";
   for (const char* s : {"interrupted", "running"})
     if (any(s)) return s;
   return "partial";
@@ -226,11 +230,12 @@ Baselines baselines_from_json(const json& doc) {
 }
 
 ResultsStore::ResultsStore(fs::path dir, std::string header_line,
-                           std::map<std::string, std::size_t> order, int repetitions)
+                           std::map<std::string, std::size_t> order, int repetitions, bool adaptive)
     : dir_(std::move(dir)),
       header_line_(std::move(header_line)),
       order_(std::move(order)),
-      repetitions_(repetitions) {}
+      repetitions_(repetitions),
+      adaptive_(adaptive) {}
 
 void ResultsStore::prepare(bool overwrite, bool joining, const std::string& scenario_hash) const {
   std::error_code ec;
@@ -278,7 +283,8 @@ json ResultsStore::read_manifest() const {
 
 // Sorted rows, the first row of each run kept; samples of runs without a row dropped. The caller
 // holds the lock, so no writer is between its two appends.
-std::set<RunKey> ResultsStore::tidy_csv_files(const RowRefresher& refresh) const {
+std::set<RunKey> ResultsStore::tidy_csv_files(const RowRefresher& refresh,
+                                              const PointRefresher& point_refresh) const {
   const CsvFile points = read_csv(points_path(), order_);
   if (!points.header.empty() && points.header != header_line_)
     throw InputError("", "",
@@ -286,13 +292,26 @@ std::set<RunKey> ResultsStore::tidy_csv_files(const RowRefresher& refresh) const
                          " has other columns than this scenario produces; resume "
                          "only the same scenario, or choose another --out");
   std::set<RunKey> done;
-  const Baselines baselines = refresh ? read_baselines() : Baselines{};
+  const Baselines baselines = refresh || point_refresh ? read_baselines() : Baselines{};
   std::string text = header_line_ + "\n";
+  // The rows of one point are consecutive (sorted by sweep index, then rep).
+  std::vector<std::string> group;
+  std::string group_id;
+  const auto flush = [&] {
+    if (group.empty()) return;
+    if (point_refresh) group = point_refresh(group_id, group, baselines);
+    for (const auto& line : group)
+      text += line + "\n";
+    group.clear();
+  };
   for (const auto& row : points.rows) {
     if (!done.insert(row.key).second) continue;
     const auto fresh = refresh ? refresh(row.key.first, row.line, baselines) : std::nullopt;
-    text += (fresh ? *fresh : row.line) + "\n";
+    if (row.key.first != group_id) flush();
+    group_id = row.key.first;
+    group.push_back(fresh ? *fresh : row.line);
   }
+  flush();
   write_file_atomic(points_path(), text);
 
   tidy_samples(dir_ / "samples.csv", order_, done);
@@ -351,9 +370,11 @@ void ResultsStore::add_trace(const json& events) const {
   write_trace(dir_ / "trace.json", events);
 }
 
-std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefresher& refresh) {
+std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefresher& refresh,
+                                 const PointRefresher& point_refresh) {
   FileLock lock(dir_ / ".lock");
-  const std::size_t rows = tidy_csv_files(refresh).size();
+  const std::set<RunKey> done = tidy_csv_files(refresh, point_refresh);
+  const std::size_t rows = done.size();
   json m = read_manifest();
   // Every baseline of the folder (all shards): its measurements, their median and spread, and a
   // warning where the spread is too large for the slowdowns measured against it.
@@ -383,6 +404,15 @@ std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefres
   }
   for (const auto& [k, v] : report.facts)
     m["facts"][k] = v;
+  for (const auto& w : report.warnings)
+    if (std::find(m["warnings"].begin(), m["warnings"].end(), w) == m["warnings"].end())
+      m["warnings"].push_back(w);
+  for (const auto& [k, v] : report.manifest.items()) {
+    if (v.is_object() && m.contains(k) && m[k].is_object())
+      m[k].update(v, true);  // objects merged: another shard's entries stay
+    else
+      m[k] = v;
+  }
   const std::string now = iso_time_now();
   json& entry = m["shards"][shard_];
   entry["status"] = report.status;
@@ -396,14 +426,22 @@ std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefres
     entry["error"] = report.error;
 
   const std::size_t expected = order_.size() * static_cast<std::size_t>(repetitions_);
+  // Every point has its first `repetitions_` rows (adaptive points may have more).
+  std::map<std::string, int> first_reps;
+  for (const auto& [id, rep] : done)
+    if (rep >= 0 && rep < repetitions_ && order_.count(id)) ++first_reps[id];
+  const bool all_rows = first_reps.size() == order_.size() &&
+                        std::all_of(first_reps.begin(), first_reps.end(),
+                                    [&](const auto& e) { return e.second == repetitions_; });
   m["end_time"] = now;
-  m["status"] = folder_status(m["shards"], rows == expected);
+  m["status"] = folder_status(m["shards"], all_rows, adaptive_);
   if (const std::string error = first_error(m["shards"]); !error.empty())
     m["error"] = error;
   else
     m.erase("error");
   m["counts"] = {{"points", order_.size()},
                  {"repetitions", repetitions_},
+                 {"repetitions_adaptive", adaptive_},
                  {"runs_expected", expected},
                  {"rows", rows},
                  {"rows_this_invocation", report.rows},

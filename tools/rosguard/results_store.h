@@ -45,6 +45,11 @@ Baselines baselines_from_json(const nlohmann::json& doc);
 // baselines of the whole folder; nullopt leaves it as it is (refresh_isolation_cells).
 using RowRefresher = std::function<std::optional<std::string>(
     const std::string& point_id, const std::string& line, const Baselines& baselines)>;
+// The rows of one point (all its repetitions, in order, after RowRefresher) with the cells that
+// depend on all of them (the slowdown CIs: fill_ci_cells) brought up to date.
+using PointRefresher = std::function<std::vector<std::string>(const std::string& point_id,
+                                                              const std::vector<std::string>& lines,
+                                                              const Baselines& baselines)>;
 
 // What one invocation (one shard, or a whole run) did, for the manifest.
 struct InvocationReport {
@@ -55,14 +60,22 @@ struct InvocationReport {
   double elapsed_s = 0.0;
   std::vector<std::pair<std::string, std::string>> fallbacks;  // (what, detail)
   std::map<std::string, std::string> facts;
+  std::vector<std::string> warnings;  // added to the manifest's (once each)
+  // Entries for the manifest's top level; an object is merged into one already there (another
+  // shard's per-point entries are kept).
+  nlohmann::json manifest = nlohmann::json::object();
 };
 
 class ResultsStore {
  public:
   // `header_line`: points.csv's header for this scenario; `order`: point id -> sweep index (the
-  // canonical row order, one entry per point of the scenario); `repetitions` per point.
+  // canonical row order, one entry per point of the scenario); `repetitions` per point: every
+  // point has that many rows when the folder is complete. `adaptive`: points run a variable
+  // number of rounds (hw.precision_pct), at least `repetitions`; the folder is then complete when
+  // they all have their rows and every shard's invocation completed (its points reached their
+  // precision or their cap).
   ResultsStore(std::filesystem::path dir, std::string header_line,
-               std::map<std::string, std::size_t> order, int repetitions);
+               std::map<std::string, std::size_t> order, int repetitions, bool adaptive = false);
 
   const std::filesystem::path& dir() const { return dir_; }
   std::filesystem::path points_path() const { return dir_ / "points.csv"; }
@@ -97,10 +110,13 @@ class ResultsStore {
   // each too noisy one, and the folder's status: complete once every run of the scenario has
   // its row, else failed / interrupted / running when a shard says so, else partial). Returns
   // the rows now in points.csv.
-  std::size_t finish(const InvocationReport& report, const RowRefresher& refresh = {});
+  // `points`: each point's rows refreshed together after `refresh` (PointRefresher).
+  std::size_t finish(const InvocationReport& report, const RowRefresher& refresh = {},
+                     const PointRefresher& points = {});
 
  private:
-  std::set<std::pair<std::string, int>> tidy_csv_files(const RowRefresher& refresh = {}) const;
+  std::set<std::pair<std::string, int>> tidy_csv_files(const RowRefresher& refresh = {},
+                                                       const PointRefresher& points = {}) const;
   Baselines read_baselines() const;
   nlohmann::json read_manifest() const;
 
@@ -108,6 +124,7 @@ class ResultsStore {
   std::string header_line_;
   std::map<std::string, std::size_t> order_;
   int repetitions_;
+  bool adaptive_;
   std::string shard_;
 };
 

@@ -59,6 +59,11 @@ std::string scenario_hash(const LoadedScenario& s) {
   json j = s.expanded;
   for (const char* k : {"name", "description", "repetitions", "$schema"})
     j.erase(k);
+  // How often points are repeated does not change one run: a resumed run may ask for more
+  // repetitions, a tighter precision or a higher cap.
+  if (j.contains("hw") && j["hw"].is_object())
+    for (const char* k : {"precision_pct", "max_repetitions"})
+      j["hw"].erase(k);
   char buf[20];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(fnv1a(j.dump())));
   return buf;

@@ -4,15 +4,19 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <optional>
 #include <set>
 
 #include "core/error.h"
+#include "files.h"
 #include "progress.h"
+#include "results/precision.h"
 #include "results/results.h"
 #include "results_store.h"
 #include "run_manifest.h"
@@ -72,9 +76,14 @@ struct CorunPlan {
   bool is_corun(std::size_t point) const { return point >= first; }
 };
 
+// How many times a co-run (and a baseline) is measured for a point: the backend's count, or with
+// adaptive rounds the rounds every point runs (one per round).
+using MeasurementCount = std::function<int(const Scenario&)>;
+
 // Appends one point per distinct co-run key this shard's regulated points need (none with
 // `opt.unregulated` off).
-CorunPlan add_corun_points(LoadedScenario& loaded, const RunOptions& opt, const Backend& backend) {
+CorunPlan add_corun_points(LoadedScenario& loaded, const RunOptions& opt,
+                           const MeasurementCount& measurements_of) {
   CorunPlan plan;
   plan.first = loaded.points.size();
   if (!opt.unregulated) return plan;
@@ -87,7 +96,7 @@ CorunPlan add_corun_points(LoadedScenario& loaded, const RunOptions& opt, const 
         !UnregulatedCoruns::needed(p.scenario))
       continue;
     const std::string& key = plan.key_of[p.sweep.id] = UnregulatedCoruns::key(p.scenario);
-    const int measurements = backend.baseline_repetitions(p.scenario);
+    const int measurements = measurements_of(p.scenario);
     auto [it, fresh] = index.try_emplace(key, added.size());
     if (fresh) {
       LoadedPoint corun;
@@ -350,9 +359,13 @@ class RowWriter {
 // baselines and co-runs measured so far (the rows are refreshed with all of them when the run
 // finishes). Returns whether a baseline or co-run was measured after a row was written (so that
 // a row may lack it).
+// The points.csv row of a point run, as it is appended (the rows of adaptive rounds are judged
+// from it).
+using OnRow = std::function<void(const Task& task, const std::string& row)>;
+
 bool run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
                const ResultsStore& store, TaskRunner& runner, InvocationReport& report,
-               json& trace_events) {
+               json& trace_events, const OnRow& on_row = {}) {
   bool measured_after_rows = false;
   constexpr std::size_t kHeldRuns = 256;
   RowWriter writer(store, report);
@@ -389,7 +402,9 @@ bool run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
         corun_measured = true;
       } else {
         const LoadedPoint& lp = st.loaded->points[t.point];
-        held.emplace(position, run_rows(r, lp, t.rep, st));
+        auto rows = run_rows(r, lp, t.rep, st);
+        if (on_row) on_row(t, rows.second);
+        held.emplace(position, std::move(rows));
         for (const auto& e : r.trace)
           trace_events.push_back(e);
       }
@@ -420,6 +435,288 @@ void warn_noisy_baselines(const TaskPlan& plan, const Baselines& baselines) {
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Repetitions and their precision (model/results/precision.h, docs/design.md section 5).
+
+// How many rounds a point runs on this backend: hw.precision_pct / max_repetitions on a backend
+// that judges precision (hw), else the scenario's repetitions.
+PrecisionRule rule_of(const Scenario& s, const Backend& backend) {
+  if (!backend.judges_precision()) return precision_rule(s.repetitions, std::nullopt, 0);
+  return precision_rule(s.repetitions, s.hw.precision_pct, s.hw.max_repetitions);
+}
+
+bool adaptive_rounds(const Scenario& s, const Backend& backend) {
+  return backend.judges_precision() && s.hw.precision_pct.has_value();
+}
+
+bool adaptive_run(const LoadedScenario& loaded, const Backend& backend) {
+  return std::any_of(loaded.points.begin(), loaded.points.end(),
+                     [&](const LoadedPoint& p) { return adaptive_rounds(p.scenario, backend); });
+}
+
+RoundPairing pairing_of(const Scenario& s, const Backend& backend) {
+  RoundPairing r;
+  r.repetitions = s.repetitions;
+  r.measurements = backend.baseline_repetitions(s);
+  r.one_per_round = adaptive_rounds(s, backend);
+  return r;
+}
+
+// Co-run times of a shard's point runs (RT nodes, then nRT nodes), by point index and rep.
+using RunTimes = std::map<std::size_t, std::map<int, std::vector<double>>>;
+
+bool in_shard(const LoadedPoint& p, const RunOptions& opt) {
+  return p.sweep.index % static_cast<std::size_t>(opt.shard_count) ==
+         static_cast<std::size_t>(opt.shard_index);
+}
+
+// The rows points.csv already holds for this shard's points (a resumed run).
+void read_run_times(const fs::path& points_csv, const LoadedScenario& loaded,
+                    std::size_t point_count, const RunOptions& opt, RunTimes& out) {
+  std::error_code ec;
+  if (!fs::exists(points_csv, ec)) return;
+  std::map<std::string, std::size_t> index_of;
+  for (std::size_t i = 0; i < point_count; ++i)
+    if (in_shard(loaded.points[i], opt)) index_of.emplace(loaded.points[i].sweep.id, i);
+  const std::vector<std::string> header = header_of(loaded);
+  const auto lines = split_lines(read_file(points_csv));
+  for (std::size_t l = 1; l < lines.size(); ++l) {
+    const auto cells = csv_split(lines[l]);
+    if (cells.size() != header.size()) continue;
+    const auto it = index_of.find(cells[0]);
+    if (it == index_of.end()) continue;
+    char* end = nullptr;
+    const long rep = std::strtol(cells[1].c_str(), &end, 10);
+    if (*end != '\0' || rep < 0) continue;
+    out[it->second][static_cast<int>(rep)] =
+        row_node_times(header, cells, loaded.points[it->second].scenario);
+  }
+}
+
+// The CIs of a point's slowdowns (RT nodes, then nRT nodes) over its first `rounds` runs (all
+// with -1).
+std::vector<MeanCi> point_cis(const Scenario& s, const Backend& backend, const Baselines& b,
+                              const std::map<int, std::vector<double>>& times, int rounds = -1) {
+  std::vector<const BaselineRuns*> runs;
+  const auto add = [&](const WorkloadInfo& w, int core) {
+    const auto it = b.all().find(Baselines::key(s, w, core));
+    runs.push_back(it == b.all().end() ? nullptr : &it->second);
+  };
+  for (const auto& n : s.nodes.rt)
+    add(n.workload, n.core);
+  for (const auto& n : s.nodes.nrt)
+    add(n.workload, n.core);
+  std::map<int, std::vector<double>> first;
+  for (const auto& [rep, t] : times)
+    if (rounds < 0 || rep < rounds) first.emplace(rep, t);
+  return slowdown_cis(runs, first, pairing_of(s, backend));
+}
+
+std::string ci_column(const Scenario& s, std::size_t node) {
+  const std::size_t rt = s.nodes.rt.size();
+  const std::string kind = node < rt ? "rt" : "nrt";
+  const std::size_t i = node < rt ? node : node - rt;
+  return (i == 0 ? kind + "_" : kind + std::to_string(i) + "_") + "slowdown_ci95_pct";
+}
+
+std::string pct_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f %%", v);
+  return buf;
+}
+
+// The adaptive rounds (hw.precision_pct): round r measures, for every point still short of its
+// precision (and below its cap), measurement r of each of its baselines, then (in the first
+// rounds) its unregulated co-run, then its repetition r; the points that reached their target
+// after r rounds (or their cap) are left out of round r. What a resumed folder already holds is
+// not measured again. Returns whether a baseline or co-run was measured after a row was written.
+bool run_adaptive(const LoadedScenario& loaded, const RunOptions& opt,
+                  const ResultsStore::Opened& opened, const Backend& backend,
+                  const CorunPlan& corun_plan, RunState& st, const ResultsStore& store,
+                  TaskRunner& runner, InvocationReport& report, json& trace_events,
+                  Progress& progress, RunTimes& times, std::set<std::string>& keys) {
+  struct Node {
+    std::string key;
+    const WorkloadInfo* workload;
+    int core;
+  };
+  struct Shard {
+    std::size_t point;
+    PrecisionRule rule;
+    std::vector<Node> nodes;
+    std::optional<std::size_t> corun;  // index of its co-run point
+  };
+  std::map<std::string, std::size_t> corun_index;
+  for (std::size_t c = corun_plan.first; c < loaded.points.size(); ++c)
+    corun_index.emplace(loaded.points[c].sweep.id, c);
+  std::vector<Shard> shard;
+  int max_rounds = 0;
+  for (std::size_t i = 0; i < corun_plan.first; ++i) {
+    const LoadedPoint& p = loaded.points[i];
+    if (!in_shard(p, opt)) continue;
+    Shard e{i, rule_of(p.scenario, backend), {}, std::nullopt};
+    for (const auto& n : p.scenario.nodes.rt)
+      e.nodes.push_back({Baselines::key(p.scenario, n.workload, n.core), &n.workload, n.core});
+    for (const auto& n : p.scenario.nodes.nrt)
+      e.nodes.push_back({Baselines::key(p.scenario, n.workload, n.core), &n.workload, n.core});
+    for (const auto& n : e.nodes)
+      keys.insert(n.key);
+    if (const auto k = corun_plan.key_of.find(p.sweep.id); k != corun_plan.key_of.end())
+      if (const auto c = corun_index.find(k->second); c != corun_index.end()) e.corun = c->second;
+    max_rounds = std::max(max_rounds, e.rule.max_rounds);
+    shard.push_back(std::move(e));
+  }
+  bool measured_after_rows = false;
+  for (int r = 0; r < max_rounds; ++r) {
+    std::vector<Task> isolation, coruns, points;
+    std::set<std::string> iso_added, corun_added;
+    std::size_t extra = 0;   // runs beyond the planned minimum
+    std::size_t active = 0;  // points in this round
+    for (const Shard& e : shard) {
+      const LoadedPoint& p = loaded.points[e.point];
+      if (r >= e.rule.max_rounds) continue;
+      const bool done = opened.done.count({p.sweep.id, r}) > 0;
+      if (r >= e.rule.min_rounds) {
+        const auto it = times.find(e.point);
+        const auto verdict = judge_rounds(
+            e.rule, r,
+            point_cis(p.scenario, backend, st.baselines,
+                      it == times.end() ? std::map<int, std::vector<double>>{} : it->second, r));
+        if (verdict != RoundsVerdict::More) continue;
+        if (!done) ++extra;
+      }
+      ++active;
+      if (!done) points.push_back({Task::Kind::Point, e.point, r, "", nullptr, 0});
+      for (const Node& n : e.nodes) {
+        const auto held = st.baselines.all().find(n.key);
+        if (held != st.baselines.all().end() && held->second.runs.count(r)) continue;
+        if (iso_added.insert(n.key).second)
+          isolation.push_back({Task::Kind::Isolation, e.point, r, n.key, n.workload, n.core});
+      }
+      if (e.corun) {
+        const std::size_t c = *e.corun - corun_plan.first;
+        const std::string& id = loaded.points[*e.corun].sweep.id;
+        if (r < corun_plan.measurements[c] && !st.coruns.has(id, r) &&
+            corun_added.insert(id).second)
+          coruns.push_back({Task::Kind::Point, *e.corun, r, "", nullptr, 0, true});
+      }
+    }
+    if (active == 0) break;
+    // A resumed folder may hold the whole round already.
+    if (points.empty() && isolation.empty() && coruns.empty()) continue;
+    progress.set_total(progress.total() + extra);
+    TaskPlan round;
+    for (auto* phase : {&isolation, &coruns, &points})
+      if (!phase->empty()) {
+        round.tasks += phase->size();
+        round.phases.push_back(std::move(*phase));
+      }
+    measured_after_rows =
+        run_tasks(round, corun_plan, st, store, runner, report, trace_events,
+                  [&](const Task& t, const std::string& row) {
+                    std::string line = row;
+                    if (!line.empty() && line.back() == '\n') line.pop_back();
+                    times[t.point][t.rep] =
+                        row_node_times(st.header, csv_split(line), loaded.points[t.point].scenario);
+                  }) ||
+        measured_after_rows;
+    if (!runner.failure().empty() || stop_signal()) break;
+  }
+  return measured_after_rows;
+}
+
+// What the run reached, per point of this shard: its rounds, each slowdown's CI, and why it
+// stopped; for the manifest (`precision`) and the summary line.
+struct PrecisionReport {
+  json manifest;
+  std::string repetitions;  // "3" or "3-20 (median 4)"
+  std::string summary;      // "" when nothing to say (one repetition, a deterministic backend)
+};
+
+PrecisionReport report_precision(const LoadedScenario& loaded, const RunOptions& opt,
+                                 std::size_t point_count, const Backend& backend,
+                                 const Baselines& baselines, const RunTimes& times, bool finished) {
+  PrecisionReport out;
+  const Scenario& first = loaded.points.front().scenario;
+  const bool adaptive = adaptive_run(loaded, backend);
+  const PrecisionRule first_rule = rule_of(first, backend);
+  json points = json::object();
+  std::vector<double> reps, widest;
+  std::size_t judged = 0, precise = 0, capped = 0, open = 0;
+  for (std::size_t i = 0; i < point_count; ++i) {
+    const LoadedPoint& p = loaded.points[i];
+    if (!in_shard(p, opt)) continue;
+    const auto it = times.find(i);
+    if (it == times.end()) continue;
+    const auto& t = it->second;
+    const std::vector<MeanCi> cis = point_cis(p.scenario, backend, baselines, t);
+    const PrecisionRule rule = rule_of(p.scenario, backend);
+    RoundsVerdict verdict = judge_rounds(rule, static_cast<int>(t.size()), cis);
+    json entry{{"repetitions", t.size()}};
+    for (std::size_t n = 0; n < cis.size(); ++n)
+      entry[ci_column(p.scenario, n)] = cis[n].half_width_pct();
+    if (rule.target_pct) entry["target_pct"] = *rule.target_pct;
+    entry["verdict"] = verdict == RoundsVerdict::More ? (finished ? "more wanted" : "incomplete")
+                                                      : std::string(to_string(verdict));
+    points[p.sweep.id] = entry;
+    reps.push_back(static_cast<double>(t.size()));
+    const double w = widest_ci_pct(cis);
+    if (std::isfinite(w)) widest.push_back(w);
+    ++judged;
+    precise += verdict == RoundsVerdict::Precise;
+    capped += verdict == RoundsVerdict::Capped;
+    open += verdict == RoundsVerdict::More;
+  }
+  if (judged == 0) return out;
+  const auto [lo, hi] = std::minmax_element(reps.begin(), reps.end());
+  out.repetitions = *lo == *hi ? std::to_string(static_cast<int>(*lo))
+                               : std::to_string(static_cast<int>(*lo)) + "-" +
+                                     std::to_string(static_cast<int>(*hi)) + " (median " +
+                                     std::to_string(static_cast<int>(median(reps))) + ")";
+  if (widest.empty()) {
+    out.summary = "slowdown 95 % CI: not computable (fewer than two repetitions of a slowdown)";
+  } else if (adaptive && first_rule.target_pct) {
+    char target[32];
+    std::snprintf(target, sizeof target, "%g %%", *first_rule.target_pct);
+    out.summary = "slowdown 95 % CI within " + std::string(target) + " on " +
+                  std::to_string(precise) + " of " + std::to_string(judged) + " point(s) (widest " +
+                  pct_text(*std::max_element(widest.begin(), widest.end())) + ", median " +
+                  pct_text(median(widest)) + ")";
+    if (capped) out.summary += ", " + std::to_string(capped) + " stopped at the cap";
+    if (open) out.summary += ", " + std::to_string(open) + " not finished";
+  } else {
+    out.summary = "slowdown 95 % CI: widest " +
+                  pct_text(*std::max_element(widest.begin(), widest.end())) + ", median " +
+                  pct_text(median(widest)) + " (set hw.precision_pct to repeat until a target)";
+  }
+  out.manifest = {
+      {"method",
+       "95 % confidence interval (Student t) of the mean of each slowdown over the point's "
+       "repetitions, each repetition's co-run time over the baseline measured before the same "
+       "round; half-width in percent of the mean"},
+      {"target_pct", first_rule.target_pct ? json(*first_rule.target_pct) : json(nullptr)},
+      {"min_repetitions", first_rule.min_rounds},
+      {"max_repetitions", first_rule.max_rounds},
+      {"summary", out.summary},
+      {"points", points}};
+  return out;
+}
+
+// Each point's rows with their slowdown CI cells from all of them (fill_ci_cells), for a
+// backend that judges precision.
+PointRefresher point_refresher(const LoadedScenario& loaded, const Backend& backend) {
+  if (!backend.judges_precision()) return {};
+  std::map<std::string, std::pair<const Scenario*, RoundPairing>> by_id;
+  for (const auto& p : loaded.points)
+    by_id.emplace(p.sweep.id, std::make_pair(&p.scenario, pairing_of(p.scenario, backend)));
+  return [by_id, header = header_of(loaded)](
+             const std::string& id, const std::vector<std::string>& lines, const Baselines& b) {
+    const auto it = by_id.find(id);
+    if (it == by_id.end()) return lines;
+    return fill_ci_cells(header, lines, *it->second.first, b, it->second.second);
+  };
+}
+
 // Brings a row's baseline and unregulated co-run cells up to date from the folder's baselines
 // and co-runs (DIR/unregulated.json as it is now: read here, not under the store's lock). The
 // co-run keys of this shard's points are `corun_plan`'s; another shard's are made here.
@@ -448,7 +745,7 @@ RowRefresher row_refresher(const LoadedScenario& loaded, const CorunPlan& corun_
 }
 
 int report_to_user(const RunOptions& opt, const InvocationReport& report, const fs::path& out,
-                   std::size_t points, int reps) {
+                   std::size_t points, const PrecisionReport& precision, int reps) {
   if (report.status == "failed") {
     std::cerr << "error: " << report.error << "\n"
               << "rosguard: " << report.rows << " run(s) written to " << out.string()
@@ -463,8 +760,10 @@ int report_to_user(const RunOptions& opt, const InvocationReport& report, const 
   if (!opt.quiet) {
     char elapsed[32];
     std::snprintf(elapsed, sizeof elapsed, "%.2f s", report.elapsed_s);
-    std::cout << "rosguard: " << report.rows << " run(s) of " << points << " point(s) x " << reps
-              << " repetition(s) written to " << out.string() << " in " << elapsed << "\n";
+    std::cout << "rosguard: " << report.rows << " run(s) of " << points << " point(s) x "
+              << (precision.repetitions.empty() ? std::to_string(reps) : precision.repetitions)
+              << " repetition(s) written to " << out.string() << " in " << elapsed
+              << (precision.summary.empty() ? "" : "; " + precision.summary) << "\n";
   }
   return 0;
 }
@@ -494,10 +793,18 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   std::map<std::string, std::size_t> order;
   for (const auto& p : loaded.points)
     order.emplace(p.sweep.id, p.sweep.index);
+  // Adaptive rounds (hw.precision_pct): every point runs at least its rule's min_rounds.
+  const bool adaptive = adaptive_run(loaded, *backend);
+  int min_rounds = first.repetitions;
+  if (adaptive) {
+    min_rounds = rule_of(first, *backend).min_rounds;
+    for (const auto& p : loaded.points)
+      min_rounds = std::min(min_rounds, rule_of(p.scenario, *backend).min_rounds);
+  }
 
   // 2. The results folder: new, resumed, or shared with other shards of the same scenario.
   ResultsStore store(results_folder(opt, loaded), join(header_of(loaded), ","), order,
-                     first.repetitions);
+                     adaptive ? min_rounds : first.repetitions, adaptive);
   store.prepare(opt.overwrite, opt.resume || opt.shard_count > 1, scenario_hash(loaded));
   std::error_code ec;
   if (opt.overwrite) fs::remove(store.dir() / "unregulated.json", ec);
@@ -511,16 +818,40 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   // the bytes) and finish the manifest, also when something throws.
   InvocationReport report;
   CorunPlan corun_plan;
+  PrecisionReport precision;
   // Rows another invocation or shard wrote, or rows written before a measurement they use, are
   // brought up to date when the run finishes; a fresh single-shard run that measured every
   // baseline and co-run before its first row has none (the refresh reads every row: 0.3 s for
   // 10,000 points).
   bool refresh_rows = true;
   try {
+    // The backend's setup for the whole run (hw: its own threads off the measured cores, the
+    // measured CPUs timed).
+    if (!backend->process_per_task()) {
+      std::vector<const Scenario*> shard_points;
+      for (const auto& p : loaded.points)
+        if (in_shard(p, opt)) shard_points.push_back(&p.scenario);
+      RunSetup setup = backend->prepare_run(shard_points);
+      for (const auto& w : setup.warnings)
+        std::cerr << "warning: " << w << "\n";
+      for (const auto& [what, detail] : setup.fallbacks)
+        if (!opened.fallbacks.count({what, detail})) {
+          std::cerr << "warning: fallback (" << what << "): " << detail << "\n";
+          report.fallbacks.emplace_back(what, detail);
+        }
+      report.facts.insert(setup.facts.begin(), setup.facts.end());
+      report.warnings = std::move(setup.warnings);
+      report.manifest = std::move(setup.manifest);
+    }
     // The co-run points are appended: `first` and other references into the points are stale.
-    corun_plan = add_corun_points(loaded, opt, *backend);
+    const Backend& be = *backend;
+    corun_plan = add_corun_points(loaded, opt, [&](const Scenario& s) {
+      return adaptive_rounds(s, be) ? rule_of(s, be).min_rounds : be.baseline_repetitions(s);
+    });
+    const std::size_t scenario_points = corun_plan.first;
     UnregulatedCoruns coruns = UnregulatedCoruns::read(store.dir());
-    const TaskPlan plan = plan_tasks(loaded, opt, opened, *backend, corun_plan, coruns);
+    const TaskPlan plan =
+        adaptive ? TaskPlan{} : plan_tasks(loaded, opt, opened, *backend, corun_plan, coruns);
     const bool elsewhere = std::any_of(
         loaded.points.begin(), loaded.points.end(),
         [](const LoadedPoint& p) { return UnregulatedCoruns::signalled_elsewhere(p.scenario); });
@@ -531,10 +862,21 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
                            "(unregulated.json)"
                          : "measured once per co-run of the nodes with policy none "
                            "(unregulated.json)";
-    report.skipped_on_resume = plan.skipped;
-    if (plan.skipped > 0 && !opt.quiet)
-      std::cerr << "resume: " << plan.skipped << " run(s) already in "
-                << store.points_path().string() << ", skipped\n";
+    // Adaptive: the runs every point makes at least, without those the folder holds.
+    std::size_t planned_runs = plan.runs, skipped = plan.skipped;
+    if (adaptive) {
+      planned_runs = 0;
+      for (std::size_t i = 0; i < scenario_points; ++i) {
+        const LoadedPoint& p = loaded.points[i];
+        if (!in_shard(p, opt)) continue;
+        for (int r = 0; r < rule_of(p.scenario, *backend).min_rounds; ++r)
+          opened.done.count({p.sweep.id, r}) ? ++skipped : ++planned_runs;
+      }
+    }
+    report.skipped_on_resume = skipped;
+    if (skipped > 0 && !opt.quiet)
+      std::cerr << "resume: " << skipped << " run(s) already in " << store.points_path().string()
+                << ", skipped\n";
     RunState st{&loaded,   backend.get(),     opened.baselines,
                 opt.trace, header_of(loaded), std::move(coruns)};
     std::vector<TaskHost*> host_ptrs;
@@ -543,14 +885,38 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     auto exec =
         make_executor(st, backend->process_per_task(), worker_count(opt, *backend), host_ptrs);
     StopSignalGuard signals;
-    Progress progress(plan.runs, !opt.quiet);
-    TaskRunner runner(loaded, corun_plan, *exec, progress, report, opened.fallbacks);
+    Progress progress(planned_runs, !opt.quiet);
+    std::set<std::pair<std::string, std::string>> fallbacks_seen = opened.fallbacks;
+    for (const auto& f : report.fallbacks)
+      fallbacks_seen.insert(f);
+    TaskRunner runner(loaded, corun_plan, *exec, progress, report, std::move(fallbacks_seen));
     json trace_events = json::array();
+    // The co-run times of this shard's runs, for the precision of the slowdowns.
+    RunTimes times;
+    if (backend->judges_precision() && !opened.done.empty())
+      read_run_times(store.points_path(), loaded, scenario_points, opt, times);
+    const OnRow record = [&](const Task& t, const std::string& row) {
+      std::string line = row;
+      if (!line.empty() && line.back() == '\n') line.pop_back();
+      times[t.point][t.rep] =
+          row_node_times(st.header, csv_split(line), loaded.points[t.point].scenario);
+    };
+    std::set<std::string> keys = plan.keys;
     const bool measured_after_rows =
-        run_tasks(plan, corun_plan, st, store, runner, report, trace_events);
+        adaptive ? run_adaptive(loaded, opt, opened, *backend, corun_plan, st, store, runner,
+                                report, trace_events, progress, times, keys)
+                 : run_tasks(plan, corun_plan, st, store, runner, report, trace_events,
+                             backend->judges_precision() ? record : OnRow{});
     refresh_rows = measured_after_rows || opt.shard_count > 1 || !opened.done.empty();
     progress.finish();
-    warn_noisy_baselines(plan, st.baselines);
+    TaskPlan noisy;
+    noisy.keys = keys;
+    warn_noisy_baselines(noisy, st.baselines);
+    if (backend->judges_precision()) {
+      precision = report_precision(loaded, opt, scenario_points, *backend, st.baselines, times,
+                                   runner.failure().empty() && !runner.interrupted());
+      if (!precision.manifest.is_null()) report.manifest["precision"] = precision.manifest;
+    }
     if (opt.trace && !trace_events.empty()) store.add_trace(trace_events);
     report.error = runner.failure();
     report.status = !report.error.empty()  ? "failed"
@@ -561,14 +927,16 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     report.status = "failed";
     report.error = e.what();
     try {
-      store.finish(report, row_refresher(loaded, corun_plan, store.dir()));
+      store.finish(report, row_refresher(loaded, corun_plan, store.dir()),
+                   point_refresher(loaded, *backend));
     } catch (const std::exception&) {  // the first error is the one to report
     }
     throw;
   }
   store.finish(report,
-               refresh_rows ? row_refresher(loaded, corun_plan, store.dir()) : RowRefresher{});
-  return report_to_user(opt, report, store.dir(), point_count, repetitions);
+               refresh_rows ? row_refresher(loaded, corun_plan, store.dir()) : RowRefresher{},
+               point_refresher(loaded, *backend));
+  return report_to_user(opt, report, store.dir(), point_count, precision, repetitions);
 }
 
 }  // namespace rosguard

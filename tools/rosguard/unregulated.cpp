@@ -69,7 +69,9 @@ std::string UnregulatedCoruns::key(const Scenario& s) {
   // Nothing of the regulation, nor how often or under which name the scenario runs.
   for (const char* k : {"regulation", "repetitions", "name", "description", "$schema", "sweep"})
     doc.erase(k);
-  if (doc.contains("hw") && doc["hw"].is_object()) doc["hw"].erase("baseline_repetitions");
+  if (doc.contains("hw") && doc["hw"].is_object())
+    for (const char* k : {"baseline_repetitions", "precision_pct", "max_repetitions"})
+      doc["hw"].erase(k);
   // Regulation settings a node may carry (a per-node budget) do not change an unregulated run.
   if (doc.contains("nodes") && doc["nodes"].is_object())
     for (const char* group : {"rt", "nrt"})

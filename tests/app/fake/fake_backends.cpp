@@ -32,6 +32,9 @@ class FakeBackend : public Backend {
   int baseline_repetitions(const Scenario& s) const override {
     return per_process_ ? 1 : s.hw.baseline_repetitions;
   }
+  // The "hw" fake's repetitions are noisy measurements (1 % uniform noise from the task seed):
+  // their precision is reported and hw.precision_pct applies, as on the real hw backend.
+  bool judges_precision() const override { return !per_process_; }
   void validate(const Scenario&) const override {}
 
   IsolationResult isolation(const Scenario&, const WorkloadInfo& w, int core, std::uint64_t,

@@ -30,6 +30,7 @@ import numpy as np
 import scipy.stats
 
 from analysis import style
+from analysis.figures.validation import bar_lengths
 from analysis.results import InvalidInput, load_results
 from analysis.tables import write_csv
 
@@ -278,8 +279,10 @@ def _scatter_panel(ax, node: str, name: str, pairs, errors: ErrorSummary) -> Non
         sb = [q for _, q in pairs]
         xa = np.array([s.mean for s in sa])
         yb = np.array([s.mean for s in sb])
-        ax.errorbar(xa, yb, xerr=[xa - [s.min for s in sa], np.array([s.max for s in sa]) - xa],
-                    yerr=[yb - [s.min for s in sb], np.array([s.max for s in sb]) - yb],
+        # Distances, never negative: the mean of equal repetitions can round past their max.
+        xerr = np.array([bar_lengths(s.mean, s.min, s.max) for s in sa]).T
+        yerr = np.array([bar_lengths(s.mean, s.min, s.max) for s in sb]).T
+        ax.errorbar(xa, yb, xerr=xerr, yerr=yerr,
                     linestyle="none", markersize=6, markerfacecolor="none", elinewidth=0.7,
                     capsize=2, label=f"{name} node ({len(pairs)} points)", **NODE_STYLE[node])
         lo = min(min(s.min for s in sa), min(s.min for s in sb))

@@ -178,3 +178,16 @@ def test_error_summary_of_no_pairs():
     e = compare.error_summary([])
     assert e.pairs == 0 and math.isnan(e.mape_pct) and e.max_abs_error_point is None
     assert np.isnan(e.spearman)
+
+
+def test_scatter_of_equal_repetitions_whose_mean_rounds_past_them(tmp_path):
+    # A deterministic sim repeats its value exactly, and the loader's mean of 3 x 2.675 is
+    # 2.6749999999999994 < min: an error bar of mean - min < 0 made matplotlib refuse the
+    # scatter (the compare step of make validate).
+    values = {"p0000000001": [(2.675, 2.675)] * 3, "p0000000002": [(1.2, 2.0)] * 3}
+    a = write_hand(tmp_path / "a", values, "hw")
+    b = write_hand(tmp_path / "b", values, "sim")
+    stat = load_results(b).points[0].stat("rt_slowdown")
+    assert stat.mean < stat.min                                    # the case is real
+    assert compare.run(a, b, tmp_path / "out", stream=io.StringIO()) == 0
+    assert_figure_files(tmp_path / "out", "compare_scatter")

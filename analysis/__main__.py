@@ -70,6 +70,12 @@ scenario, by name. Per scenario and over all points: RT- and nRT-slowdown MAPE, 
 excess slowdown (slowdown - 1) where the measured excess is >= 0.05, the hw repetitions' spread,
 each against its goal (RT MAPE <= 5 %, nRT MAPE <= 10 %, excess error <= 20 %). Writes
 report.json, report.md and validation_scatter.png/pdf (simulated vs measured slowdown).
+
+--band-root BAND_ROOT: BAND_ROOT/<variant>/<scenario>/ are the sim runs of each scenario on the
+band platforms of the sim's model (make validate makes them when the host model has a band/
+folder). Each point's prediction band is min..max of the sim mean over the nominal run and the
+band runs; the report adds per scenario and overall its coverage of the hw means and its median
+width, and the figure draws it on each sim point.
 """
 
 VALIDATE_TABLE_HELP = """\
@@ -143,6 +149,9 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("--note", metavar="TEXT", action="append", default=[],
                           help="a line on the conditions (e.g. the load), printed with the "
                                "host (repeatable)")
+    validate.add_argument("--band-root", metavar="BAND_ROOT",
+                          help="the sim runs on the model's band platforms, "
+                               "BAND_ROOT/<variant>/<scenario>/ (default: no band)")
     validate.add_argument("--cpu", metavar="TEXT",
                           help="the machine's CPU as lscpu names it (its 'Model name'), shown "
                                "with the date in the report and the README block (default: "
@@ -182,7 +191,7 @@ def main(argv=None) -> int:
             failed = [dict(zip(("scenario", "reason"), f.split("=", 1) + [""]))
                       for f in args.failed]
             return validation.run(args.hw_root, args.sim_root, args.out, names, failed,
-                                  args.note, cpu=args.cpu)
+                                  args.note, cpu=args.cpu, band_root=args.band_root)
         return validation.table(args.report, args.readme, args.figure_dir)
     except InvalidInput as e:
         print(f"error: {e}", file=sys.stderr)

@@ -26,6 +26,8 @@ examples:
       figures (PNG + PDF), summary.csv and distributions.csv in results/quickstart/figures
   python3 -m analysis compare results/exp4-hw results/exp4-sim
       compare.csv, summary.json and compare_scatter.png/pdf in results/exp4-sim/compare
+  python3 -m analysis compare results/v/hw/s results/v/sim/s --band results/v/sim-band/X/s ...
+      the same, with B's prediction band from its runs on the band platforms
 
   python3 -m analysis validate results/validation/hw results/validation/sim \
           --out results/validation
@@ -54,6 +56,12 @@ Match the points of two results folders by id (same scenario, e.g. measured on h
 simulated) and report per-point RT / nRT slowdown differences (B - A), the mean absolute
 percentage error, the max error, the Spearman rank agreement of the configurations, and the
 points found on one side only. Writes compare.csv, summary.json and compare_scatter.png/pdf.
+
+--band DIR (repeatable): a run of B's scenario on one of the uncertainty-band platforms of B's
+model (`rosguard calibrate` writes them into band/: one prior-dominated parameter one standard
+error down or up). B's prediction band per point is min..max over B and the band runs; the
+outputs then give it per point (compare.csv <node>_band_low_b / _high_b), how often it covers A
+and its median width (summary.json "band", the printed summary), and draw it on B's points.
 """
 
 VALIDATE_HELP = """\
@@ -62,6 +70,12 @@ scenario, by name. Per scenario and over all points: RT- and nRT-slowdown MAPE, 
 excess slowdown (slowdown - 1) where the measured excess is >= 0.05, the hw repetitions' spread,
 each against its goal (RT MAPE <= 5 %, nRT MAPE <= 10 %, excess error <= 20 %). Writes
 report.json, report.md and validation_scatter.png/pdf (simulated vs measured slowdown).
+
+--band-root BAND_ROOT: BAND_ROOT/<variant>/<scenario>/ are the sim runs of each scenario on the
+band platforms of the sim's model (make validate makes them when the host model has a band/
+folder). Each point's prediction band is min..max of the sim mean over the nominal run and the
+band runs; the report adds per scenario and overall its coverage of the hw means and its median
+width, and the figure draws it on each sim point.
 """
 
 VALIDATE_TABLE_HELP = """\
@@ -109,6 +123,9 @@ def build_parser() -> argparse.ArgumentParser:
                          help="results folder compared with it (e.g. simulated)")
     compare.add_argument("--out", metavar="DIR",
                          help="where the comparison goes (default: RESULTS_B/compare)")
+    compare.add_argument("--band", metavar="DIR", action="append", default=[],
+                         help="results folder of B's scenario on a band platform of B's model "
+                              "(repeatable): B's prediction band is min..max over B and these")
     calibration = sub.add_parser(
         "calibration", help="draw a calibration's measured vs fitted figures",
         description="Figures of a `rosguard calibrate` folder (calibration.json, platform.json):"
@@ -132,6 +149,9 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("--note", metavar="TEXT", action="append", default=[],
                           help="a line on the conditions (e.g. the load), printed with the "
                                "host (repeatable)")
+    validate.add_argument("--band-root", metavar="BAND_ROOT",
+                          help="the sim runs on the model's band platforms, "
+                               "BAND_ROOT/<variant>/<scenario>/ (default: no band)")
     validate.add_argument("--cpu", metavar="TEXT",
                           help="the machine's CPU as lscpu names it (its 'Model name'), shown "
                                "with the date in the report and the README block (default: "
@@ -163,7 +183,7 @@ def main(argv=None) -> int:
             return calibration.run(args.folder)
         if args.command == "compare":
             from analysis import compare
-            return compare.run(args.results_a, args.results_b, args.out)
+            return compare.run(args.results_a, args.results_b, args.out, bands=args.band)
         from analysis import validation
         if args.command == "validate":
             names = [n for n in args.scenarios.split(",") if n] \
@@ -171,7 +191,7 @@ def main(argv=None) -> int:
             failed = [dict(zip(("scenario", "reason"), f.split("=", 1) + [""]))
                       for f in args.failed]
             return validation.run(args.hw_root, args.sim_root, args.out, names, failed,
-                                  args.note, cpu=args.cpu)
+                                  args.note, cpu=args.cpu, band_root=args.band_root)
         return validation.table(args.report, args.readme, args.figure_dir)
     except InvalidInput as e:
         print(f"error: {e}", file=sys.stderr)

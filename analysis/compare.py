@@ -16,6 +16,17 @@ Writes into the output folder (default ``B/compare``):
   matched points;
 * ``compare_scatter.png`` / ``.pdf``: B vs A slowdown per point, RT and nRT in different
   markers, with the identity line.
+
+With ``--band DIR`` (repeatable): DIR holds a run of B's scenario on one of the uncertainty-band
+platforms of B's model (``rosguard calibrate`` writes them: one prior-dominated parameter one
+posterior standard error down or up, the rest as fitted). Per point and node, B's **prediction
+band** is min..max of the mean slowdown over B and every band folder that has the point (the
+envelope of one-at-a-time variations, not a joint interval). compare.csv then has
+``<node>_band_low_b`` / ``<node>_band_high_b``, summary.json a ``band`` object (per node: the
+points with a band, how many of them have A's mean inside it, the coverage in % and the median
+width), the printed summary one line per node, and the scatter draws the band as a vertical bar
+on each of B's points. A band folder that lacks some of B's points gives a warning; those points'
+band is made from the folders that have them (none: no band).
 """
 
 from __future__ import annotations
@@ -30,6 +41,7 @@ import numpy as np
 import scipy.stats
 
 from analysis import style
+from analysis.figures.validation import bar_lengths
 from analysis.results import InvalidInput, load_results
 from analysis.tables import write_csv
 
@@ -39,6 +51,12 @@ SETTINGS = ("rt_workload", "nrt_workload", "policy", "sampling", "scope", "thres
 NODE_STYLE = {"rt": {"marker": "o", "color": "tab:blue"},
               "nrt": {"marker": "^", "color": "tab:orange"}}
 LISTED_IDS = 8   # ids printed per "only in" list; summary.json has them all
+BAND_DEFINITION = (
+    "per point and node, min..max of the mean slowdown over the nominal run and every band run "
+    "that has the point (each band run: one prior-dominated parameter of the model one "
+    "posterior standard error down or up, the others as fitted): the envelope of "
+    "one-at-a-time variations, not a joint confidence interval")
+BAND_STYLE = {"linewidth": 5.0, "alpha": 0.3}
 
 
 @dataclass
@@ -64,6 +82,82 @@ class Comparison:
     only_b: list          # [Point]
     mismatches: list      # [(point id, {column: (value in A, value in B)})]
     errors: dict          # {"rt" | "nrt": ErrorSummary}
+
+
+@dataclass
+class Band:
+    """The prediction band of one results folder (the nominal run) from runs of the same
+    scenario on the band platforms of its model."""
+
+    folders: list         # [Path] the band runs, in the order given
+    bounds: dict          # point id of the nominal run -> {"rt" | "nrt": (low, high)}
+    missing: dict         # str(folder) -> [ids of the nominal run's points not in it]
+    mismatches: dict      # str(folder) -> number of matched points with other settings
+
+    def of(self, pid: str, node: str) -> tuple:
+        """(low, high) of a point's node; (NaN, NaN) where it has none."""
+        return self.bounds.get(pid, {}).get(node, (math.nan, math.nan))
+
+
+def prediction_band(nominal, runs) -> Band:
+    """The band of ``nominal`` (loaded results) from ``runs`` (loaded results of the same
+    scenario on band platforms): per point and node, min..max of the finite mean slowdowns of
+    the nominal run and of every run that has the point. A point no run has gets no band
+    (NaN, NaN): the nominal value alone is no envelope. InvalidInput when a run shares no point
+    with the nominal one (another scenario)."""
+    values = {p.id: {node: [p.mean(f"{node}_slowdown")] for node, _ in NODES}
+              for p in nominal.points}
+    seen = {p.id: 0 for p in nominal.points}
+    missing, mismatches = {}, {}
+    for run in runs:
+        comp = compare_results(nominal, run)         # InvalidInput: no common point
+        for pn, pr in comp.common:
+            seen[pn.id] += 1
+            for node, _ in NODES:
+                values[pn.id][node].append(pr.mean(f"{node}_slowdown"))
+        if comp.only_a:
+            missing[str(run.folder)] = [p.id for p in comp.only_a]
+        if comp.mismatches:
+            mismatches[str(run.folder)] = len(comp.mismatches)
+    bounds = {}
+    for pid, nodes in values.items():
+        if not seen[pid]:
+            continue
+        bounds[pid] = {}
+        for node, vs in nodes.items():
+            finite = [v for v in vs if math.isfinite(v)]
+            bounds[pid][node] = (min(finite), max(finite)) if finite else (math.nan, math.nan)
+    return Band([r.folder for r in runs], bounds, missing, mismatches)
+
+
+def band_coverage(triples) -> dict:
+    """Over [(reference value, band low, band high)]: 'points' (those with a finite value and
+    band), 'covered' (low <= value <= high), 'coverage_pct' and 'median_width' (high - low, in
+    slowdown units); NaN where there is no such point."""
+    usable = [(v, lo, hi) for v, lo, hi in triples
+              if math.isfinite(v) and math.isfinite(lo) and math.isfinite(hi)]
+    covered = sum(1 for v, lo, hi in usable if lo <= v <= hi)
+    return {"points": len(usable), "covered": covered,
+            "coverage_pct": 100.0 * covered / len(usable) if usable else math.nan,
+            "median_width": float(np.median([hi - lo for _, lo, hi in usable]))
+            if usable else math.nan}
+
+
+def band_warnings(band: Band, points: int) -> list:
+    """One line per band folder that lacks points of the nominal run or whose matched points
+    have other settings."""
+    lines = []
+    for folder, ids in band.missing.items():
+        shown = ", ".join(ids[:LISTED_IDS]) + (", ..." if len(ids) > LISTED_IDS else "")
+        lines.append(f"band folder {folder} lacks {len(ids)} of {points} point(s) ({shown}); "
+                     "their band is made from the folders that have them")
+    for folder, count in band.mismatches.items():
+        lines.append(f"band folder {folder}: {count} matched point(s) differ in their settings; "
+                     "is it a run of the same scenario?")
+    none = points - len(band.bounds)
+    if none and band.folders:
+        lines.append(f"{none} point(s) are in no band folder: no band for them")
+    return lines
 
 
 def spearman(x, y) -> float:
@@ -117,38 +211,47 @@ def compare_results(a, b) -> Comparison:
     return Comparison(a, b, common, only_a, only_b, mismatches, errors)
 
 
-def run(folder_a, folder_b, out=None, stream=sys.stdout, err=sys.stderr) -> int:
-    """Compares two results folders and writes the outputs; returns the exit code (0)."""
+def run(folder_a, folder_b, out=None, stream=sys.stdout, err=sys.stderr, bands=()) -> int:
+    """Compares two results folders and writes the outputs; returns the exit code (0).
+    ``bands``: results folders of B's scenario on B's model's band platforms (see the module
+    docstring); none: the outputs carry no band."""
     a, b = load_results(folder_a), load_results(folder_b)
     comp = compare_results(a, b)
+    band = prediction_band(b, [load_results(f) for f in bands]) if bands else None
     out = Path(out) if out else b.folder / "compare"
     out.mkdir(parents=True, exist_ok=True)
-    written = [write_table(comp, out / "compare.csv"),
-               write_summary(comp, out / "summary.json")]
-    written += style.save(scatter(comp), out, "compare_scatter")
-    print_summary(comp, stream)
+    written = [write_table(comp, out / "compare.csv", band),
+               write_summary(comp, out / "summary.json", band)]
+    written += style.save(scatter(comp, band), out, "compare_scatter")
+    print_summary(comp, stream, band)
     if comp.mismatches:
         pid, diff = comp.mismatches[0]
         example = "; ".join(f"{c} {va} vs {vb}" for c, (va, vb) in diff.items())
         print(f"warning: {len(comp.mismatches)} matched point(s) differ in their settings "
               f"(e.g. {pid}: {example}); did A and B run the same scenario?", file=err)
+    if band is not None:
+        for line in band_warnings(band, len(b.points)):
+            print(f"warning: {line}", file=err)
     print("written: " + ", ".join(str(p) for p in written), file=stream)
     return 0
 
 
-def write_table(comp: Comparison, path: Path) -> Path:
-    """compare.csv: one row per point, common ones first (in A's order)."""
+def write_table(comp: Comparison, path: Path, band: Band | None = None) -> Path:
+    """compare.csv: one row per point, common ones first (in A's order); with a band, each
+    node's band of B after its columns."""
     header = ["point", "status", *SETTINGS, "reps_a", "reps_b"]
     for node, _ in NODES:
         header += [f"{node}_slowdown_a", f"{node}_slowdown_b", f"{node}_diff",
                    f"{node}_error_pct"]
-    rows = [_row(pa.id, "both", pa, pb) for pa, pb in comp.common]
-    rows += [_row(p.id, "only_a", p, None) for p in comp.only_a]
-    rows += [_row(p.id, "only_b", None, p) for p in comp.only_b]
+        if band is not None:
+            header += [f"{node}_band_low_b", f"{node}_band_high_b"]
+    rows = [_row(pa.id, "both", pa, pb, band) for pa, pb in comp.common]
+    rows += [_row(p.id, "only_a", p, None, band) for p in comp.only_a]
+    rows += [_row(p.id, "only_b", None, p, band) for p in comp.only_b]
     return write_csv(path, header, rows)
 
 
-def _row(pid, status, pa, pb) -> list:
+def _row(pid, status, pa, pb, band=None) -> list:
     ref = pa or pb
     row = [pid, status, *(ref.config.get(c) for c in SETTINGS),
            pa.reps if pa else None, pb.reps if pb else None]
@@ -159,6 +262,8 @@ def _row(pid, status, pa, pb) -> list:
         diff = vb - va
         pct = 100.0 * diff / va if va else math.nan
         row += [va, vb, diff, pct]
+        if band is not None:
+            row += list(band.of(pid, node) if pb else (math.nan, math.nan))
     return row
 
 
@@ -185,8 +290,20 @@ def _band(q: dict) -> str:
     return f"{q['parameter']} {v:.3g} ({v / f:.3g}..{v * f:.3g})"
 
 
-def write_summary(comp: Comparison, path: Path) -> Path:
-    """summary.json: the error summaries, unmatched points and settings mismatches."""
+def band_summary(comp: Comparison, band: Band) -> dict:
+    """summary.json's "band": the folders, the definition, and per node A's coverage by B's
+    band over the common points (band_coverage)."""
+    doc = {"folders": [str(f) for f in band.folders], "definition": BAND_DEFINITION,
+           "missing": band.missing, "settings_mismatch": band.mismatches}
+    for node, _ in NODES:
+        doc[node] = band_coverage([(pa.mean(f"{node}_slowdown"), *band.of(pb.id, node))
+                                   for pa, pb in comp.common])
+    return doc
+
+
+def write_summary(comp: Comparison, path: Path, band: Band | None = None) -> Path:
+    """summary.json: the error summaries, unmatched points and settings mismatches (and, with
+    a band, its coverage: band_summary)."""
     doc = {
         "a": _side(comp.a),
         "b": _side(comp.b),
@@ -205,11 +322,16 @@ def write_summary(comp: Comparison, path: Path) -> Path:
     }
     for node, _ in NODES:
         doc[node] = {k: _json_number(v) for k, v in asdict(comp.errors[node]).items()}
+    if band is not None:
+        summary = band_summary(comp, band)
+        for node, _ in NODES:
+            summary[node] = {k: _json_number(v) for k, v in summary[node].items()}
+        doc["band"] = summary
     path.write_text(json.dumps(doc, indent=2, default=str) + "\n", encoding="utf-8")
     return path
 
 
-def print_summary(comp: Comparison, stream) -> None:
+def print_summary(comp: Comparison, stream, band: Band | None = None) -> None:
     """The human-readable summary on stdout."""
     for tag, r in (("A", comp.a), ("B", comp.b)):
         print(f"{tag}: {r.folder} ({r.backend}, {r.platform}, {len(r.points)} points, "
@@ -231,6 +353,14 @@ def print_summary(comp: Comparison, stream) -> None:
         print(f"{name:<5}{e.pairs:>6}{_fmt(e.mape_pct, ' %'):>10}{_fmt(e.max_abs_error):>11}"
               f"  {e.max_abs_error_point:<13}{_fmt(e.mean_error, signed=True):>9}"
               f"{_fmt(e.spearman):>10}", file=stream)
+    if band is not None:
+        print(f"prediction band of B from {len(band.folders)} band run(s) (min..max over B and "
+              "them, one prior-dominated parameter at a time):", file=stream)
+        summary = band_summary(comp, band)
+        for node, name in NODES:
+            c = summary[node]
+            print(f"{name:<5}B's band covers A at {c['covered']} of {c['points']} points, "
+                  f"median width {_fmt(c['median_width'])}", file=stream)
 
 
 def _ids(points) -> str:
@@ -248,20 +378,30 @@ def _fmt(value, unit: str = "", signed: bool = False) -> str:
     return f"{value:+.3f}{unit}" if signed else f"{value:.3f}{unit}"
 
 
-def scatter(comp: Comparison):
+def scatter(comp: Comparison, band: Band | None = None):
     """B vs A mean slowdown per common point: one panel per node (RT, nRT), each with its
-    own limits (RT slowdowns sit near 1.0, nRT ones spread far wider) and the identity line."""
+    own limits (RT slowdowns sit near 1.0, nRT ones spread far wider) and the identity line;
+    with a band, B's band as a vertical bar on each of B's points."""
     nodes = [(node, name, _pairs(comp, f"{node}_slowdown")) for node, name in NODES]
     nodes = [n for n in nodes if n[2]] or [("rt", "RT", [])]
     fig, axes = style.new_figure(1, len(nodes), width=5.0 * len(nodes), row_height=4.8)
     for ax, (node, name, pairs) in zip(axes[0], nodes):
-        _scatter_panel(ax, node, name, pairs, comp.errors[node])
+        bands = None
+        if band is not None:
+            bands = [band.of(pb.id, node) for pa, pb in comp.common
+                     if pa.stat(f"{node}_slowdown") and pb.stat(f"{node}_slowdown")]
+        _scatter_panel(ax, node, name, pairs, comp.errors[node], bands)
         ax.set_xlabel(f"A: {_name(comp.a)}\n{style.SLOWDOWN_LABEL}")
         ax.set_ylabel(f"B: {_name(comp.b)}\n{style.SLOWDOWN_LABEL}")
     head = (f"Slowdown per point, B vs A ({len(comp.common)} common points, "
             f"{len(comp.only_a)} only in A, {len(comp.only_b)} only in B)")
-    style.finish(fig, head, "markers: mean over repetitions; error bars: min–max over "
-                 "repetitions on each side; dashed: identity (B = A)")
+    note = ("markers: mean over repetitions; error bars: min–max over repetitions on each "
+            "side; dashed: identity (B = A)")
+    if band is not None:
+        note += (f"; wide pale bars: B's prediction band (min..max over B and "
+                 f"{len(band.folders)} band run(s), one prior-dominated parameter ±1 standard "
+                 "error at a time)")
+    style.finish(fig, head, note)
     return fig
 
 
@@ -270,20 +410,51 @@ def _pairs(comp: Comparison, metric: str) -> list:
             if pa.stat(metric) and pb.stat(metric)]
 
 
-def _scatter_panel(ax, node: str, name: str, pairs, errors: ErrorSummary) -> None:
-    """One node's points with min-max error bars, identity line and square limits."""
+def _draw_band(ax, x, centre, bands, **style_kw) -> int:
+    """Vertical band bars at x from (low, high) around centre: non-negative lengths (a bound on
+    the wrong side of the centre, or NaN, draws nothing on that side); points with a
+    non-finite x or centre are left out. Returns how many bars were drawn."""
+    xs, ys, below, above = [], [], [], []
+    for xi, yi, (lo, hi) in zip(x, centre, bands):
+        if not (math.isfinite(xi) and math.isfinite(yi)) or not (
+                math.isfinite(lo) or math.isfinite(hi)):
+            continue
+        b, a = bar_lengths(yi, lo, hi)
+        xs.append(xi)
+        ys.append(yi)
+        below.append(b)
+        above.append(a)
+    if xs:
+        ax.errorbar(xs, ys, yerr=[below, above], linestyle="none", marker="none", capsize=0,
+                    elinewidth=BAND_STYLE["linewidth"], alpha=BAND_STYLE["alpha"], zorder=1.5,
+                    **style_kw)
+    return len(xs)
+
+
+def _scatter_panel(ax, node: str, name: str, pairs, errors: ErrorSummary,
+                   bands=None) -> None:
+    """One node's points with min-max error bars, identity line and square limits; ``bands``
+    ([(low, high)] per pair, or None): B's prediction band as a wide pale bar on each point."""
     lo, hi = 1.0, 1.0
     if pairs:
         sa = [p for p, _ in pairs]
         sb = [q for _, q in pairs]
         xa = np.array([s.mean for s in sa])
         yb = np.array([s.mean for s in sb])
-        ax.errorbar(xa, yb, xerr=[xa - [s.min for s in sa], np.array([s.max for s in sa]) - xa],
-                    yerr=[yb - [s.min for s in sb], np.array([s.max for s in sb]) - yb],
+        # Distances, never negative: the mean of equal repetitions can round past their max.
+        xerr = np.array([bar_lengths(s.mean, s.min, s.max) for s in sa]).T
+        yerr = np.array([bar_lengths(s.mean, s.min, s.max) for s in sb]).T
+        ax.errorbar(xa, yb, xerr=xerr, yerr=yerr,
                     linestyle="none", markersize=6, markerfacecolor="none", elinewidth=0.7,
                     capsize=2, label=f"{name} node ({len(pairs)} points)", **NODE_STYLE[node])
         lo = min(min(s.min for s in sa), min(s.min for s in sb))
         hi = max(max(s.max for s in sa), max(s.max for s in sb))
+        if bands is not None:
+            drawn = _draw_band(ax, xa, yb, bands, color=NODE_STYLE[node]["color"],
+                               label=f"B's prediction band ({name})")
+            ends = [v for lo_hi in bands for v in lo_hi if math.isfinite(v)]
+            if drawn and ends:
+                lo, hi = min(lo, min(ends)), max(hi, max(ends))
     else:
         ax.text(0.5, 0.5, "no slowdowns on both sides", transform=ax.transAxes,
                 ha="center", va="center", color="0.5")

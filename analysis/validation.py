@@ -15,6 +15,15 @@ per scenario and over the whole suite (every point of every scenario pooled), an
 goals (``GOALS``) met or missed. Writes ``DIR/report.json``, ``DIR/report.md`` and
 ``DIR/validation_scatter.png`` / ``.pdf`` (``analysis/figures/validation.py``).
 
+With ``--band-root BAND_ROOT`` (``BAND_ROOT/<variant>/<scenario>/``: the sim runs of each
+scenario on the band platforms of the host model, which ``rosguard calibrate`` writes for its
+prior-dominated parameters) each point's node also has a **prediction band**: min..max of the
+sim mean slowdown over the nominal run and every band run (``compare.prediction_band``: the
+envelope of one-at-a-time variations). The report then gives per scenario and over the suite,
+per node, the band's median width and its coverage (the share of points whose hw mean lies in
+the band), the points their band, and the figure draws it on each sim point. Without it the
+report is as before.
+
 ``readme_section(report)`` is the README's table (``tools/validate.sh --readme``).
 """
 
@@ -44,6 +53,7 @@ GOALS = {
     "nrt_excess": ("nrt", "excess_error_pct", 20.0, "nRT excess-slowdown error (mean)"),
 }
 FIGURE_STEM = "validation_scatter"
+NODE_WORDS = {"rt": "RT", "nrt": "nRT"}
 DEFINITIONS = {
     "slowdown": "per point, mean over repetitions of the node's time / its isolation time",
     "mape_pct": "mean over points of |s_sim - s_hw| / s_hw x 100",
@@ -66,6 +76,12 @@ class Pair:
     node: str          # "rt" | "nrt"
     hw: Stat
     sim: Stat
+    band_low: float = math.nan    # the sim's prediction band (NaN: none)
+    band_high: float = math.nan
+
+    @property
+    def has_band(self) -> bool:
+        return math.isfinite(self.band_low) and math.isfinite(self.band_high)
 
     @property
     def error_pct(self) -> float:
@@ -111,16 +127,63 @@ def goal_marks(errors: dict) -> dict:
     return marks
 
 
-def scenario_pairs(name: str, hw, sim) -> tuple:
-    """([Pair], Comparison) of one scenario's loaded hw and sim folders."""
+def scenario_pairs(name: str, hw, sim, band=None) -> tuple:
+    """([Pair], Comparison) of one scenario's loaded hw and sim folders; ``band``
+    (compare.Band of the sim folder, or None) gives each pair its band."""
     comp = compare.compare_results(hw, sim)
     pairs = []
     for pa, pb in comp.common:
         for node in ("rt", "nrt"):
             a, b = pa.stat(f"{node}_slowdown"), pb.stat(f"{node}_slowdown")
             if a and b and a.mean != 0:
-                pairs.append(Pair(name, pa.id, node, a, b))
+                low, high = band.of(pb.id, node) if band is not None else (math.nan, math.nan)
+                pairs.append(Pair(name, pa.id, node, a, b, low, high))
     return pairs, comp
+
+
+def band_variants(band_root) -> list:
+    """The band platforms' folders of a band root (BAND_ROOT/<variant>/), sorted by name."""
+    band_root = Path(band_root)
+    if not band_root.is_dir():
+        raise InvalidInput(f"{band_root}: no such folder (the band runs' root)")
+    return sorted(p.name for p in band_root.iterdir() if p.is_dir())
+
+
+def scenario_band(name: str, sim, band_root, variants) -> tuple:
+    """(compare.Band or None, [variant names used], [warning lines]) of one scenario: its sim
+    runs on the band platforms, BAND_ROOT/<variant>/<name>/; a variant without a usable run of
+    the scenario is left out, with a warning."""
+    runs, used, warnings = [], [], []
+    ids = {p.id for p in sim.points}
+    for variant in variants:
+        folder = Path(band_root) / variant / name
+        if not (folder / "manifest.json").is_file():
+            warnings.append(f"{name}: no run on band platform {variant} ({folder} missing); "
+                            "the band is made from the others")
+            continue
+        try:
+            run = load_results(folder)
+        except InvalidInput as e:
+            warnings.append(f"{name}: the run on band platform {variant} cannot be read ({e}); "
+                            "the band is made from the others")
+            continue
+        if not ids & {p.id for p in run.points}:
+            warnings.append(f"{name}: the run on band platform {variant} shares no point with "
+                            "the sim run; left out")
+            continue
+        runs.append(run)
+        used.append(variant)
+    if not runs:
+        return None, used, warnings
+    band = compare.prediction_band(sim, runs)
+    warnings += [f"{name}: {line}" for line in compare.band_warnings(band, len(sim.points))]
+    return band, used, warnings
+
+
+def band_coverage(pairs) -> dict:
+    """Per node: compare.band_coverage of the pairs' hw means against their bands."""
+    return {node: compare.band_coverage([(p.hw.mean, p.band_low, p.band_high) for p in pairs
+                                         if p.node == node]) for node in ("rt", "nrt")}
 
 
 def _errors(pairs) -> dict:
@@ -133,12 +196,16 @@ def _description(results) -> str:
 
 
 def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
-                 cpu=None) -> tuple:
+                 cpu=None, band_root=None) -> tuple:
     """(report dict, [Pair]) for the scenarios in ``names`` (default: every folder of
     hw_root). ``failed``: [{'scenario', 'reason'}] of scenarios that could not be run. A
     scenario whose folders are missing or share no point is added to them; the others are
     compared. ``notes``: lines about the conditions (e.g. the load), shown with the host.
-    ``cpu``: the machine's CPU as lscpu names it (default: the hw manifest's cpu_model)."""
+    ``cpu``: the machine's CPU as lscpu names it (default: the hw manifest's cpu_model).
+    ``band_root``: BAND_ROOT/<variant>/<scenario>/, the sim runs on the band platforms (see
+    the module docstring); None, or a root without variant folders: no band."""
+    variants = band_variants(band_root) if band_root is not None else []
+    band_warnings = []
     hw_root, sim_root = Path(hw_root), Path(sim_root)
     if names is None:
         if not hw_root.is_dir():
@@ -151,10 +218,13 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
     for name in names:
         try:
             hw, sim = load_results(hw_root / name), load_results(sim_root / name)
-            found, comp = scenario_pairs(name, hw, sim)
+            band, used, warned = scenario_band(name, sim, band_root, variants) \
+                if variants else (None, [], [])
+            found, comp = scenario_pairs(name, hw, sim, band)
         except InvalidInput as e:
             failed.append({"scenario": name, "reason": str(e)})
             continue
+        band_warnings += warned
         manifests.append(hw.manifest)
         sim_manifests.append(sim.manifest)
         pairs += found
@@ -171,6 +241,7 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
             "settings_mismatch": len(comp.mismatches),
             **errors,
             "goals": goal_marks(errors),
+            **({"band": {"variants": used, **band_coverage(found)}} if variants else {}),
         })
     overall = _errors(pairs)
     manifest = manifests[0] if manifests else {}
@@ -201,8 +272,18 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
                     "hw_mean": p.hw.mean, "hw_min": p.hw.min, "hw_max": p.hw.max,
                     "hw_reps": p.hw.n, "sim_mean": p.sim.mean, "sim_min": p.sim.min,
                     "sim_max": p.sim.max, "sim_reps": p.sim.n, "error_pct": p.error_pct,
-                    "excess_error_pct": p.excess_error_pct} for p in pairs],
+                    "excess_error_pct": p.excess_error_pct,
+                    **({"band_low": p.band_low, "band_high": p.band_high} if variants else {})}
+                   for p in pairs],
     }
+    if variants:
+        report["band"] = {"root": str(band_root), "variants": variants,
+                          "definition": compare.BAND_DEFINITION,
+                          "coverage": ("share of points (with a band) whose hw mean lies in "
+                                       "the band, low <= hw <= high, in %"),
+                          "median_width": ("median over points of high - low, in slowdown "
+                                           "units (x isolation)"),
+                          "warnings": band_warnings, **band_coverage(pairs)}
     return report, pairs
 
 
@@ -320,6 +401,8 @@ def markdown(report: dict) -> str:
              f"{EXCESS_MIN:g} (mean over those points). hw noise: median spread "
              "(max − min) / mean of a point's hw repetitions.", ""]
     lines += summary_table(report)
+    if report.get("band"):
+        lines += ["", "## Prediction band", "", *band_section(report)]
     lines += ["", "## Scenarios", ""]
     for s in report["scenarios"]:
         lines.append(f"- **{s['name']}** ({s['common_points']} points, hw x"
@@ -340,19 +423,82 @@ def markdown(report: dict) -> str:
     if report["failed"]:
         lines += ["", "## Not compared", ""]
         lines += [f"- **{f['scenario']}**: {f['reason']}" for f in report["failed"]]
+    banded = bool(report.get("band"))
     lines += ["", "## Points", "",
-              "Means over repetitions; hw min–max beside the hw mean.", "",
-              "| scenario | point | node | hw | hw min–max | sim | error | excess error |",
-              "|---|---|---|---:|---:|---:|---:|---:|"]
+              "Means over repetitions; hw min–max beside the hw mean"
+              + ("; the sim's prediction band beside the sim mean." if banded else "."), "",
+              "| scenario | point | node | hw | hw min–max | sim | "
+              + ("sim band | " if banded else "") + "error | excess error |",
+              "|---|---|---|---:|---:|---:|" + ("---:|" if banded else "") + "---:|---:|"]
     for p in report["points"]:
+        band = f" {_range(p.get('band_low'), p.get('band_high'))} |" if banded else ""
         lines.append(f"| {p['scenario']} | {p['point']} | {p['node']} | "
                      f"{p['hw_mean']:.3f} | {p['hw_min']:.3f}–{p['hw_max']:.3f} | "
-                     f"{p['sim_mean']:.3f} | {p['error_pct']:+.1f} % | "
+                     f"{p['sim_mean']:.3f} |{band} {p['error_pct']:+.1f} % | "
                      f"{_signed_pct(p['excess_error_pct'])} |")
     lines += ["", f"Figure: [{FIGURE_STEM}.png]({FIGURE_STEM}.png) "
               f"([PDF]({FIGURE_STEM}.pdf)).", "",
               "Definitions: " + "; ".join(f"`{k}`: {v}" for k, v in DEFINITIONS.items()) + "."]
     return "\n".join(lines) + "\n"
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float)) and math.isfinite(value)
+
+
+def _range(low, high) -> str:
+    """'1.020–1.080', or '–' without a band."""
+    if not (_finite(low) and _finite(high)):
+        return "–"
+    return f"{low:.3f}–{high:.3f}"
+
+
+def _coverage(c: dict) -> str:
+    """'4 of 5 (80 %)', or 'n/a' without points with a band."""
+    if not c or not c.get("points"):
+        return "n/a"
+    return f"{c['covered']} of {c['points']} ({c['coverage_pct']:.0f} %)"
+
+
+def _width(c: dict) -> str:
+    value = (c or {}).get("median_width")
+    return f"{value:.3f}" if _finite(value) else "n/a"
+
+
+def band_summary(report: dict) -> str:
+    """One sentence on the band over the suite: 'prediction band (6 band platforms): hw inside
+    it at RT 30 of 37 points (81 %), median width 0.012; nRT ...'; '' without a band."""
+    band = report.get("band")
+    if not band:
+        return ""
+    return (f"prediction band ({len(band['variants'])} band platform(s) of the sim model): hw "
+            "inside it at " + "; ".join(
+                f"{NODE_WORDS[node]} {_coverage(band[node])} points, median width "
+                f"{_width(band[node])}" for node in ("rt", "nrt")))
+
+
+
+def band_section(report: dict) -> list:
+    """report.md's band section: what the band is, the coverage and width table, warnings."""
+    band = report["band"]
+    lines = [f"The sim model has prior-dominated parameters; `rosguard calibrate` wrote "
+             f"{len(band['variants'])} band platform(s) for them ("
+             + ", ".join(f"`{v}`" for v in band["variants"]) + "), and every scenario also ran "
+             "in sim on each. The band of a point: " + band["definition"] + ". Coverage: the "
+             "points whose hw mean lies inside their band; width: high − low in slowdown units "
+             "(× isolation). A narrow band that misses the hw mean says the error lies beyond what the "
+             "prior-dominated parameters move, one at a time.", "",
+             "| scenario | band runs | RT coverage | RT median width | nRT coverage | "
+             "nRT median width |", "|---|---:|---:|---:|---:|---:|"]
+    rows = [(s["name"], len(s.get("band", {}).get("variants", [])), s.get("band", {}))
+            for s in report["scenarios"]]
+    rows.append(("**all**", len(band["variants"]), band))
+    for name, runs, b in rows:
+        lines.append(f"| {name} | {runs} | {_coverage(b.get('rt'))} | {_width(b.get('rt'))} | "
+                     f"{_coverage(b.get('nrt'))} | {_width(b.get('nrt'))} |")
+    if band.get("warnings"):
+        lines += [""] + [f"- warning: {w}" for w in band["warnings"]]
+    return lines
 
 
 def _signed_pct(value) -> str:
@@ -373,10 +519,13 @@ def headline(report: dict) -> str:
 def readme_section(report: dict, figure_path: str) -> str:
     """The README's validation block (between its markers): figure, the day and the CPU,
     verdict, table."""
+    band = band_summary(report)
     return "\n".join([
         f"![sim vs hw validation]({figure_path})", "",
         f"**{headline(report)}.** {_host_line(report)}. "
-        f"{verdict(report)[0].upper() + verdict(report)[1:]}.", "",
+        f"{verdict(report)[0].upper() + verdict(report)[1:]}."
+        + (f" The sim's {band} (min..max over the model and the band platforms, one "
+           "prior-dominated parameter ±1 standard error at a time)." if band else ""), "",
         *summary_table(report), ""])
 
 
@@ -394,13 +543,20 @@ def _figure(report: dict, pairs):
     note = (f"{host}. Markers: mean over repetitions; error bars: min–max over "
             "repetitions; shaded: ±5 % / ±10 % (left, middle) and ±20 % (right) of the "
             "measured value.")
+    band = report.get("band")
+    if band:
+        note += (f" Wide pale bars: the sim's prediction band, min..max over the model and its "
+                 f"{len(band['variants'])} band platform(s) (one prior-dominated parameter ±1 "
+                 "standard error at a time); hw inside it: RT "
+                 f"{_coverage(band['rt'])}, nRT {_coverage(band['nrt'])} points.")
     return figure.draw(pairs, names, titles, EXCESS_MIN, note)
 
 
 def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdout,
-        cpu=None) -> int:
+        cpu=None, band_root=None) -> int:
     """Builds the report and writes report.json, report.md and the figure into ``out``."""
-    report, pairs = build_report(hw_root, sim_root, names, failed, notes, cpu=cpu)
+    report, pairs = build_report(hw_root, sim_root, names, failed, notes, cpu=cpu,
+                                 band_root=band_root)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = style.save(_figure(report, pairs), out, FIGURE_STEM)
@@ -410,6 +566,10 @@ def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdo
     (out / "report.md").write_text(markdown(_clean(report)), encoding="utf-8")
     print("\n".join(summary_table(_clean(report))), file=stream)
     print(verdict(report), file=stream)
+    if report.get("band"):
+        print(band_summary(report), file=stream)
+        for line in report["band"]["warnings"]:
+            print(f"warning: {line}", file=stream)
     if _model_line(report):
         print(f"warning: {_model_line(report)}", file=stream)
     for f in report["failed"]:

@@ -6,7 +6,10 @@ than a factor LOG_SPAN), and the excess slowdown
 (slowdown - 1) of both nodes on log axes, where the measured excess is at least the report's
 minimum, with a +-20 % band. Marker shape: the node (RT o, nRT ^); colour: the scenario.
 Markers are means over repetitions, error bars min-max over repetitions on each side; the axis
-limits follow the means, so the bar of an outlying repetition may run off the panel.
+limits follow the means, so the bar of an outlying repetition may run off the panel. Where a pair
+has a prediction band (``band_low`` / ``band_high``: the sim model's band platforms, see
+``analysis.validation``), it is a wide pale vertical bar on the sim point (non-negative lengths,
+nothing where a bound is NaN; the limits do not follow it either).
 
 Not a registry kind (``plot`` draws one results folder; this needs the hw and sim folders of
 a whole suite): ``analysis.validation`` calls ``draw``.
@@ -28,6 +31,7 @@ EXCESS_BAND = (0.20, "0.85", "±20 %")
 LOG_SPAN = 3.0
 DISTURBED_RATIO = 2.0
 TITLE_CHARS = 48
+BAND_STYLE = {"elinewidth": 5.0, "alpha": 0.3}
 
 
 def draw(pairs, scenarios, summary: dict, excess_min: float, note: str):
@@ -47,6 +51,10 @@ def draw(pairs, scenarios, summary: dict, excess_min: float, note: str):
     handles += [axes[0][0].plot([], [], linestyle="none", marker=NODE_MARKERS[n], color="0.3",
                                 markerfacecolor="none", label=f"{NODE_NAMES[n]} node")[0]
                 for n in ("rt", "nrt")]
+    if any(_has_band(p) for p in pairs):
+        handles.append(axes[0][0].plot([], [], color="0.3", linewidth=BAND_STYLE["elinewidth"],
+                                       alpha=BAND_STYLE["alpha"],
+                                       label="sim prediction band")[0])
     fig.legend(handles=handles, loc="center right", fontsize=8, frameon=False)
     style.finish(fig, "Validation: simulated vs measured slowdown per point", note, right=0.86)
     return fig
@@ -66,14 +74,36 @@ def bar_lengths(centre, low, high) -> tuple:
             above if _finite(above) and above > 0 else 0.0)
 
 
-def _errorbars(ax, pts, colours, x_of, y_of) -> int:
-    """Draws each point with its min-max bars; a point whose mean is not finite on either side
-    has no place on the axes and is left out. Returns how many were drawn."""
+def _has_band(p) -> bool:
+    return _finite(getattr(p, "band_low", None)) or _finite(getattr(p, "band_high", None))
+
+
+def band_of(p, shift=0.0, floor=None) -> tuple:
+    """(low, high) of a pair's prediction band minus shift, each at least floor (a log axis's
+    bottom); NaN where the pair has none."""
+    bounds = []
+    for v in (getattr(p, "band_low", math.nan), getattr(p, "band_high", math.nan)):
+        v = v - shift if _finite(v) else math.nan
+        bounds.append(max(v, floor) if floor is not None and _finite(v) else v)
+    return tuple(bounds)
+
+
+def _errorbars(ax, pts, colours, x_of, y_of, band_of_pair=band_of) -> int:
+    """Draws each point with its min-max bars (and its prediction band, where it has one, as a
+    wide pale bar: band_of_pair(p) -> (low, high) on the panel's scale); a point whose mean is
+    not finite on either side has no place on the axes and is left out. Returns how many were
+    drawn."""
     drawn = 0
     for p in pts:
         x, y = x_of(p.hw), y_of(p.sim)
         if not (_finite(x[0]) and _finite(y[0])):
             continue
+        if _has_band(p):
+            below, above = bar_lengths(y[0], *band_of_pair(p))
+            if below or above:
+                ax.errorbar([x[0]], [y[0]], yerr=[[below], [above]], linestyle="none",
+                            marker="none", capsize=0, color=colours.get(p.scenario, "0.3"),
+                            zorder=1.5, **BAND_STYLE)
         xerr, yerr = bar_lengths(*x), bar_lengths(*y)
         ax.errorbar([x[0]], [y[0]], xerr=[[xerr[0]], [xerr[1]]], yerr=[[yerr[0]], [yerr[1]]],
                     linestyle="none", marker=NODE_MARKERS[p.node], markersize=6,
@@ -166,7 +196,8 @@ def _excess_panel(ax, pairs, colours, excess_min) -> None:
         m, a, b = _excess(stat)
         return m, max(a, floor), max(b, floor)
 
-    _errorbars(ax, shown, colours, clipped, clipped)
+    _errorbars(ax, shown, colours, clipped, clipped,
+               lambda p: band_of(p, shift=1.0, floor=floor))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlim(lim)

@@ -178,3 +178,136 @@ def test_error_summary_of_no_pairs():
     e = compare.error_summary([])
     assert e.pairs == 0 and math.isnan(e.mape_pct) and e.max_abs_error_point is None
     assert np.isnan(e.spearman)
+
+
+def test_scatter_of_equal_repetitions_whose_mean_rounds_past_them(tmp_path):
+    # A deterministic sim repeats its value exactly, and the loader's mean of 3 x 2.675 is
+    # 2.6749999999999994 < min: an error bar of mean - min < 0 made matplotlib refuse the
+    # scatter (the compare step of make validate).
+    values = {"p0000000001": [(2.675, 2.675)] * 3, "p0000000002": [(1.2, 2.0)] * 3}
+    a = write_hand(tmp_path / "a", values, "hw")
+    b = write_hand(tmp_path / "b", values, "sim")
+    stat = load_results(b).points[0].stat("rt_slowdown")
+    assert stat.mean < stat.min                                    # the case is real
+    assert compare.run(a, b, tmp_path / "out", stream=io.StringIO()) == 0
+    assert_figure_files(tmp_path / "out", "compare_scatter")
+
+
+# The prediction band (--band): B's runs on two band platforms of its model. "high" lacks
+# p0000000003 and p00000000b5 (a band run that did not finish).
+BAND_VALUES = {
+    "low": {"p0000000001": [(1.05, 1.9)], "p0000000002": [(1.0, 3.0)],
+            "p0000000003": [(1.3, 3.5)], "p00000000b5": [(0.9, 1.0)]},
+    "high": {"p0000000001": [(1.2, 2.1)], "p0000000002": [(1.15, 3.4), (1.15, 3.6)]},
+}
+
+
+@pytest.fixture
+def band_folders(tmp_path):
+    return [write_hand(tmp_path / "band" / name, values, "sim")
+            for name, values in BAND_VALUES.items()]
+
+
+def test_band_envelope_by_hand(hand_pair, band_folders):
+    b = load_results(hand_pair[1])
+    band = compare.prediction_band(b, [load_results(f) for f in band_folders])
+    # p1: B 1.1 / 2.0, low 1.05 / 1.9, high 1.2 / 2.1; p2: B 1.1 / 3.3, low 1.0 / 3.0, high
+    # 1.15 / 3.5 (mean of 3.4, 3.6); p3: B and low only; b5 (only in B): B and low.
+    assert band.of("p0000000001", "rt") == pytest.approx((1.05, 1.2))
+    assert band.of("p0000000001", "nrt") == pytest.approx((1.9, 2.1))
+    assert band.of("p0000000002", "rt") == pytest.approx((1.0, 1.15))
+    assert band.of("p0000000002", "nrt") == pytest.approx((3.0, 3.5))
+    assert band.of("p0000000003", "rt") == pytest.approx((1.3, 1.32))
+    assert band.of("p0000000003", "nrt") == pytest.approx((3.5, 3.6))
+    assert band.of("p00000000b5", "rt") == pytest.approx((0.9, 1.0))
+    assert all(math.isnan(v) for v in band.of("p00000000a4", "rt"))      # not a point of B
+    assert band.missing == {str(band_folders[1]): ["p0000000003", "p00000000b5"]}
+    # Coverage of A: RT 1.0 (out), 1.1 (in), 1.2 (out); nRT 2.0 (in), 3.0 (in: the edge
+    # counts), 4.0 (out). Widths RT 0.15, 0.15, 0.02; nRT 0.2, 0.5, 0.1.
+    comp = compare.compare_results(load_results(hand_pair[0]), b)
+    summary = compare.band_summary(comp, band)
+    assert summary["rt"]["points"] == 3 and summary["rt"]["covered"] == 1
+    assert summary["rt"]["coverage_pct"] == pytest.approx(100 / 3)
+    assert summary["rt"]["median_width"] == pytest.approx(0.15)
+    assert summary["nrt"]["covered"] == 2 and summary["nrt"]["median_width"] == pytest.approx(0.2)
+
+
+def test_band_coverage_skips_what_has_no_band():
+    c = compare.band_coverage([(1.0, 0.9, 1.1), (2.0, math.nan, math.nan), (math.nan, 1, 2),
+                               (3.0, 3.5, 4.0)])
+    assert (c["points"], c["covered"]) == (2, 1)
+    assert c["coverage_pct"] == pytest.approx(50.0)
+    assert c["median_width"] == pytest.approx(0.35)          # widths 0.2, 0.5
+    empty = compare.band_coverage([])
+    assert empty["points"] == 0 and math.isnan(empty["coverage_pct"])
+    assert math.isnan(empty["median_width"])
+
+
+def test_band_outputs_and_the_warning_for_a_folder_missing_points(hand_pair, band_folders,
+                                                                  tmp_path):
+    out = tmp_path / "out"
+    done = run_cli("compare", *hand_pair, "--out", out, "--band", band_folders[0],
+                   "--band", band_folders[1])
+    assert done.returncode == 0, done.stderr
+    with (out / "compare.csv").open(newline="") as f:
+        reader = csv.DictReader(f)
+        header = reader.fieldnames
+        rows = {r["point"]: r for r in reader}
+    assert header[header.index("rt_error_pct") + 1:header.index("rt_error_pct") + 3] == \
+        ["rt_band_low_b", "rt_band_high_b"]
+    assert header[-2:] == ["nrt_band_low_b", "nrt_band_high_b"]
+    assert float(rows["p0000000002"]["nrt_band_high_b"]) == pytest.approx(3.5)
+    assert float(rows["p0000000003"]["rt_band_low_b"]) == pytest.approx(1.3)
+    assert float(rows["p00000000b5"]["rt_band_low_b"]) == pytest.approx(0.9)   # only in B
+    assert rows["p00000000a4"]["rt_band_low_b"] == ""                            # only in A
+    summary = json.loads((out / "summary.json").read_text())
+    band = summary["band"]
+    assert band["folders"] == [str(f) for f in band_folders]
+    assert band["rt"] == {"points": 3, "covered": 1, "coverage_pct": pytest.approx(100 / 3),
+                          "median_width": pytest.approx(0.15)}
+    assert band["nrt"]["coverage_pct"] == pytest.approx(200 / 3)
+    assert "one-at-a-time" in band["definition"]
+    assert "RT   B's band covers A at 1 of 3 points, median width 0.150" in done.stdout
+    assert "nRT  B's band covers A at 2 of 3 points, median width 0.200" in done.stdout
+    assert (f"warning: band folder {band_folders[1]} lacks 2 of 4 point(s) (p0000000003, "
+            "p00000000b5); their band is made from the folders that have them") in done.stderr
+    assert_figure_files(out, "compare_scatter")
+
+
+def test_scatter_draws_the_band_on_b_points(hand_pair, band_folders):
+    a, b = load_results(hand_pair[0]), load_results(hand_pair[1])
+    comp = compare.compare_results(a, b)
+    band = compare.prediction_band(b, [load_results(f) for f in band_folders])
+    fig = compare.scatter(comp, band)
+    for ax in fig.axes:
+        labels = ax.get_legend_handles_labels()[1]
+        assert any("prediction band" in label for label in labels), labels
+        assert len(ax.containers) == 2                     # the points' bars and the band's
+        band_bars = ax.containers[1]
+        segments = band_bars.lines[2][0].get_segments()
+        assert len(segments) == 3                          # one per common point
+    rt_segments = sorted((s[0][1], s[1][1]) for s in fig.axes[0].containers[1].lines[2][0]
+                         .get_segments())
+    assert rt_segments == [pytest.approx((1.0, 1.15)), pytest.approx((1.05, 1.2)),
+                           pytest.approx((1.3, 1.32))]
+    plain = compare.scatter(comp)
+    assert not any("prediction band" in label for ax in plain.axes
+                   for label in ax.get_legend_handles_labels()[1])
+
+
+def test_no_band_leaves_the_outputs_as_they_were(hand_pair, tmp_path):
+    stream = io.StringIO()
+    assert compare.run(*hand_pair, tmp_path / "out", stream=stream, bands=[]) == 0
+    header = (tmp_path / "out" / "compare.csv").read_text().splitlines()[0]
+    assert header == ("point,status,rt_workload,nrt_workload,policy,sampling,scope,"
+                      "threshold_pct,sampling_period_us,regulation_period_us,reps_a,reps_b,"
+                      "rt_slowdown_a,rt_slowdown_b,rt_diff,rt_error_pct,nrt_slowdown_a,"
+                      "nrt_slowdown_b,nrt_diff,nrt_error_pct")
+    assert "band" not in json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert "prediction band" not in stream.getvalue()
+
+
+def test_a_band_folder_of_another_scenario_is_invalid_input(hand_pair, tmp_path):
+    other = write_hand(tmp_path / "other", {"p00000000a4": [(1.0, 1.0)]}, "sim")
+    done = run_cli("compare", *hand_pair, "--out", tmp_path / "out", "--band", other)
+    assert done.returncode == 2 and "share no point" in done.stderr

@@ -316,3 +316,135 @@ def test_a_sim_model_of_another_machine_is_said(suite, tmp_path):
     assert validation._model_line({"sim_model_machine": {"matches": True}}) == ""
     assert "does not record" in validation._model_line(
         {"sim_model_machine": {"measured_on": None, "matches": None}})
+
+
+# The prediction band: the sim runs on two band platforms of the model (make validate:
+# BAND_ROOT/<variant>/<scenario>/). The "high" run of alpha lacks p0000000002.
+BAND = {
+    "m-x-low": {"alpha": {"p0000000001": [(1.15, 1.9)], "p0000000002": [(1.0, 2.2)]},
+                "beta": {"p0000000004": [(1.2, 4.8)]}},
+    "m-x-high": {"alpha": {"p0000000001": [(1.25, 2.5)]},
+                 "beta": {"p0000000004": [(1.35, 5.2)]}},
+}
+
+
+@pytest.fixture
+def band_root(suite, tmp_path):
+    for variant, scenarios in BAND.items():
+        for name, points in scenarios.items():
+            write_folder(tmp_path / "sim-band" / variant / name, points, "sim")
+    return tmp_path / "sim-band"
+
+
+def test_band_envelope_coverage_and_width_by_hand(suite, band_root):
+    report, pairs = validation.build_report(*suite, band_root=band_root)
+    bands = {(p.scenario, p.point, p.node): (p.band_low, p.band_high) for p in pairs}
+    # alpha p1: sim 1.188 / 2.2, low 1.15 / 1.9, high 1.25 / 2.5 -> RT 1.15..1.25 (hw 1.1 out),
+    # nRT 1.9..2.5 (hw 2.0 in). p2 (only low): sim 1.02 / 2.4, low 1.0 / 2.2 -> RT 1.0..1.02
+    # (hw 1.02 in: the edge counts), nRT 2.2..2.4 (hw 3.0 out). beta p4: sim 1.30 / 5.5, low
+    # 1.2 / 4.8, high 1.35 / 5.2 -> RT 1.2..1.35 (hw 1.25 in), nRT 4.8..5.5 (hw 5.0 in).
+    assert bands[("alpha", "p0000000001", "rt")] == pytest.approx((1.15, 1.25))
+    assert bands[("alpha", "p0000000001", "nrt")] == pytest.approx((1.9, 2.5))
+    assert bands[("alpha", "p0000000002", "rt")] == pytest.approx((1.0, 1.02))
+    assert bands[("alpha", "p0000000002", "nrt")] == pytest.approx((2.2, 2.4))
+    assert bands[("beta", "p0000000004", "rt")] == pytest.approx((1.2, 1.35))
+    assert bands[("beta", "p0000000004", "nrt")] == pytest.approx((4.8, 5.5))
+    alpha = report["scenarios"][0]["band"]
+    assert alpha["variants"] == ["m-x-high", "m-x-low"]
+    assert (alpha["rt"]["points"], alpha["rt"]["covered"]) == (2, 1)
+    assert alpha["rt"]["median_width"] == pytest.approx(0.06)           # 0.10, 0.02
+    assert alpha["nrt"]["coverage_pct"] == pytest.approx(50.0)
+    assert alpha["nrt"]["median_width"] == pytest.approx(0.4)           # 0.6, 0.2
+    band = report["band"]
+    assert band["variants"] == ["m-x-high", "m-x-low"]
+    assert (band["rt"]["points"], band["rt"]["covered"]) == (3, 2)
+    assert band["rt"]["median_width"] == pytest.approx(0.10)            # 0.10, 0.02, 0.15
+    assert band["nrt"]["coverage_pct"] == pytest.approx(200 / 3)
+    assert band["nrt"]["median_width"] == pytest.approx(0.6)            # 0.6, 0.2, 0.7
+    assert "one-at-a-time" in band["definition"]
+    assert len(band["warnings"]) == 1
+    assert band["warnings"][0].startswith(
+        f"alpha: band folder {band_root / 'm-x-high' / 'alpha'} lacks 1 of 2 point(s) "
+        "(p0000000002)")
+    point = next(p for p in report["points"] if p["point"] == "p0000000002" and p["node"] == "rt")
+    assert (point["band_low"], point["band_high"]) == pytest.approx((1.0, 1.02))
+    # The errors are the nominal run's, band or not.
+    plain, _ = validation.build_report(*suite)
+    assert report["overall"]["rt"] == plain["overall"]["rt"]
+
+
+def test_band_in_report_files_and_figure(suite, band_root, tmp_path):
+    out = tmp_path / "out"
+    done = run_cli("validate", *suite, "--out", out, "--band-root", band_root)
+    assert done.returncode == 0, done.stderr
+    assert ("prediction band (2 band platform(s) of the sim model): hw inside it at RT 2 of 3 "
+            "(67 %) points, median width 0.100; nRT 2 of 3 (67 %) points, median width 0.600"
+            in done.stdout)
+    assert "warning: alpha: band folder" in done.stdout
+    report = validation.load_report(out / "report.json")
+    assert report["band"]["rt"]["covered"] == 2
+    md = (out / "report.md").read_text()
+    assert "## Prediction band" in md and "one-at-a-time" in md
+    assert "| alpha | 2 | 1 of 2 (50 %) | 0.060 | 1 of 2 (50 %) | 0.400 |" in md
+    assert "| **all** | 2 | 2 of 3 (67 %) | 0.100 | 2 of 3 (67 %) | 0.600 |" in md
+    assert "| alpha | p0000000002 | rt | 1.020 | 1.020–1.020 | 1.020 | 1.000–1.020 |" in md
+    assert "prediction band" in validation.readme_section(report, "f.png")
+    assert_figure_files(out, "validation_scatter")
+
+
+def test_figure_draws_the_band_on_sim_points():
+    from analysis.figures import validation as figure
+    stat = validation.Stat.of
+    pairs = [validation.Pair("a", "p1", "rt", stat([1.1]), stat([1.2]), 1.15, 1.3),
+             validation.Pair("a", "p2", "nrt", stat([2.0]), stat([2.2]), 1.9, 2.5),
+             # a band beside the sim mean (bounds on one side) and one with a NaN bound
+             validation.Pair("a", "p3", "nrt", stat([3.0]), stat([3.3]), 3.4, 3.6),
+             validation.Pair("a", "p4", "nrt", stat([4.0]), stat([4.1]), math.nan, 4.3),
+             validation.Pair("a", "p5", "rt", stat([1.05]), stat([1.06]))]        # no band
+    fig = figure.draw(pairs, ["a"], {}, validation.EXCESS_MIN, "note")
+    rt, nrt, excess = fig.axes[:3]
+
+    def band_segments(ax):            # the wide bars: the band's errorbar containers
+        return sorted(tuple(round(v, 6) for v in (s[0][1], s[1][1]))
+                      for c in ax.containers if c.lines[2] and
+                      c.lines[2][0].get_linewidth() == figure.BAND_STYLE["elinewidth"]
+                      for s in c.lines[2][0].get_segments())
+
+    assert band_segments(rt) == [(1.15, 1.3)]
+    # p3: 3.4..3.6 lies above the sim mean 3.3: only the part above it (3.3..3.6); p4: the
+    # NaN side draws nothing (4.1..4.3).
+    assert band_segments(nrt) == [(1.9, 2.5), (3.3, 3.6), (4.1, 4.3)]
+    assert band_segments(excess)[0] == pytest.approx((0.15, 0.3))       # RT p1, minus 1
+    assert "sim prediction band" in [t.get_text() for t in fig.legends[0].get_texts()]
+    plain = figure.draw(pairs[-1:], ["a"], {}, validation.EXCESS_MIN, "note")
+    assert "sim prediction band" not in [t.get_text() for t in plain.legends[0].get_texts()]
+
+
+def test_no_band_leaves_the_report_as_it_was(suite, tmp_path):
+    empty = tmp_path / "no-variants"
+    empty.mkdir()
+    now = validation.datetime(2026, 1, 2, tzinfo=validation.timezone.utc)
+    plain, _ = validation.build_report(*suite, now=now)
+    assert "band" not in plain and all("band" not in s for s in plain["scenarios"])
+    assert all("band_low" not in p for p in plain["points"])
+    with_empty_root, _ = validation.build_report(*suite, now=now, band_root=empty)
+    assert with_empty_root == plain
+    md = validation.markdown(validation._clean(plain))
+    assert "Prediction band" not in md and "sim band" not in md
+    assert "| scenario | point | node | hw | hw min–max | sim | error | excess error |" in md
+    assert "prediction band" not in validation.readme_section(plain, "f.png")
+    done = run_cli("validate", *suite, "--out", tmp_path / "out", "--band-root",
+                   tmp_path / "missing")
+    assert done.returncode == 2 and "no such folder" in done.stderr
+
+
+def test_a_variant_without_a_run_of_a_scenario_is_said(suite, band_root):
+    import shutil
+    shutil.rmtree(band_root / "m-x-low" / "beta")
+    report, pairs = validation.build_report(*suite, band_root=band_root)
+    beta = report["scenarios"][1]["band"]
+    assert beta["variants"] == ["m-x-high"]
+    assert [(p.band_low, p.band_high) for p in pairs if p.scenario == "beta"
+            and p.node == "rt"] == [pytest.approx((1.30, 1.35))]
+    assert any(w.startswith("beta: no run on band platform m-x-low") for w in
+               report["band"]["warnings"])

@@ -145,7 +145,7 @@ def band_coverage(triples) -> dict:
 
 def band_warnings(band: Band, points: int) -> list:
     """One line per band folder that lacks points of the nominal run or whose matched points
-    have other settings."""
+    have other settings, and one for the points no band folder has (they get no band)."""
     lines = []
     for folder, ids in band.missing.items():
         shown = ", ".join(ids[:LISTED_IDS]) + (", ..." if len(ids) > LISTED_IDS else "")

@@ -486,8 +486,8 @@ def band_section(report: dict) -> list:
              + ", ".join(f"`{v}`" for v in band["variants"]) + "), and every scenario also ran "
              "in sim on each. The band of a point: " + band["definition"] + ". Coverage: the "
              "points whose hw mean lies inside their band; width: high − low in slowdown units "
-             "(× isolation). A narrow band that misses the hw mean says the error lies beyond what the "
-             "prior-dominated parameters move, one at a time.", "",
+             "(× isolation). A narrow band that misses the hw mean says the error lies beyond "
+             "what the prior-dominated parameters move, one at a time.", "",
              "| scenario | band runs | RT coverage | RT median width | nRT coverage | "
              "nRT median width |", "|---|---:|---:|---:|---:|---:|"]
     rows = [(s["name"], len(s.get("band", {}).get("variants", [])), s.get("band", {}))

@@ -4,6 +4,10 @@
 # results/validation/{hw,sim}/<scenario>/, compares each pair (rosguard compare ->
 # results/validation/compare/<scenario>/), and writes results/validation/report.md,
 # report.json and validation_scatter.png/pdf (python3 -m analysis validate).
+# The prediction band: when the host model has an uncertainty band (band/ beside it: platforms
+# with one prior-dominated parameter one standard error down or up, written by `rosguard
+# calibrate --install`), each scenario also runs in sim on every band platform into
+# results/validation/sim-band/<variant>/<scenario>/, and compare and the report show the band.
 #
 # Usage: tools/validate.sh [ROSGUARD]      run the suite (default ROSGUARD: build/rosguard)
 #        tools/validate.sh --readme        regenerate README.md's validation block and
@@ -75,21 +79,57 @@ fi
 shopt -s nullglob
 scenarios=("$suite"/*.json)
 ((${#scenarios[@]})) || { echo "validate: no scenario in $suite" >&2; exit 1; }
+
+# The host model's uncertainty band: band/*.json beside it (absolute paths: the scenario copies
+# that name them live elsewhere). Files older than the model are of an earlier one (calibrate
+# writes the model first, then its band): left out, with a warning.
+band_files=()
+if [[ $platform == host ]]; then
+  band_dir=$(cd "$(dirname "$model")" && pwd)/band
+  band_files=("$band_dir"/*.json)
+  for f in "${band_files[@]}"; do
+    if [[ $f -ot $model ]]; then
+      echo "validate: warning: $f is older than the host model $model (of an earlier" \
+           "calibration?); no prediction band this time" >&2
+      band_files=()
+      break
+    fi
+  done
+  if ((${#band_files[@]})); then
+    echo "validate: prediction band: the host model has ${#band_files[@]} band platform(s) in" \
+         "$band_dir/ (prior-dominated parameters one standard error down / up); each scenario" \
+         "also runs in sim on each, into $out/sim-band/"
+  fi
+fi
+# compare --band needs a rosguard that forwards it. (grep without -q: with pipefail, a grep
+# that stops reading early can fail the pipeline by SIGPIPE.)
+band_compare=0
+if ((${#band_files[@]})) && "$rosguard" compare --help 2>&1 | grep -e '--band' >/dev/null; then
+  band_compare=1
+fi
+
+# A copy of scenario $1 whose "platform" is $2, written to $3.
+with_platform() {
+  py -c 'import json,sys; d=json.load(open(sys.argv[1])); d["platform"]=sys.argv[2]
+d.pop("$schema", None)
+open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' "$1" "$2" "$3"
+}
+
+rm -rf "$out/sim-band"
 mkdir -p "$out"/{hw,sim,compare,logs,scenarios}
 start=$(date +%s)
 load_start=$(cut -d' ' -f1 /proc/loadavg)
-ok=() failed=()
+ok=() failed=() band_failed=()
+band_runs=0 band_tenths=0
 i=0
 for file in "${scenarios[@]}"; do
   i=$((i + 1))
   name=$(basename "$file" .json)
+  source_file=$file
   # The suite's files name `host`; another platform (ROSGUARD_VALIDATE_PLATFORM) runs a copy.
   if [[ $(py -c 'import json,sys; print(json.load(open(sys.argv[1])).get("platform"))' "$file") \
         != "$platform" ]]; then
-    py -c 'import json,sys; d=json.load(open(sys.argv[1])); d["platform"]=sys.argv[2]
-d.pop("$schema", None)
-open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' \
-      "$file" "$platform" "$out/scenarios/$name.json"
+    with_platform "$file" "$platform" "$out/scenarios/$name.json"
     file=$out/scenarios/$name.json
   fi
   printf '[%d/%d] %-26s' "$i" "${#scenarios[@]}" "$name"
@@ -115,27 +155,68 @@ open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' \
     printf ' %s %3d.%d s' "$backend" $((tenths / 10)) $((tenths % 10))
   done
   [[ $status == ok ]] || continue
+  # The band: the same scenario in sim on each band platform of the host model.
+  band_args=()
+  if ((${#band_files[@]})); then
+    t0=$(date +%s%N)
+    ran=0
+    for band_file in "${band_files[@]}"; do
+      variant=$(basename "$band_file" .json)
+      copy=$out/scenarios/$name@$variant.json
+      with_platform "$source_file" "$band_file" "$copy"
+      log=$out/logs/$name-band-$variant.log
+      rc=0
+      "$rosguard" run "$copy" --backend sim --out "$out/sim-band/$variant/$name" --overwrite \
+        > "$log" 2>&1 || rc=$?
+      if ((rc == 130 || rc == 143)); then
+        echo " band run on $variant interrupted; stopping" >&2
+        exit "$rc"
+      fi
+      if ((rc != 0)); then
+        # Left out of compare and the report alike (the report names the missing run).
+        band_failed+=("$name on $variant (exit $rc; see $log)")
+        rm -rf "$out/sim-band/$variant/$name"
+      else
+        ran=$((ran + 1))
+        band_args+=(--band "$out/sim-band/$variant/$name")
+      fi
+    done
+    tenths=$((($(date +%s%N) - t0) / 100000000))
+    band_runs=$((band_runs + ran))
+    band_tenths=$((band_tenths + tenths))
+    printf ' band %d run(s) %d.%d s' "$ran" $((tenths / 10)) $((tenths % 10))
+    ((ran == ${#band_files[@]})) || printf ' (%d FAILED)' $((${#band_files[@]} - ran))
+  fi
+  ((band_compare)) || band_args=()
   if ! "$rosguard" compare "$out/hw/$name" "$out/sim/$name" --out "$out/compare/$name" \
-       > "$out/logs/$name-compare.log" 2>&1; then
+       "${band_args[@]}" > "$out/logs/$name-compare.log" 2>&1; then
     echo " compare FAILED (see $out/logs/$name-compare.log)"
     failed+=("$name=rosguard compare failed; see $out/logs/$name-compare.log")
     continue
   fi
   ok+=("$name")
-  # compare's summary lines: "RT  pairs  MAPE ..."
-  awk '/^(RT|nRT) / { printf "  %s MAPE %s %%", $1, $3 }' "$out/logs/$name-compare.log"
+  # compare's summary rows: "RT  pairs  MAPE ..." (not its band lines: "RT   B's band ...")
+  awk '/^(RT|nRT) +[0-9]+ / { printf "  %s MAPE %s %%", $1, $3 }' "$out/logs/$name-compare.log"
   echo
 done
 
 load_end=$(cut -d' ' -f1 /proc/loadavg)
 echo "validate: suite run in $(($(date +%s) - start)) s (load average $load_start at the" \
      "start, $load_end at the end, on $(nproc) CPUs); writing the report"
+if ((${#band_files[@]})); then
+  echo "validate: prediction band: $band_runs band run(s) on ${#band_files[@]} platform(s) in" \
+       "$((band_tenths / 10)).$((band_tenths % 10)) s"
+  for f in "${band_failed[@]}"; do
+    echo "validate: warning: a band run failed: $f; the band is made from the others" >&2
+  done
+fi
 # The machine's CPU as lscpu names it, beside the date in the report and the README block.
 cpu=$(LC_ALL=C lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -n 1 || true)
 args=(-m analysis validate "$out/hw" "$out/sim" --out "$out" ${cpu:+--cpu "$cpu"}
       --scenarios "$(IFS=,; echo "${ok[*]}")"
       --note "1-min load average $load_start at the start, $load_end at the end ($(nproc) CPUs)")
 for f in "${failed[@]}"; do args+=(--failed "$f"); done
+if ((band_runs)); then args+=(--band-root "$out/sim-band"); fi
 py "${args[@]}"
 if ((${#failed[@]})); then
   echo "validate: ${#failed[@]} scenario(s) failed: ${failed[*]%%=*}" >&2

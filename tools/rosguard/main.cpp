@@ -225,12 +225,20 @@ int main(int argc, char** argv) {
                    "figure and the trade-off figure (default: DIR/tune.json's, if any)");
 
   std::string cmp_a, cmp_b, cmp_out;
+  std::vector<std::string> cmp_band;
   auto* compare =
       app.add_subcommand("compare", "Compare two results folders point by point (e.g. sim vs hw).");
   compare->add_option("results_a", cmp_a, "Reference results folder (e.g. measured)")->required();
   compare->add_option("results_b", cmp_b, "Results folder compared with it (e.g. simulated)")
       ->required();
   compare->add_option("--out", cmp_out, "Output folder (default: RESULTS_B/compare)");
+  compare
+      ->add_option("--band", cmp_band,
+                   "A results folder of B's scenario on a band platform of B's model (rosguard "
+                   "calibrate writes them into band/); repeat it, one per platform. B's "
+                   "prediction band (min..max over B and these) goes into compare.csv, "
+                   "summary.json, the summary and the scatter")
+      ->allow_extra_args(false);
 
   std::string list_what;
   auto* list = app.add_subcommand("list",
@@ -386,6 +394,8 @@ int main(int argc, char** argv) {
     if (*compare) {
       std::vector<std::string> args = {"compare", cmp_a, cmp_b};
       if (!cmp_out.empty()) args.insert(args.end(), {"--out", cmp_out});
+      for (const auto& band : cmp_band)
+        args.insert(args.end(), {"--band", band});
       return run_analysis(loader.home(), args);
     }
   } catch (const InputError& e) {

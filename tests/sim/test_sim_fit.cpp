@@ -478,19 +478,19 @@ TEST_CASE("fit: the measured suites of two real hosts fit, prior-dominated param
     const auto band = band_platforms(platform, r);
     REQUIRE(band.size() == 2 * dominated.size());
     for (std::size_t i = 0; i < band.size(); ++i) {
-      const auto& [variant, doc] = band[i];
+      const auto& [variant, variant_doc] = band[i];
       const FittedParameter& p = param(r, dominated[i / 2]);
       CHECK(variant == "replayed-" + p.name + (i % 2 ? "-high" : "-low"));
-      CHECK_FALSE(schemas.first_error(doc, SchemaKind::Platform).has_value());
-      const json diff = json::diff(platform, doc);
+      CHECK_FALSE(schemas.first_error(variant_doc, SchemaKind::Platform).has_value());
+      const json diff = json::diff(platform, variant_doc);
       std::set<std::string> changed;
       for (const auto& op : diff) {
-        const std::string path = op["path"];
-        if (path != "/name" && path != "/description" && !path.ends_with("/source"))
-          changed.insert(path);
+        const std::string where = op["path"];
+        if (where != "/name" && where != "/description" && !where.ends_with("/source"))
+          changed.insert(where);
       }
       REQUIRE(changed.size() == 1);
-      const double moved = doc[json::json_pointer(*changed.begin())].get<double>();
+      const double moved = variant_doc[json::json_pointer(*changed.begin())].get<double>();
       CHECK(moved == Approx(p.value * std::exp((i % 2 ? 1 : -1) * p.log_std_error)).epsilon(1e-4));
     }
     FitOptions strict;

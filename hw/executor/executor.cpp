@@ -77,6 +77,10 @@ SchedOutcome apply_to_current_thread(const ThreadSpec& spec, const SchedOps& ops
     }
   } else {
     out.fifo = true;  // not requested: nothing to report
+    // Explicitly: a thread inherits its creator's policy, and a SCHED_FIFO creator (the engine
+    // thread) would otherwise make it a FIFO thread at the creator's priority.
+    sched_param p{};
+    ops.set_scheduler(self, SCHED_OTHER, &p);
     ops.set_nice(current_tid(), prio::nice_for(spec.priority));
   }
   return out;

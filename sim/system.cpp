@@ -150,7 +150,7 @@ class Top : public sc_core::sc_module {
       if (rt_nodes_.empty() && controller_) {
         // No RT node: regulation is active for the whole run (a virtual RT node 0).
         rt_window_start_ = now;
-        controller_->enable(0, now);
+        controller_->enable(0, now, controller_->core());
       }
       for (auto& r : rt_nodes_)
         r->start(now);
@@ -190,7 +190,7 @@ class Top : public sc_core::sc_module {
       if (!n->config().loop && !n->done()) return;
     if (rt_nodes_.empty() && controller_) {
       rt_window_end_ = now;
-      controller_->disable(0, now);
+      controller_->disable(0, now, controller_->core());
       return;  // finishes when the controller has deactivated
     }
     maybe_finish(now);

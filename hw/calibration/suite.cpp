@@ -220,7 +220,7 @@ std::set<std::pair<std::string, double>> corun_measured(const std::vector<Block>
   return out;
 }
 
-constexpr int kCostSteps = 5;  // the cost blocks, one progress step each
+constexpr int kCostSteps = 6;  // the cost blocks, one progress step each
 
 std::string mb_text(double kb) {
   return std::to_string(static_cast<long long>(std::lround(kb / 1024.0))) + " MB";
@@ -254,6 +254,7 @@ class Suite {
                                double co_kb, int n);
   void record(const Config& c, const Corunner* co, const std::vector<double>& ns, int rounds);
   void measure_costs();
+  std::vector<double> controller_callbacks(const MetricPlan& plan, int feed_core, int ctl_core);
   void paced(const std::function<void(int)>& sample, int count);
 
   const SuiteOptions& opt_;
@@ -440,7 +441,7 @@ void Suite::measure_costs() {
   if (cores_.size() < 2)
     notes_.add(
         "one core only: message_latency, external_read and controller_callback are "
-        "measured with both ends on the same core");
+        "measured with both ends on the same core (no controller_callback_local)");
   const int n = shape_.cost_samples;
   auto& costs = m_.costs_us;
 
@@ -485,10 +486,32 @@ void Suite::measure_costs() {
 
   // Paced messages published from the nRT core (`publish_one`, at the PMC thread's priority) on a
   // topic whose one subscriber (the controller's priority, threads named `pub_name` and
-  // `sub_name`) sleeps on `sub_core`: each message's publish -> subscriber awake, in us.
+  // `sub_name`) sleeps on `sub_core`: each message's publish -> subscriber awake, in us. The
+  // subscriber's core is busy meanwhile, as under regulation (an RT job or an nRT node runs on the
+  // controller's core): on the nRT core the NCT streams; on another core a spinner does, under
+  // SCHED_OTHER so that middleware threads (Cyclone's) still get that core. An idle destination
+  // measures something else: waking a halted CPU (under KVM, a vCPU the host descheduled), tens
+  // of us slower (25.4 against 9.4 us median on the development VM, 2026-11-26).
   const auto timed_topic =
       [&](int sub_core, const std::string& pub_name, const std::string& sub_name,
           const std::function<void(Topic<SampleMsg>&, std::size_t)>& publish_one) {
+        std::atomic<bool> spin_done{false};
+        std::optional<RtThread> spinner;
+        if (sub_core != nrt_core) {
+          spinner.emplace(ThreadSpec{"cal-busy", sub_core, SchedClass::Other, 0}, [&] {
+            while (!spin_done.load(std::memory_order_relaxed)) {
+            }
+          });
+          notes_.sched(spinner->outcome());
+        }
+        struct StopSpinner {
+          std::atomic<bool>& done;
+          std::optional<RtThread>& thread;
+          ~StopSpinner() {
+            done.store(true, std::memory_order_relaxed);
+            if (thread) thread->join();
+          }
+        } stop_spinner{spin_done, spinner};
         std::unique_ptr<Topic<SampleMsg>> owned;
         if (dds_participant)
           owned = std::make_unique<DdsTopic<SampleMsg>>(
@@ -647,67 +670,91 @@ void Suite::measure_costs() {
     costs["external_read"] = std::move(reads);
   }
 
-  // controller_callback: the controller's core time per input: woken by a sample, one input to
-  // the controller engine (a sample, a due wake-up, an RT signal), publishing the commands it
-  // produces, back to sleep. Synthetic counters, 1 ms apart in engine time, that use the budget
-  // of a 5 ms interval window in about 2.5 samples, so THR / REPLENISH commands flow.
+  // controller_callback: the controller's core time per input woken from another core (a
+  // sample published there); controller_callback_local: woken on its own core (a sample from an
+  // nRT node beside it, as when it shares the nRT core). See controller_callbacks().
   if (!stopping()) {
     step("costs: controller_callback");
-    PolicyRegistry policies;
-    register_builtin(policies);
-    PolicyParams params;
-    params.threshold_pct = 20.0;
-    params.reference_mbps = kReferenceMbps;
-    params.regulation_period_ns = 5 * kNsPerMs;
-    RegulatorConfig rc;
-    rc.rt_count = 1;
-    rc.account_of_entity = {0};
-    rc.metric = plan.spec;
-    const double budget = params.threshold_pct / 100.0 * params.reference_mbps * kBytesPerMb *
-                          (static_cast<double>(params.regulation_period_ns) / 1e9);
-    double weights = 0.0;
-    for (const auto& e : rc.metric.events)
-      weights += e.weight;
-    const auto per_sample = static_cast<std::uint64_t>(
-        budget / 2.5 / (weights * static_cast<double>(rc.metric.line_bytes)));
+    costs["controller_callback"] = controller_callbacks(plan, nrt_core, far_core);
+  }
+  if (!stopping() && far_core != nrt_core) {
+    step("costs: controller_callback_local");
+    costs["controller_callback_local"] = controller_callbacks(plan, nrt_core, nrt_core);
+  }
+  nct.stop();
+}
 
-    struct Meter : EntityMeter {
-      double bytes = 0.0;
-      EntityReading read(std::size_t, TimeNs) override { return {bytes, 0.0, 0.0}; }
-    } meter;
-    ControllerDriverConfig dc;
-    dc.sampling = Sampling::Self;
-    dc.sampling_period_ns = kNsPerMs;
-    ControllerDriver driver(dc, std::make_unique<Regulator>(rc, policies.make("interval", params)),
-                            &meter);
-    InprocTopic<ControlMsg> control;
-    Waker nrt_waker;  // nobody sleeps on it: the controller drains the ring itself
-    const std::size_t pub = control.add_publisher();
-    const std::size_t sub = control.subscribe(nrt_waker);
-    std::vector<CounterValue> counters(rc.metric.events.size());
-    DriverOutput out;
-    TimeNs t = kNsPerS;  // the engine's time: synthetic, so the regulation logic is the same
-                         // on every host
+// One controller callback per paced sample from `feed_core`, on `ctl_core`: woken by the sample,
+// one input to the controller engine (a sample, a due wake-up, an RT signal), publishing the
+// commands it produces, back to sleep. Synthetic counters, 1 ms apart in engine time, that use
+// the budget of a 5 ms interval window in about 2.5 samples, so THR / REPLENISH commands flow.
+//
+// From another core (controller_callback): a spinner on the controller's core (an RT job's
+// priority, below the controller's) sees the whole cost as a gap in its own progress: switch in,
+// the engine step, publishing the commands, switch out. That gap is what the sim charges per
+// callback on the controller's core (it preempts whatever runs there).
+// On its own core (controller_callback_local): the feed (the PMC thread's priority) is preempted
+// inside its publish, as an nRT node's PMC callback is by a controller beside it; the cost is
+// from the controller awake (the switch in is local_message_latency's) to the feed running again:
+// the engine step, publishing the commands, switch out. The NCT streams on the nRT core meanwhile.
+std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed_core,
+                                                int ctl_core) {
+  const bool local = feed_core == ctl_core;
+  const int n = shape_.cost_samples;
+  PolicyRegistry policies;
+  register_builtin(policies);
+  PolicyParams params;
+  params.threshold_pct = 20.0;
+  params.reference_mbps = kReferenceMbps;
+  params.regulation_period_ns = 5 * kNsPerMs;
+  RegulatorConfig rc;
+  rc.rt_count = 1;
+  rc.account_of_entity = {0};
+  rc.metric = plan.spec;
+  const double budget = params.threshold_pct / 100.0 * params.reference_mbps * kBytesPerMb *
+                        (static_cast<double>(params.regulation_period_ns) / 1e9);
+  double weights = 0.0;
+  for (const auto& e : rc.metric.events)
+    weights += e.weight;
+  const auto per_sample = static_cast<std::uint64_t>(
+      budget / 2.5 / (weights * static_cast<double>(rc.metric.line_bytes)));
 
-    // The controller thread sleeps on the samples topic as on hw; each paced sample from the
-    // nRT core wakes it on its core, where a spinner (an RT job's priority, below the
-    // controller's) sees the whole cost as a gap in its own progress: switch in, the engine
-    // step, publishing the commands, switch out. That gap is what the sim charges per callback
-    // on the controller's core (it preempts whatever runs there).
-    InprocTopic<SampleMsg> samples;
-    Waker ctl_waker;
-    const std::size_t sample_pub = samples.add_publisher();
-    const std::size_t sample_sub = samples.subscribe(ctl_waker);
-    std::vector<TimeNs> woke;  // the controller's wake-ups (monotonic ns)
-    woke.reserve(static_cast<std::size_t>(n));
-    struct Gap {
-      TimeNs start, end;
-    };
-    std::vector<Gap> gaps(static_cast<std::size_t>(n) * 8);
-    std::atomic<std::size_t> gap_count{0};
-    std::atomic<bool> done{false}, spinning{false};
-    constexpr TimeNs kGapNs = 300;  // the spinner's own loop takes ~20-40 ns
-    RtThread spinner(ThreadSpec{"cal-spin", far_core, SchedClass::Fifo, prio::kRt}, [&] {
+  struct Meter : EntityMeter {
+    double bytes = 0.0;
+    EntityReading read(std::size_t, TimeNs) override { return {bytes, 0.0, 0.0}; }
+  } meter;
+  ControllerDriverConfig dc;
+  dc.sampling = Sampling::Self;
+  dc.sampling_period_ns = kNsPerMs;
+  ControllerDriver driver(dc, std::make_unique<Regulator>(rc, policies.make("interval", params)),
+                          &meter);
+  InprocTopic<ControlMsg> control;
+  Waker nrt_waker;  // nobody sleeps on it: the controller drains the ring itself
+  const std::size_t pub = control.add_publisher();
+  const std::size_t sub = control.subscribe(nrt_waker);
+  std::vector<CounterValue> counters(rc.metric.events.size());
+  DriverOutput out;
+  TimeNs t = kNsPerS;  // the engine's time: synthetic, so the regulation logic is the same
+                       // on every host
+
+  InprocTopic<SampleMsg> samples;
+  Waker ctl_waker;
+  const std::size_t sample_pub = samples.add_publisher();
+  const std::size_t sample_sub = samples.subscribe(ctl_waker);
+  std::vector<TimeNs> woke;      // the controller's wake-ups (monotonic ns)
+  std::vector<TimeNs> returned;  // local: the feed's publish returned (monotonic ns)
+  woke.reserve(static_cast<std::size_t>(n));
+  returned.reserve(static_cast<std::size_t>(n));
+  struct Gap {
+    TimeNs start, end;
+  };
+  std::vector<Gap> gaps(local ? 0 : static_cast<std::size_t>(n) * 8);
+  std::atomic<std::size_t> gap_count{0};
+  std::atomic<bool> done{false}, spinning{false};
+  constexpr TimeNs kGapNs = 300;  // the spinner's own loop takes ~20-40 ns
+  std::optional<RtThread> spinner;
+  if (!local) {
+    spinner.emplace(ThreadSpec{"cal-spin", ctl_core, SchedClass::Fifo, prio::kRt}, [&] {
       TimeNs last = now_ns();
       spinning.store(true, std::memory_order_release);
       while (!done.load(std::memory_order_relaxed)) {
@@ -722,81 +769,99 @@ void Suite::measure_costs() {
         last = now;
       }
     });
-    notes_.sched(spinner.outcome());
+    notes_.sched(spinner->outcome());
     while (!spinning.load(std::memory_order_acquire))
       std::this_thread::yield();
-    RtThread controller(ThreadSpec{"cal-ctl", far_core, SchedClass::Fifo, prio::kController}, [&] {
-      const auto send = [&] {
-        for (const auto& c : out.commands) {
-          ControlMsg m;
-          m.command = c.command;
-          m.t_cause = c.cause;
-          control.publish(pub, m);
-        }
-      };
-      const auto drain = [&] {
+  }
+  RtThread controller(ThreadSpec{"cal-ctl", ctl_core, SchedClass::Fifo, prio::kController}, [&] {
+    const auto send = [&] {
+      for (const auto& c : out.commands) {
         ControlMsg m;
-        while (control.take(sub, m)) {
-        }
-        out.clear();
-      };
-      driver.rt_signal(t, 0, true, out);
-      drain();
-      int i = 0;
-      while (!done.load(std::memory_order_acquire)) {
-        const auto e = ctl_waker.epoch();
-        if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
-        SampleMsg msg;
-        bool got = false;
-        while (samples.take(sample_sub, msg)) {
-          if (!got) woke.push_back(now_ns());
-          got = true;
-          t += kNsPerMs;
-          for (auto& c : counters) {
-            c.value += per_sample;
-            c.time_enabled_ns += kNsPerMs;
-            c.time_running_ns += kNsPerMs;
-          }
-          meter.bytes += static_cast<double>(per_sample) * kLineBytes;
-          if (i++ % 200 == 199) {  // an activation edge now and then
-            driver.rt_signal(t, 0, false, out);
-            driver.rt_signal(t, 0, true, out);
-          } else if (auto due = driver.next_wakeup(); due && *due <= t) {
-            driver.wake(t, out);
-          } else {
-            driver.sample(t, 0, counters, t, out);
-          }
-          send();
-          drain();
-        }
-        if (!got) ctl_waker.wait(e, -1);
+        m.command = c.command;
+        m.t_cause = c.cause;
+        control.publish(pub, m);
       }
-    });
-    notes_.sched(controller.outcome());
-    run_on(nrt_core, prio::kPmc, "cal-feed", [&] {
-      paced(
-          [&](int) {
-            SampleMsg m;
-            m.t_published = now_ns();
-            samples.publish(sample_pub, m);
-          },
-          n);
-    });
-    // Let the last callback finish before stopping both threads.
-    sleep_until(now_ns() + static_cast<TimeNs>(shape_.cost_spacing_us * 1e3));
-    done.store(true, std::memory_order_release);
-    ctl_waker.notify();
-    controller.join();
-    spinner.join();
-    rethrow_if_failed(controller);
-    rethrow_if_failed(spinner);
+    };
+    const auto drain = [&] {
+      ControlMsg m;
+      while (control.take(sub, m)) {
+      }
+      out.clear();
+    };
+    driver.rt_signal(t, 0, true, out);
+    drain();
+    int i = 0;
+    while (!done.load(std::memory_order_acquire)) {
+      const auto e = ctl_waker.epoch();
+      if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
+      SampleMsg msg;
+      bool got = false;
+      while (samples.take(sample_sub, msg)) {
+        if (!got) woke.push_back(now_ns());
+        got = true;
+        t += kNsPerMs;
+        for (auto& c : counters) {
+          c.value += per_sample;
+          c.time_enabled_ns += kNsPerMs;
+          c.time_running_ns += kNsPerMs;
+        }
+        meter.bytes += static_cast<double>(per_sample) * kLineBytes;
+        if (i++ % 200 == 199) {  // an activation edge now and then
+          driver.rt_signal(t, 0, false, out);
+          driver.rt_signal(t, 0, true, out);
+        } else if (auto due = driver.next_wakeup(); due && *due <= t) {
+          driver.wake(t, out);
+        } else {
+          driver.sample(t, 0, counters, t, out);
+        }
+        send();
+        drain();
+      }
+      if (!got) ctl_waker.wait(e, -1);
+    }
+  });
+  notes_.sched(controller.outcome());
+  RtThread feed(ThreadSpec{"cal-feed", feed_core, SchedClass::Fifo, prio::kPmc}, [&] {
+    paced(
+        [&](int) {
+          SampleMsg m;
+          m.t_published = now_ns();
+          samples.publish(sample_pub, m);
+          if (local) returned.push_back(now_ns());
+        },
+        n);
+  });
+  notes_.sched(feed.outcome());
+  feed.join();
+  rethrow_if_failed(feed);
+  // Let the last callback finish before stopping the threads.
+  sleep_until(now_ns() + static_cast<TimeNs>(shape_.cost_spacing_us * 1e3));
+  done.store(true, std::memory_order_release);
+  ctl_waker.notify();
+  controller.join();
+  if (spinner) spinner->join();
+  rethrow_if_failed(controller);
+  if (spinner) rethrow_if_failed(*spinner);
 
+  std::vector<double> cb;
+  cb.reserve(woke.size());
+  std::size_t unmatched = 0;
+  if (local) {
+    // Each wake-up's cost: to the first publish return after it (the publish it preempted).
+    std::size_t r = 0;
+    for (const TimeNs w : woke) {
+      while (r < returned.size() && returned[r] < w)
+        ++r;
+      if (r < returned.size() && returned[r] - w <= kNsPerMs)
+        cb.push_back(ns_to_us(returned[r] - w));
+      else
+        ++unmatched;
+    }
+  } else {
     // Each wake-up's cost: the spinner's gap around it, when the gap began just before the
     // wake-up (a gap that began long before is another preemption, e.g. RT throttling).
-    std::vector<double> cb;
-    cb.reserve(woke.size());
     const std::size_t ng = gap_count.load(std::memory_order_acquire);
-    std::size_t g = 0, unmatched = 0;
+    std::size_t g = 0;
     for (const TimeNs w : woke) {
       while (g < ng && gaps[g].end < w)
         ++g;
@@ -805,13 +870,14 @@ void Suite::measure_costs() {
       else
         ++unmatched;
     }
-    if (unmatched)
-      notes_.add("controller_callback: " + std::to_string(unmatched) + " of " +
-                 std::to_string(woke.size()) +
-                 " wake-ups not seen as a gap of the spinner on the controller's core (left out)");
-    costs["controller_callback"] = std::move(cb);
   }
-  nct.stop();
+  if (unmatched)
+    notes_.add(std::string(local ? "controller_callback_local: " : "controller_callback: ") +
+               std::to_string(unmatched) + " of " + std::to_string(woke.size()) +
+               (local ? " wake-ups not followed by the feed's publish returning (left out)"
+                      : " wake-ups not seen as a gap of the spinner on the controller's core "
+                        "(left out)"));
+  return cb;
 }
 
 SuiteResult Suite::run() {
@@ -833,7 +899,7 @@ SuiteResult Suite::run() {
   if (cores_.size() < 2)
     notes_.add("one core only: no co-run measurements (bandwidth-latency, matrix)");
   // Every configuration to its cap, and the cost blocks; lowered as configurations finish early.
-  steps_ = kCostSteps;
+  steps_ = kCostSteps - (cores_.size() < 2 ? 1 : 0);  // no local callback block on one core
   for (const auto& b : blocks)
     steps_ += static_cast<int>(b.configs.size()) * shape_.repetitions.max_windows;
 

@@ -848,13 +848,17 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
 
   json costs = json::object();
   std::vector<std::string> missing;
-  // local_message_latency is optional (older measurements, a suite on one core); the others
-  // are the platform's required costs.
+  // The local variants are optional (older measurements, a suite on one core); the others are
+  // the platform's required costs.
+  const auto optional = [](const std::string& c) {
+    return c == "local_message_latency" || c == "controller_callback_local";
+  };
   for (const char* c : {"pmc_callback", "publish", "message_latency", "local_message_latency",
-                        "controller_callback", "throttle_activation", "external_read"}) {
+                        "controller_callback", "controller_callback_local", "throttle_activation",
+                        "external_read"}) {
     const auto it = rep.costs.find(c);
     if (it == rep.costs.end()) {
-      if (std::string(c) != "local_message_latency") missing.push_back(c);
+      if (!optional(c)) missing.push_back(c);
       continue;
     }
     const CostFit& cf = it->second;

@@ -50,6 +50,9 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
         driver_.window_due(t, due);
         rearm(probe_timer_, driver_.next_window());
       }) {
+  if (costs.controller_callback_local)
+    local_callback_cost_.emplace(*costs.controller_callback_local,
+                                 stream_seed(seed, "controller/callback_local"));
   if (cfg_.sampling == Sampling::Overflow) {
     if (!costs.overflow_irq)
       throw ContractError("overflow sampling needs the platform's costs.overflow_irq_us");
@@ -83,17 +86,23 @@ EntityReading Controller::read(std::size_t entity, TimeNs) {
   return {p.l3_accesses() * cfg_.line_bytes, p[PmuEvent::CpuCycles], 0.0};
 }
 
-void Controller::enable(std::size_t rt, TimeNs now) {
-  enqueue({Work::Kind::Enable, rt, {}, -1}, now);
+void Controller::enable(std::size_t rt, TimeNs now, int from_core) {
+  enqueue({Work::Kind::Enable, rt, {}, -1, from_core == cfg_.core}, now);
 }
 
-void Controller::disable(std::size_t rt, TimeNs now) {
-  enqueue({Work::Kind::Disable, rt, {}, -1}, now);
+void Controller::disable(std::size_t rt, TimeNs now, int from_core) {
+  enqueue({Work::Kind::Disable, rt, {}, -1, from_core == cfg_.core}, now);
 }
 
 void Controller::sample(std::size_t entity, std::vector<CounterValue> counters, TimeNs published,
                         TimeNs now) {
-  enqueue({Work::Kind::Sample, entity, std::move(counters), published}, now);
+  const bool local = entities_.at(entity).core == cfg_.core;
+  enqueue({Work::Kind::Sample, entity, std::move(counters), published, local}, now);
+}
+
+TimeNs Controller::callback_cost(const Work& w) {
+  return w.local && local_callback_cost_ ? local_callback_cost_->draw_ns()
+                                         : callback_cost_.draw_ns();
 }
 
 void Controller::enqueue(Work w, TimeNs now) {
@@ -112,7 +121,7 @@ void Controller::start_next(TimeNs now) {
     spend(now, mmio_cost_ ? mmio_cost_->draw_ns() : read_cost_.draw_ns());
   } else {
     stage_ = 1;
-    spend(now, callback_cost_.draw_ns());
+    spend(now, callback_cost(current_));
   }
 }
 
@@ -132,7 +141,7 @@ void Controller::stage_done(TimeNs now) {
     stage_ = 1;
     // A MemPol poll compares and halts within its mmio_poll_us: no callback after it.
     if (!mmio_cost_) {
-      spend(now, callback_cost_.draw_ns());
+      spend(now, callback_cost(current_));
       return;
     }
   }
@@ -235,8 +244,11 @@ void Controller::handle_output(TimeNs now, bool from_handler) {
       target.deliver(c.command, c.cause);
       continue;
     }
-    const TimeNs latency =
-        cfg_.sampling == Sampling::Overflow ? irq_cost_->draw_ns() : latency_[c.entity].draw_ns();
+    // With a local callback cost, the switch to a node on the controller's core is in it.
+    const TimeNs latency = cfg_.sampling == Sampling::Overflow ? irq_cost_->draw_ns()
+                           : local_callback_cost_ && target.core == cfg_.core
+                               ? 0
+                               : latency_[c.entity].draw_ns();
     bus_.send(links_[c.entity], now, latency,
               [deliver = target.deliver, cmd = c.command, cause = c.cause](TimeNs) {
                 deliver(cmd, cause);

@@ -76,8 +76,9 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   void on_inactive(std::function<void(TimeNs)> fn) { on_inactive_ = std::move(fn); }
 
   // Inputs (messages delivered, or direct calls for the virtual RT node of an RT-less scenario).
-  void enable(std::size_t rt, TimeNs now);
-  void disable(std::size_t rt, TimeNs now);
+  // `from_core`: the sender's core (the controller's own for a direct call).
+  void enable(std::size_t rt, TimeNs now, int from_core);
+  void disable(std::size_t rt, TimeNs now, int from_core);
   void sample(std::size_t entity, std::vector<CounterValue> counters, TimeNs published, TimeNs now);
 
   bool active() const { return driver_.active(); }
@@ -91,6 +92,7 @@ class Controller : public sc_core::sc_module, private EntityMeter {
     std::size_t index = 0;
     std::vector<CounterValue> counters;
     TimeNs origin = -1;  // when the sample was published (self) or read (external)
+    bool local = true;   // woken on the controller's core (its timers, a node beside it)
   };
 
   EntityReading read(std::size_t entity, TimeNs t) override;
@@ -106,11 +108,13 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   void arm_overflow(std::size_t entity);
   void overflow_hit(std::size_t entity, TimeNs now);
   void spend(TimeNs now, TimeNs cost);  // the current stage takes `cost`, then stage_done()
+  TimeNs callback_cost(const Work& w);  // the callback's cost, by where its input came from
   std::vector<CounterValue> read_counters(std::size_t entity, TimeNs now);
 
   ControllerConfig cfg_;
   ControllerDriver driver_;
   CostStream callback_cost_;
+  std::optional<CostStream> local_callback_cost_;  // controller_callback_local_us
   CostStream read_cost_;
   std::optional<CostStream> irq_cost_;   // overflow sampling
   std::optional<CostStream> mmio_cost_;  // mmio sampling

@@ -1,5 +1,7 @@
 #include "nodes/nrt_node.h"
 
+#include <algorithm>
+
 #include "metric/metric.h"
 #include "nodes/controller.h"
 
@@ -22,6 +24,7 @@ NrtNodeModel::NrtNodeModel(const sc_core::sc_module_name& name, NrtNodeConfig co
       cfb_cost_(costs.throttle_activation, stream_seed(seed, cfg_.name + "/cfb")),
       latency_(costs.message_latency_between(core.id(), controller.core()),
                stream_seed(seed, cfg_.name + "->controller")),
+      local_message_(costs.local_message_latency && core.id() == controller.core()),
       link_(bus.add_link()),
       driver_(cfg_.sampling),
       schedule_(cfg_.sampling_period_ns),
@@ -132,7 +135,12 @@ void NrtNodeModel::pmc_done(TimeNs cost, TimeNs now) {
                rec_.observe("sampling_overhead", cost + publish);
                const std::size_t e = cfg_.entity;
                Controller* ctl = &controller_;
-               bus_.send(link_, t, latency_.draw_ns(),
+               // Between cores the sample leaves as the publish ends; to a controller beside
+               // this node (local_message_latency_us, measured from the publish call) as it
+               // starts, the controller preempting the publish (here it arrives at the earliest
+               // as the publish's core time is over).
+               const TimeNs arrival = (local_message_ ? published : t) + latency_.draw_ns();
+               bus_.send(link_, t, std::max<TimeNs>(0, arrival - t),
                          [ctl, e, c = std::move(counters), published](TimeNs at) mutable {
                            ctl->sample(e, std::move(c), published, at);
                          });

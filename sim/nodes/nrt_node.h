@@ -87,6 +87,9 @@ class NrtNodeModel : public sc_core::sc_module {
   CostStream publish_cost_;
   CostStream cfb_cost_;
   CostStream latency_;
+  // The platform's local_message_latency_us applies (the controller beside this node): measured
+  // from the publish call's start, as the controller preempts the publisher inside it.
+  bool local_message_ = false;
   int link_;
 
   NrtDriver driver_;

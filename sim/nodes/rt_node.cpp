@@ -43,7 +43,8 @@ void RtNodeModel::begin_job(TimeNs now) {
   if (controller_) {
     Controller* ctl = controller_;
     const std::size_t rt = cfg_.index;
-    bus_.send(link_, now, latency_.draw_ns(), [ctl, rt](TimeNs at) { ctl->enable(rt, at); });
+    bus_.send(link_, now, latency_.draw_ns(),
+              [ctl, rt, from = core_.id()](TimeNs at) { ctl->enable(rt, at, from); });
   }
   run_.restart();
   core_.start_work(&run_, [this](TimeNs t) { job_done(t); });
@@ -64,7 +65,8 @@ void RtNodeModel::job_done(TimeNs now) {
   if (controller_) {
     Controller* ctl = controller_;
     const std::size_t rt = cfg_.index;
-    bus_.send(link_, now, latency_.draw_ns(), [ctl, rt](TimeNs at) { ctl->disable(rt, at); });
+    bus_.send(link_, now, latency_.draw_ns(),
+              [ctl, rt, from = core_.id()](TimeNs at) { ctl->disable(rt, at, from); });
   }
   ++next_job_;
   if (next_job_ >= cfg_.iterations) {

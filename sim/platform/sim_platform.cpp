@@ -142,6 +142,8 @@ SimPlatform parse_sim_platform(const PlatformInfo& p) {
   if (costs.contains("local_message_latency_us"))
     s.costs.local_message_latency = dist("local_message_latency_us");
   s.costs.controller_callback = dist("controller_callback_us");
+  if (costs.contains("controller_callback_local_us"))
+    s.costs.controller_callback_local = dist("controller_callback_local_us");
   s.costs.throttle_activation = dist("throttle_activation_us");
   s.costs.external_read = dist("external_read_us");
   if (costs.contains("overflow_irq_us")) s.costs.overflow_irq = dist("overflow_irq_us");

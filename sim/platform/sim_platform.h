@@ -76,7 +76,11 @@ struct CostParams {
   const Distribution& message_latency_between(int from, int to) const {
     return from == to && local_message_latency ? *local_message_latency : message_latency;
   }
-  Distribution controller_callback;
+  Distribution controller_callback;  // woken from another core (a message from there)
+  // Woken on its own core (its timers, a message from a node beside it), when the platform says:
+  // the callback from the controller awake to the core handed back, its commands published; a
+  // command to a node on its core is then taken as the callback ends (no message latency).
+  std::optional<Distribution> controller_callback_local;
   Distribution throttle_activation;
   Distribution external_read;
   // Optional (a platform without them refuses the sampling mode that needs them):

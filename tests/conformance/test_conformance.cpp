@@ -127,8 +127,8 @@ json run_sim(const Script& script) {
   Timer feeder("feeder", rt, [&](TimeNs now) {
     while (next < script.inputs.size() && script.inputs[next].at <= now) {
       const Input& in = script.inputs[next++];
-      if (in.kind == Input::Kind::Start) ctl.enable(0, now);
-      if (in.kind == Input::Kind::Stop) ctl.disable(0, now);
+      if (in.kind == Input::Kind::Start) ctl.enable(0, now, ctl.core());
+      if (in.kind == Input::Kind::Stop) ctl.disable(0, now, ctl.core());
       if (in.kind == Input::Kind::Sample)
         ctl.sample(in.entity, counters(in.lines, in.measured), in.measured, now);
     }

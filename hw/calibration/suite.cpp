@@ -220,7 +220,7 @@ std::set<std::pair<std::string, double>> corun_measured(const std::vector<Block>
   return out;
 }
 
-constexpr int kCostSteps = 6;  // the cost blocks, one progress step each
+constexpr int kCostSteps = 7;  // the cost blocks, one progress step each
 
 std::string mb_text(double kb) {
   return std::to_string(static_cast<long long>(std::lround(kb / 1024.0))) + " MB";
@@ -255,6 +255,7 @@ class Suite {
   void record(const Config& c, const Corunner* co, const std::vector<double>& ns, int rounds);
   void measure_costs();
   std::vector<double> controller_callbacks(const MetricPlan& plan, int feed_core, int ctl_core);
+  std::vector<double> timer_wakeups(int core, int count);
   void paced(const std::function<void(int)>& sample, int count);
 
   const SuiteOptions& opt_;
@@ -670,6 +671,18 @@ void Suite::measure_costs() {
     costs["external_read"] = std::move(reads);
   }
 
+  // timer_wakeup: the core time of a thread woken by its own timer on a busy core (the timer
+  // interrupt, the switch in and out), on each measured core (VMs' vCPUs differ), pooled.
+  if (!stopping()) {
+    step("costs: timer_wakeup");
+    std::vector<double> all = timer_wakeups(far_core, far_core == nrt_core ? n : n / 2);
+    if (far_core != nrt_core && !stopping()) {
+      const std::vector<double> near = timer_wakeups(nrt_core, n - n / 2);
+      all.insert(all.end(), near.begin(), near.end());
+    }
+    costs["timer_wakeup"] = std::move(all);
+  }
+
   // controller_callback: the controller's core time per input woken from another core (a
   // sample published there); controller_callback_local: woken on its own core (a sample from an
   // nRT node beside it, as when it shares the nRT core). See controller_callbacks().
@@ -682,6 +695,66 @@ void Suite::measure_costs() {
     costs["controller_callback_local"] = controller_callbacks(plan, nrt_core, nrt_core);
   }
   nct.stop();
+}
+
+// `count` paced wake-ups of an empty thread sleeping on its timer (the controller's priority) on
+// `core`, where a spinner (an RT job's priority, above the NCT's) sees each as a gap in its own
+// progress: the timer interrupt, the switch in, the switch out. What every timer-driven callback
+// (a PMC sample, the controller's reads and period boundaries) costs its core before its own work.
+std::vector<double> Suite::timer_wakeups(int core, int count) {
+  struct Gap {
+    TimeNs start, end;
+  };
+  std::vector<Gap> gaps(static_cast<std::size_t>(count) * 8);
+  std::atomic<std::size_t> gap_count{0};
+  std::atomic<bool> done{false}, spinning{false};
+  constexpr TimeNs kGapNs = 300;  // the spinner's own loop takes ~20-40 ns
+  RtThread spinner(ThreadSpec{"cal-tspin", core, SchedClass::Fifo, prio::kRt}, [&] {
+    TimeNs last = now_ns();
+    spinning.store(true, std::memory_order_release);
+    while (!done.load(std::memory_order_relaxed)) {
+      const TimeNs now = now_ns();
+      if (now - last > kGapNs) {
+        const std::size_t k = gap_count.load(std::memory_order_relaxed);
+        if (k < gaps.size()) {
+          gaps[k] = {last, now};
+          gap_count.store(k + 1, std::memory_order_release);
+        }
+      }
+      last = now;
+    }
+  });
+  notes_.sched(spinner.outcome());
+  while (!spinning.load(std::memory_order_acquire))
+    std::this_thread::yield();
+  std::vector<TimeNs> woke;
+  woke.reserve(static_cast<std::size_t>(count));
+  RtThread sleeper(ThreadSpec{"cal-timer", core, SchedClass::Fifo, prio::kController},
+                   [&] { paced([&](int) { woke.push_back(now_ns()); }, count); });
+  notes_.sched(sleeper.outcome());
+  sleeper.join();
+  done.store(true, std::memory_order_release);
+  spinner.join();
+  rethrow_if_failed(sleeper);
+  rethrow_if_failed(spinner);
+
+  std::vector<double> out;
+  out.reserve(woke.size());
+  const std::size_t ng = gap_count.load(std::memory_order_acquire);
+  std::size_t g = 0, unmatched = 0;
+  for (const TimeNs w : woke) {
+    while (g < ng && gaps[g].end < w)
+      ++g;
+    if (g < ng && gaps[g].start <= w && w - gaps[g].start <= 50 * kNsPerUs)
+      out.push_back(ns_to_us(gaps[g].end - gaps[g].start));
+    else
+      ++unmatched;
+  }
+  if (unmatched)
+    notes_.add("timer_wakeup on core " + std::to_string(core) + ": " + std::to_string(unmatched) +
+               " of " + std::to_string(woke.size()) +
+               " wake-ups not seen as a gap of the spinner (left out)");
+  return out;
 }
 
 // One controller callback per paced sample from `feed_core`, on `ctl_core`: woken by the sample,

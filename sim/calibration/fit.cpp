@@ -851,11 +851,11 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
   // The local variants are optional (older measurements, a suite on one core); the others are
   // the platform's required costs.
   const auto optional = [](const std::string& c) {
-    return c == "local_message_latency" || c == "controller_callback_local";
+    return c == "local_message_latency" || c == "controller_callback_local" || c == "timer_wakeup";
   };
   for (const char* c : {"pmc_callback", "publish", "message_latency", "local_message_latency",
                         "controller_callback", "controller_callback_local", "throttle_activation",
-                        "external_read"}) {
+                        "external_read", "timer_wakeup"}) {
     const auto it = rep.costs.find(c);
     if (it == rep.costs.end()) {
       if (!optional(c)) missing.push_back(c);

@@ -23,7 +23,7 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
       tick_timer_("tick", rt,
                   [this](TimeNs t) {
                     if (!direct()) {
-                      enqueue({Work::Kind::Tick, 0, {}, -1}, t);
+                      enqueue({Work::Kind::Tick, 0, {}, -1, true, true}, t);
                       return;
                     }
                     out_.clear();
@@ -39,17 +39,22 @@ Controller::Controller(const sc_core::sc_module_name& name, ControllerConfig con
                     DriverOutput due;
                     driver_.read_due(t, due);
                     rearm(poll_timer_, driver_.next_read());
+                    bool first = true;
                     for (std::size_t e : due.reads)
-                      if (cfg_.sampling == Sampling::Overflow)
+                      if (cfg_.sampling == Sampling::Overflow) {
                         direct_sample(e, t, -1);  // the baseline: the handler's own read
-                      else
-                        enqueue({Work::Kind::Read, e, {}, -1}, t);
+                      } else {
+                        enqueue({Work::Kind::Read, e, {}, -1, true, first}, t);
+                        first = false;
+                      }
                   }),
       probe_timer_("probe", rt, [this](TimeNs t) {
         DriverOutput due;
         driver_.window_due(t, due);
         rearm(probe_timer_, driver_.next_window());
       }) {
+  if (costs.timer_wakeup)
+    wakeup_cost_.emplace(*costs.timer_wakeup, stream_seed(seed, "controller/timer_wakeup"));
   if (costs.controller_callback_local)
     local_callback_cost_.emplace(*costs.controller_callback_local,
                                  stream_seed(seed, "controller/callback_local"));
@@ -115,13 +120,15 @@ void Controller::start_next(TimeNs now) {
   current_ = std::move(queue_.front());
   queue_.pop_front();
   busy_ = true;
+  // A timer's wake-up comes first (not for MemPol's polls: a polling loop, no timer).
+  const TimeNs wakeup = current_.timer && wakeup_cost_ && !mmio_cost_ ? wakeup_cost_->draw_ns() : 0;
   if (current_.kind == Work::Kind::Read) {
     stage_ = 0;
-    read_started_ = now;
-    spend(now, mmio_cost_ ? mmio_cost_->draw_ns() : read_cost_.draw_ns());
+    read_started_ = now + wakeup;
+    spend(now, wakeup + (mmio_cost_ ? mmio_cost_->draw_ns() : read_cost_.draw_ns()));
   } else {
     stage_ = 1;
-    spend(now, callback_cost(current_));
+    spend(now, wakeup + callback_cost(current_));
   }
 }
 

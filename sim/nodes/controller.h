@@ -93,6 +93,7 @@ class Controller : public sc_core::sc_module, private EntityMeter {
     std::vector<CounterValue> counters;
     TimeNs origin = -1;  // when the sample was published (self) or read (external)
     bool local = true;   // woken on the controller's core (its timers, a node beside it)
+    bool timer = false;  // the first work of a timer's expiry: it pays the wake-up
   };
 
   EntityReading read(std::size_t entity, TimeNs t) override;
@@ -115,6 +116,7 @@ class Controller : public sc_core::sc_module, private EntityMeter {
   ControllerDriver driver_;
   CostStream callback_cost_;
   std::optional<CostStream> local_callback_cost_;  // controller_callback_local_us
+  std::optional<CostStream> wakeup_cost_;          // timer_wakeup_us
   CostStream read_cost_;
   std::optional<CostStream> irq_cost_;   // overflow sampling
   std::optional<CostStream> mmio_cost_;  // mmio sampling

@@ -31,7 +31,10 @@ NrtNodeModel::NrtNodeModel(const sc_core::sc_module_name& name, NrtNodeConfig co
       run_(profile),
       sample_timer_("sample_timer", rt, [this](TimeNs t) { pmc_timer(t); }),
       state_track_(cfg_.name + " state"),
-      freq_hz_(cfg_.freq_hz) {}
+      freq_hz_(cfg_.freq_hz) {
+  if (costs.timer_wakeup)
+    wakeup_cost_.emplace(*costs.timer_wakeup, stream_seed(seed, cfg_.name + "/timer_wakeup"));
+}
 
 void NrtNodeModel::start(TimeNs now) {
   state_since_ = now;
@@ -97,16 +100,17 @@ void NrtNodeModel::apply(Command command, TimeNs origin, TimeNs now) {
 void NrtNodeModel::pmc_timer(TimeNs now) {
   const bool sample = schedule_.elapsed(now, driver_.state() == NodeState::On && !sample_busy_);
   sample_timer_.set(*schedule_.next());
-  if (sample) post_pmc();
+  if (sample) post_pmc(true);
 }
 
-void NrtNodeModel::post_pmc() {
+void NrtNodeModel::post_pmc(bool timer) {
   if (sample_busy_) {
     schedule_.defer();
     return;
   }
   sample_busy_ = true;
-  const TimeNs cost = pmc_cost_.draw_ns();
+  // Woken by its timer, the PMC thread costs its core the wake-up first.
+  const TimeNs cost = pmc_cost_.draw_ns() + (timer && wakeup_cost_ ? wakeup_cost_->draw_ns() : 0);
   core_.post(Core::Prio::Pmc, cost, "PMC", [this, cost](TimeNs t) { pmc_done(cost, t); });
 }
 

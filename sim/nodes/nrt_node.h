@@ -20,6 +20,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <systemc>
 #include <vector>
@@ -70,7 +71,7 @@ class NrtNodeModel : public sc_core::sc_module {
 
  private:
   void pmc_timer(TimeNs now);
-  void post_pmc();
+  void post_pmc(bool timer = false);  // timer: woken by the sampling timer
   void pmc_done(TimeNs cost, TimeNs now);
   void apply(Command command, TimeNs origin, TimeNs now);
   void set_state_span(NodeState from, TimeNs now);
@@ -86,6 +87,7 @@ class NrtNodeModel : public sc_core::sc_module {
   CostStream pmc_cost_;
   CostStream publish_cost_;
   CostStream cfb_cost_;
+  std::optional<CostStream> wakeup_cost_;  // timer_wakeup_us: before a timer-driven sample
   CostStream latency_;
   // The platform's local_message_latency_us applies (the controller beside this node): measured
   // from the publish call's start, as the controller preempts the publisher inside it.

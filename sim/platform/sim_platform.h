@@ -83,6 +83,10 @@ struct CostParams {
   std::optional<Distribution> controller_callback_local;
   Distribution throttle_activation;
   Distribution external_read;
+  // Optional: the core time of a timer-driven wake-up (interrupt, switch in and out) on a busy
+  // core, charged before each timer-driven callback (a PMC sample, the controller's reads and
+  // period boundaries); none without it.
+  std::optional<Distribution> timer_wakeup;
   // Optional (a platform without them refuses the sampling mode that needs them):
   // overflow sampling: from a PMU counter overflow to the throttle taking hold on that core (the
   // interrupt and its handler, MemGuard), and from a period boundary to a core's replenish;

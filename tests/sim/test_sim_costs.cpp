@@ -39,10 +39,10 @@ TEST_CASE("a same-core message takes the local latency where the platform gives 
 
 namespace {
 
-// The activation delays of one interval point on a copy of vm-2core with constant costs: the
-// nRT node on core 1, the controller on `controller_core`.
-std::vector<double> activation_delays(nlohmann::json costs, const std::string& sampling,
-                                      int controller_core) {
+// The samples of `kind` (activation_delay, pmc_callback, ...) of one interval point on a copy of
+// vm-2core with constant costs: the nRT node on core 1, the controller on `controller_core`.
+std::vector<double> samples(nlohmann::json costs, const std::string& sampling, int controller_core,
+                            const std::string& kind = "activation_delay") {
   nlohmann::json plat = vm_platform();
   for (auto& [k, v] : costs.items())
     plat["costs"][k] = {{"dist", "constant"}, {"value_us", v}, {"source", "the test"}};
@@ -65,7 +65,7 @@ std::vector<double> activation_delays(nlohmann::json costs, const std::string& s
   const auto rep = test::run_point_report(test::load_points_json(doc, dir.path()).at(0));
   std::vector<double> out;
   for (const auto& o : rep["samples"])
-    if (o[0] == "activation_delay") out.push_back(o[1].get<double>());
+    if (o[0] == kind) out.push_back(o[1].get<double>());
   return out;
 }
 
@@ -89,15 +89,28 @@ TEST_CASE(
   nlohmann::json with_local = costs;
   with_local["controller_callback_local_us"] = 3.0;
   // callback_local 3 + no message + CFB 2 (a queued callback now and then adds to some)
-  CHECK(median(activation_delays(with_local, "external", 1)) == Approx(5.0).margin(0.05));
+  CHECK(median(samples(with_local, "external", 1)) == Approx(5.0).margin(0.05));
   // Without it: callback 20 + local message 5 + CFB 2.
-  CHECK(median(activation_delays(costs, "external", 1)) == Approx(27.0).margin(0.05));
+  CHECK(median(samples(costs, "external", 1)) == Approx(27.0).margin(0.05));
   // Self-sampling from another core: the callback is a remote one either way, and between cores
   // the sample leaves as its publish ends: from the publication, publish 4 + message 30 +
   // callback 20 + message 30 + CFB 2.
-  CHECK(median(activation_delays(with_local, "self", 0)) == Approx(86.0).margin(0.05));
-  CHECK(median(activation_delays(costs, "self", 0)) == Approx(86.0).margin(0.05));
+  CHECK(median(samples(with_local, "self", 0)) == Approx(86.0).margin(0.05));
+  CHECK(median(samples(costs, "self", 0)) == Approx(86.0).margin(0.05));
   // Self-sampling beside the controller: the sample arrives local_message_latency 5 after the
   // publish starts, at the earliest as the publish ends (4), then callback_local 3 and CFB 2.
-  CHECK(median(activation_delays(with_local, "self", 1)) == Approx(10.0).margin(0.05));
+  CHECK(median(samples(with_local, "self", 1)) == Approx(10.0).margin(0.05));
+}
+
+TEST_CASE("a timer-driven sample costs its core timer_wakeup_us before the callback",
+          "[sim][costs]") {
+  nlohmann::json costs = {{"pmc_callback_us", 0.5}, {"publish_us", 4.0}};
+  // Self-sampling: every sample but the baseline at ON is timer-driven.
+  CHECK(median(samples(costs, "self", 0, "pmc_callback")) == Approx(0.5).margin(0.01));
+  costs["timer_wakeup_us"] = 7.0;
+  CHECK(median(samples(costs, "self", 0, "pmc_callback")) == Approx(7.5).margin(0.01));
+  // External sampling: the controller's read follows its timer's wake-up; the read itself, from
+  // which the activation delay runs, is unchanged.
+  costs["external_read_us"] = 1.0;
+  CHECK(median(samples(costs, "external", 1, "pmc_callback")) == Approx(1.0).margin(0.01));
 }

@@ -81,6 +81,77 @@ void rethrow_if_failed(const RtThread& t) {
   if (auto e = t.error()) std::rethrow_exception(e);
 }
 
+// A spinner on one core at an RT job's priority that records each gap in its own progress: the
+// time another thread took that core. Used to see what a wake-up (a timer's, a callback's) costs
+// the work it preempts.
+class GapSpinner {
+ public:
+  GapSpinner(const std::string& name, int core, std::size_t capacity, Notes& notes)
+      : gaps_(capacity) {
+    thread_ =
+        std::make_unique<RtThread>(ThreadSpec{name, core, SchedClass::Fifo, prio::kRt}, [this] {
+          constexpr TimeNs kGapNs = 300;  // the loop itself takes ~20-40 ns
+          TimeNs last = now_ns();
+          spinning_.store(true, std::memory_order_release);
+          while (!stop_.load(std::memory_order_relaxed)) {
+            const TimeNs now = now_ns();
+            if (now - last > kGapNs) {
+              const std::size_t k = count_.load(std::memory_order_relaxed);
+              if (k < gaps_.size()) {
+                gaps_[k] = {last, now};
+                count_.store(k + 1, std::memory_order_release);
+              }
+            }
+            last = now;
+          }
+        });
+    notes.sched(thread_->outcome());
+    while (!spinning_.load(std::memory_order_acquire))
+      std::this_thread::yield();
+  }
+  ~GapSpinner() {
+    stop_.store(true, std::memory_order_relaxed);
+    if (thread_) thread_->join();
+  }
+  GapSpinner(const GapSpinner&) = delete;
+  GapSpinner& operator=(const GapSpinner&) = delete;
+
+  void stop() {
+    stop_.store(true, std::memory_order_relaxed);
+    thread_->join();
+    rethrow_if_failed(*thread_);
+  }
+  // After stop(): for each wake-up (monotonic ns, ascending), the length of the gap around it in
+  // us, when that gap began at most `window` before it (one that began long before is another
+  // preemption, e.g. RT throttling); `unmatched` counts the others.
+  std::vector<double> gaps_at(const std::vector<TimeNs>& woke, TimeNs window,
+                              std::size_t& unmatched) const {
+    std::vector<double> out;
+    out.reserve(woke.size());
+    const std::size_t n = count_.load(std::memory_order_acquire);
+    std::size_t g = 0;
+    unmatched = 0;
+    for (const TimeNs w : woke) {
+      while (g < n && gaps_[g].end < w)
+        ++g;
+      if (g < n && gaps_[g].start <= w && w - gaps_[g].start <= window)
+        out.push_back(ns_to_us(gaps_[g].end - gaps_[g].start));
+      else
+        ++unmatched;
+    }
+    return out;
+  }
+
+ private:
+  struct Gap {
+    TimeNs start, end;
+  };
+  std::vector<Gap> gaps_;
+  std::atomic<std::size_t> count_{0};
+  std::atomic<bool> stop_{false}, spinning_{false};
+  std::unique_ptr<RtThread> thread_;
+};
+
 // One built-in kernel over one working set, as the hw backend builds it (one pass per run).
 std::unique_ptr<BuiltinWorkload> make_kernel(const std::string& kernel, double kb) {
   WorkloadInfo w;
@@ -702,54 +773,18 @@ void Suite::measure_costs() {
 // progress: the timer interrupt, the switch in, the switch out. What every timer-driven callback
 // (a PMC sample, the controller's reads and period boundaries) costs its core before its own work.
 std::vector<double> Suite::timer_wakeups(int core, int count) {
-  struct Gap {
-    TimeNs start, end;
-  };
-  std::vector<Gap> gaps(static_cast<std::size_t>(count) * 8);
-  std::atomic<std::size_t> gap_count{0};
-  std::atomic<bool> done{false}, spinning{false};
-  constexpr TimeNs kGapNs = 300;  // the spinner's own loop takes ~20-40 ns
-  RtThread spinner(ThreadSpec{"cal-tspin", core, SchedClass::Fifo, prio::kRt}, [&] {
-    TimeNs last = now_ns();
-    spinning.store(true, std::memory_order_release);
-    while (!done.load(std::memory_order_relaxed)) {
-      const TimeNs now = now_ns();
-      if (now - last > kGapNs) {
-        const std::size_t k = gap_count.load(std::memory_order_relaxed);
-        if (k < gaps.size()) {
-          gaps[k] = {last, now};
-          gap_count.store(k + 1, std::memory_order_release);
-        }
-      }
-      last = now;
-    }
-  });
-  notes_.sched(spinner.outcome());
-  while (!spinning.load(std::memory_order_acquire))
-    std::this_thread::yield();
+  GapSpinner spinner("cal-tspin", core, static_cast<std::size_t>(count) * 8, notes_);
   std::vector<TimeNs> woke;
   woke.reserve(static_cast<std::size_t>(count));
   RtThread sleeper(ThreadSpec{"cal-timer", core, SchedClass::Fifo, prio::kController},
                    [&] { paced([&](int) { woke.push_back(now_ns()); }, count); });
   notes_.sched(sleeper.outcome());
   sleeper.join();
-  done.store(true, std::memory_order_release);
-  spinner.join();
+  spinner.stop();
   rethrow_if_failed(sleeper);
-  rethrow_if_failed(spinner);
 
-  std::vector<double> out;
-  out.reserve(woke.size());
-  const std::size_t ng = gap_count.load(std::memory_order_acquire);
-  std::size_t g = 0, unmatched = 0;
-  for (const TimeNs w : woke) {
-    while (g < ng && gaps[g].end < w)
-      ++g;
-    if (g < ng && gaps[g].start <= w && w - gaps[g].start <= 50 * kNsPerUs)
-      out.push_back(ns_to_us(gaps[g].end - gaps[g].start));
-    else
-      ++unmatched;
-  }
+  std::size_t unmatched = 0;
+  std::vector<double> out = spinner.gaps_at(woke, 50 * kNsPerUs, unmatched);
   if (unmatched)
     notes_.add("timer_wakeup on core " + std::to_string(core) + ": " + std::to_string(unmatched) +
                " of " + std::to_string(woke.size()) +
@@ -818,34 +853,9 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
   std::vector<TimeNs> returned;  // local: the feed's publish returned (monotonic ns)
   woke.reserve(static_cast<std::size_t>(n));
   returned.reserve(static_cast<std::size_t>(n));
-  struct Gap {
-    TimeNs start, end;
-  };
-  std::vector<Gap> gaps(local ? 0 : static_cast<std::size_t>(n) * 8);
-  std::atomic<std::size_t> gap_count{0};
-  std::atomic<bool> done{false}, spinning{false};
-  constexpr TimeNs kGapNs = 300;  // the spinner's own loop takes ~20-40 ns
-  std::optional<RtThread> spinner;
-  if (!local) {
-    spinner.emplace(ThreadSpec{"cal-spin", ctl_core, SchedClass::Fifo, prio::kRt}, [&] {
-      TimeNs last = now_ns();
-      spinning.store(true, std::memory_order_release);
-      while (!done.load(std::memory_order_relaxed)) {
-        const TimeNs now = now_ns();
-        if (now - last > kGapNs) {
-          const std::size_t k = gap_count.load(std::memory_order_relaxed);
-          if (k < gaps.size()) {
-            gaps[k] = {last, now};
-            gap_count.store(k + 1, std::memory_order_release);
-          }
-        }
-        last = now;
-      }
-    });
-    notes_.sched(spinner->outcome());
-    while (!spinning.load(std::memory_order_acquire))
-      std::this_thread::yield();
-  }
+  std::atomic<bool> done{false};
+  std::optional<GapSpinner> spinner;
+  if (!local) spinner.emplace("cal-spin", ctl_core, static_cast<std::size_t>(n) * 8, notes_);
   RtThread controller(ThreadSpec{"cal-ctl", ctl_core, SchedClass::Fifo, prio::kController}, [&] {
     const auto send = [&] {
       for (const auto& c : out.commands) {
@@ -912,9 +922,8 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
   done.store(true, std::memory_order_release);
   ctl_waker.notify();
   controller.join();
-  if (spinner) spinner->join();
+  if (spinner) spinner->stop();
   rethrow_if_failed(controller);
-  if (spinner) rethrow_if_failed(*spinner);
 
   std::vector<double> cb;
   cb.reserve(woke.size());
@@ -931,18 +940,8 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
         ++unmatched;
     }
   } else {
-    // Each wake-up's cost: the spinner's gap around it, when the gap began just before the
-    // wake-up (a gap that began long before is another preemption, e.g. RT throttling).
-    const std::size_t ng = gap_count.load(std::memory_order_acquire);
-    std::size_t g = 0;
-    for (const TimeNs w : woke) {
-      while (g < ng && gaps[g].end < w)
-        ++g;
-      if (g < ng && gaps[g].start <= w && w - gaps[g].start <= 20 * kNsPerUs)
-        cb.push_back(ns_to_us(gaps[g].end - gaps[g].start));
-      else
-        ++unmatched;
-    }
+    // Each wake-up's cost: the spinner's gap around it.
+    cb = spinner->gaps_at(woke, 20 * kNsPerUs, unmatched);
   }
   if (unmatched)
     notes_.add(std::string(local ? "controller_callback_local: " : "controller_callback: ") +

@@ -6,19 +6,12 @@
 #include <limits>
 
 #include "core/error.h"
+#include "results/results.h"
 
 namespace rosguard {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-double median_of(std::vector<double> v) {
-  std::erase_if(v, [](double x) { return !std::isfinite(x); });
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 }  // namespace
 
@@ -78,8 +71,8 @@ double round_baseline_us(const BaselineRuns& runs, int round, const RoundPairing
                                                               std::max(1, pairing.measurements));
     if (before == round) of_round.push_back(r.time_us);
   }
-  const double m = median_of(of_round);
-  return std::isfinite(m) ? m : median_of(all);
+  const double m = finite_median(of_round);
+  return std::isfinite(m) ? m : finite_median(all);
 }
 
 std::vector<MeanCi> slowdown_cis(const std::vector<const BaselineRuns*>& baselines,

@@ -89,6 +89,11 @@ double median(std::vector<double> v) {
   return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+double finite_median(std::vector<double> v) {
+  std::erase_if(v, [](double x) { return !std::isfinite(x); });
+  return median(std::move(v));
+}
+
 double coefficient_of_variation(const std::vector<double>& v) {
   if (v.size() < 2) return kNaN;
   double mean = 0.0;

@@ -61,6 +61,8 @@ std::string samples_rows(const std::string& point_id, int rep, const PointOutcom
 
 // Median (mean of the two middle values for an even count) and maximum; NaN when empty.
 double median(std::vector<double> values);
+// The same over the finite values only (NaN and infinities left out); NaN when none is.
+double finite_median(std::vector<double> values);
 double maximum(const std::vector<double>& values);
 // Percentile q (0..100), linear between the closest ranks (numpy's default); NaN when empty.
 double percentile(std::vector<double> values, double q);

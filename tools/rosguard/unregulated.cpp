@@ -22,11 +22,6 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kFile = "unregulated.json";
 
-double finite_median(std::vector<double> v) {
-  std::erase_if(v, [](double x) { return !std::isfinite(x); });
-  return v.empty() ? kNaN : median(std::move(v));
-}
-
 // As points_row writes numbers: fixed decimals, empty when not measured.
 std::string fixed(double v, int decimals) {
   if (!std::isfinite(v)) return "";

@@ -233,8 +233,12 @@ void PointRig::teardown() {
     x->shutdown();
   if (controller_) controller_->shutdown();
   // Every thread is joined: no publish or take can run any more.
-  for (auto& c : controls_)
+  for (auto& c : controls_) {
     dropped_commands_ += c->dropped();
+    ignored_messages_ += c->ignored();
+  }
+  if (samples_) ignored_messages_ += samples_->ignored();
+  if (rt_topic_) ignored_messages_ += rt_topic_->ignored();
   controls_.clear();
   samples_.reset();
   rt_topic_.reset();
@@ -261,8 +265,41 @@ std::vector<SchedOutcome> PointRig::start() {
   return outcomes;
 }
 
+// Everything that shows a point moving on: RT jobs started and ended (their own or, for another
+// process's RT node, the signals the controller took) and nRT runs finished.
+std::uint64_t PointRig::progress() const {
+  std::uint64_t p = controller_->rt_events();
+  for (const auto& x : rts_)
+    p += static_cast<std::uint64_t>(x->published());
+  for (const auto& n : nrts_)
+    p += n->completed_runs() + (n->once_done() ? 1 : 0);
+  return p;
+}
+
+bool PointRig::stalled() {
+  const TimeNs now = now_ns();
+  if (const auto p = progress(); p != last_progress_) {
+    last_progress_ = p;
+    last_progress_t_ = now;
+    return false;
+  }
+  if (!stall_.empty()) return true;
+  if (now - last_progress_t_ < s_.hw.progress_timeout_ms * kNsPerMs) return false;
+  std::string states;
+  for (const auto& n : nrts_)
+    states +=
+        (states.empty() ? "" : ", ") + n->config().name + " " + std::string(to_string(n->state()));
+  stall_ = "no progress for " + std::to_string(s_.hw.progress_timeout_ms) +
+           " ms (hw.progress_timeout_ms): no RT job started or ended, no nRT run finished and no "
+           "signal was taken (nRT nodes: " +
+           states + "); the point was stopped and every node returned to nominal";
+  return true;
+}
+
 void PointRig::drive(RunContext& ctx) {
-  const auto stopping = [&] { return ctx.stop_requested() || errors_.failed(); };
+  last_progress_ = progress();
+  last_progress_t_ = now_ns();
+  const auto stopping = [&] { return ctx.stop_requested() || errors_.failed() || stalled(); };
   const auto nrt_once_done = [&] {
     for (auto& n : nrts_)
       if (n->config().mode == NrtMode::Once && !n->once_done()) return false;
@@ -346,13 +383,14 @@ bool PointRig::wait_for_signals(RunContext& ctx) {
   return wait_for(
       engine_waker_,
       [&] { return controller_->rt_events() >= sent || controller_->failed_on_purpose(); },
-      [&] { return ctx.stop_requested() || errors_.failed(); },
+      [&] { return ctx.stop_requested() || errors_.failed() || stalled(); },
       s_.hw.watchdog_ms * kNsPerMs + kSignalsGraceNs);
 }
 
 void PointRig::check_errors() const {
   if (errors_.failed()) throw RunError(errors_.message());
   if (!signal_timeout_.empty()) throw RunError(signal_timeout_);
+  if (!stall_.empty()) throw RunError(stall_);
   if (dropped_commands_) throw RunError("a control topic dropped a command");
 }
 
@@ -426,6 +464,12 @@ PointOutcome PointRig::outcome(RunContext& ctx) const {
     out.samples.push_back({"pmc_read", v});
   }
   report_external_lag(ctx);
+  if (ignored_messages_)
+    ctx.fallback("ignored_messages",
+                 std::to_string(ignored_messages_) +
+                     " message(s) on this run's DDS topics were ignored: written by another "
+                     "process on the domain (only the run's own writers are read) or not "
+                     "decodable (an unknown command code)");
   emit_trace(ctx.trace(), controller_->trace(), "controller");
   return out;
 }

@@ -56,6 +56,9 @@ class PointRig {
   void report_external_lag(RunContext& ctx) const;
   void make_topics();
   bool external_done() const;
+  std::uint64_t progress() const;
+  // True (and stall_ set) once nothing progressed for hw.progress_timeout_ms.
+  bool stalled();
   void signal_samples(PointOutcome& out) const;
 
   const Scenario& s_;
@@ -71,7 +74,11 @@ class PointRig {
   std::unique_ptr<Topic<SampleMsg>> samples_;
   std::vector<std::unique_ptr<Topic<ControlMsg>>> controls_;
   std::uint64_t dropped_commands_ = 0;  // counted when the topics close
-  std::vector<RtRunner*> rt_of_;        // per scenario RT node: its runner, null if external
+  std::uint64_t ignored_messages_ = 0;  // likewise: Topic::ignored()
+  std::uint64_t last_progress_ = 0;
+  TimeNs last_progress_t_ = 0;
+  std::string stall_;             // set when the point stalled (hw.progress_timeout_ms)
+  std::vector<RtRunner*> rt_of_;  // per scenario RT node: its runner, null if external
   std::vector<std::size_t> external_rt_;
   std::string signal_timeout_;  // set when an external RT node stayed silent too long
   std::size_t engine_pub_ = 0;  // the activation when there is no RT node

@@ -3,6 +3,8 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <set>
 
 #include "core/error.h"
 
@@ -17,8 +19,8 @@ DdsActivity::~DdsActivity() {
 
 std::string DdsActivity::describe() const {
   std::string topics;
-  for (const auto& n : names_)
-    topics += (topics.empty() ? "" : ", ") + dds::active_topic(ns_, n);
+  for (const auto& r : readers_)
+    topics += (topics.empty() ? "" : ", ") + r->ros_topic();
   return "DDS domain " + std::to_string(participant_->domain_id()) + ": " + topics +
          " (std_msgs/msg/Bool)";
 }
@@ -26,30 +28,58 @@ std::string DdsActivity::describe() const {
 void DdsActivity::start(const std::vector<std::string>& rt_names, Signal signal) {
   names_ = rt_names;
   signal_ = std::move(signal);
-  std::vector<DdsSlot> slots;
-  for (std::size_t i = 0; i < rt_names.size(); ++i)
-    slots.push_back({rt_names[i], i});
-  // Every slot is written by another process: no publisher here, one subscriber (this thread).
-  topic_ = std::make_unique<DdsTopic<RtEventMsg>>(*participant_, ns_, slots);
-  sub_ = topic_->subscribe(waker_);
+  for (const auto& n : rt_names)
+    readers_.push_back(std::make_unique<dds::Reader<dds::BoolMsg>>(
+        *participant_, dds::active_topic(ns_, n), [this] { waker_.notify(); }));
   sigset_t block, old;
   sigemptyset(&block);
   for (int sig : {SIGINT, SIGTERM, SIGHUP})
     sigaddset(&block, sig);
   ::pthread_sigmask(SIG_BLOCK, &block, &old);  // signals go to the main thread
-  thread_ = std::thread([this] {
-    while (!stop_.load(std::memory_order_acquire)) {
-      const auto e = waker_.epoch();
-      RtEventMsg m;
-      bool got = false;
-      while (topic_->take(sub_, m)) {
-        got = true;
-        if (m.rt < names_.size()) signal_(m.rt, m.started);
-      }
-      if (!got) waker_.wait(e, -1);
-    }
-  });
+  thread_ = std::thread([this] { main(); });
   ::pthread_sigmask(SIG_SETMASK, &old, nullptr);
+}
+
+// A writer's name: its GUID while it is matched (looked up once); a writer whose sample is taken
+// after it left is named by its handle.
+std::string DdsActivity::name_of(const dds::Endpoint& reader, dds_instance_handle_t writer) {
+  auto it = writers_.find(writer);
+  if (it != writers_.end()) return it->second;
+  std::string guid = reader.writer_guid(writer);
+  if (guid.empty()) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "handle %016llx", static_cast<unsigned long long>(writer));
+    guid = buf;
+  }
+  return writers_.emplace(writer, "writer " + guid).first->second;
+}
+
+void DdsActivity::main() {
+  while (!stop_.load(std::memory_order_acquire)) {
+    const auto e = waker_.epoch();
+    // Messages first, then who is gone: a writer's last message counts before its departure.
+    for (std::size_t i = 0; i < readers_.size(); ++i) {
+      dds::BoolMsg m{};
+      dds::SampleOrigin from;
+      while (readers_[i]->take(m, &from))
+        signal_({i, m.data, name_of(*readers_[i], from.writer), false});
+    }
+    std::set<dds_instance_handle_t> matched;
+    for (const auto& r : readers_)
+      for (dds_instance_handle_t h : r->matched_writers()) {
+        matched.insert(h);
+        name_of(*r, h);
+      }
+    for (auto it = writers_.begin(); it != writers_.end();) {
+      if (matched.count(it->first)) {
+        ++it;
+        continue;
+      }
+      signal_({0, false, it->second, true});
+      it = writers_.erase(it);
+    }
+    waker_.wait(e, -1);
+  }
 }
 
 void DdsActivity::stop() {
@@ -57,7 +87,7 @@ void DdsActivity::stop() {
   stop_.store(true, std::memory_order_release);
   waker_.notify();
   thread_.join();
-  topic_.reset();
+  readers_.clear();
 }
 
 DdsPublisher::DdsPublisher(const std::vector<std::string>& core_names,

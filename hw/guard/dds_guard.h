@@ -1,6 +1,10 @@
 // rosguard guard over DDS (hw/topic/dds_topic.h, ROS 2 names and types):
 // - DdsActivity: the RT nodes' `/rosguard/<name>/active` (std_msgs/msg/Bool) from any process on
-//   the domain; one reader thread of its own is the only caller of the signal callback.
+//   the domain (only the configured nodes' topics are read); one reader thread of its own is the
+//   only caller of the signal callback. Each message names its writer (its DDS GUID); a writer
+//   that is no longer matched (deleted, or its participant's lease expired) is reported gone.
+//   QoS: ROS 2's default (reliable, keep last 10, volatile), which any ROS 2 publisher matches;
+//   the guard keeps the state per writer, so a lost or repeated message cannot unbalance it.
 // - DdsPublisher: per nRT core `<core name>`, on the guard's main thread:
 //     /rosguard/<core name>/pmc      rosguard_msgs/msg/PmcSample: entity = the core's index in
 //                                    the configuration, stamp_ns = CLOCK_MONOTONIC of the read,
@@ -13,6 +17,7 @@
 // writers (member order).
 #pragma once
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -33,10 +38,14 @@ class DdsActivity : public ActivitySource {
   void stop() override;
 
  private:
+  void main();
+  std::string name_of(const dds::Endpoint& reader, dds_instance_handle_t writer);
+
   std::unique_ptr<dds::Participant> participant_;
   std::string ns_;
-  std::unique_ptr<DdsTopic<RtEventMsg>> topic_;
-  std::size_t sub_ = 0;
+  std::vector<std::unique_ptr<dds::Reader<dds::BoolMsg>>> readers_;  // per RT node
+  // Reader thread only: the writers heard from or matched, and their names (GUIDs).
+  std::map<dds_instance_handle_t, std::string> writers_;
   Waker waker_;
   std::atomic<bool> stop_{false};
   Signal signal_;

@@ -80,7 +80,8 @@ void FifoActivity::main() {
         if (on_bad_line_) on_bad_line_(line);
         continue;
       }
-      signal_(static_cast<std::size_t>(it - names_.begin()), on);
+      signal_(
+          {static_cast<std::size_t>(it - names_.begin()), on, "the named pipe " + path_, false});
     }
     if (pending.size() > 4096) pending.clear();  // no newline in sight: not our protocol
   }

@@ -4,7 +4,8 @@
 // Contract: start() opens the pipe (read-write, so that writers come and go without EOF) and
 // starts one reader thread, the only caller of the signal callback; stop() wakes and joins it.
 // An unknown name or a malformed line is reported through `on_bad_line` (from the reader thread)
-// and ignored.
+// and ignored. Every writer of the pipe is one publisher ("the named pipe <path>"): a pipe does
+// not say who wrote a line.
 #pragma once
 
 #include <atomic>

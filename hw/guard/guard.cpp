@@ -50,9 +50,10 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
              GuardPublisher& publisher, std::ostream& log)
     : s_(std::move(settings)),
       policies_(policies),
-      activity_(activity),
+      activity_source_(activity),
       publisher_(publisher),
-      log_(log) {
+      log_(log),
+      activity_(s_.rt.size(), s_.max_active_ns) {
   const auto cpus = usable_cpus();
   for (std::size_t i = 0; i < s_.nrt.size(); ++i)
     if (std::find(cpus.begin(), cpus.end(), s_.nrt[i].core) == cpus.end())
@@ -200,6 +201,102 @@ std::unique_ptr<Policy> Guard::make_policy(const GuardSettings& s) const {
 
 void Guard::logln(const std::string& line) {
   log_ << wall_clock() << " guard " << s_.name << ": " << line << '\n' << std::flush;
+  ++stats_.log_lines;
+}
+
+void Guard::log_limited(const std::string& key, const std::string& line) {
+  const TimeNs now = now_ns();
+  auto [it, fresh] = repeats_.try_emplace(key);
+  Repeat& r = it->second;
+  if (!fresh && now - r.last < kLogRepeatNs) {
+    ++r.suppressed;
+    ++stats_.log_suppressed;
+    return;
+  }
+  std::string more;
+  if (r.suppressed)
+    more = " (and " + std::to_string(r.suppressed) + " more like it in the last " +
+           fmt(static_cast<double>(now - r.last) / 1e9) + " s, not logged)";
+  r = {now, 0};
+  logln(line + more);
+}
+
+void Guard::flush_suppressed() {
+  for (auto& [key, r] : repeats_)
+    if (r.suppressed) {
+      logln(std::to_string(r.suppressed) + " more of '" + key + "' not logged");
+      r.suppressed = 0;
+    }
+}
+
+// The activity source's thread. Only the node's own transitions reach the controller.
+void Guard::on_activity(const ActivitySignal& a) {
+  std::lock_guard lock(activity_mutex_);
+  const TimeNs now = now_ns();
+  if (a.gone) {
+    for (const auto& r : activity_.gone(a.publisher)) {
+      ++stats_.activity_gone;
+      release(r, now, "its publisher is gone (writer deleted or lost): counted as its 'false'");
+    }
+    notes_waker_.notify();
+    return;
+  }
+  if (a.rt >= s_.rt.size()) return;
+  const std::string& node = s_.rt[a.rt];
+  const auto v = activity_.set(a.rt, a.publisher, a.active, now);
+  const std::string from = " (publisher " + a.publisher + ")";
+  std::string line;
+  switch (v) {
+    case ActivityStates::Verdict::Started:
+    case ActivityStates::Verdict::Ended:
+      rt_topic_.publish(rt_pub_, RtEventMsg{a.rt, a.active, now});
+      line = node + (a.active ? ": active" : ": inactive") + from;
+      break;
+    case ActivityStates::Verdict::Joined:
+      line = node + ": active from a further publisher" + from +
+             "; it stays active until every "
+             "publisher that said 'true' says 'false' or is gone";
+      break;
+    case ActivityStates::Verdict::Left:
+      line = node + ": 'false'" + from + "; still active for " +
+             std::to_string(activity_.holders(a.rt)) + " other publisher(s)";
+      break;
+    case ActivityStates::Verdict::Duplicate:
+      ++stats_.activity_ignored;
+      line = "ignored a repeated 'true' for " + node + from + ": it holds the node active already";
+      break;
+    case ActivityStates::Verdict::Unmatched:
+      ++stats_.activity_ignored;
+      line = "ignored 'false' for " + node + from +
+             ": that publisher had not said 'true' (the node "
+             "stays " +
+             (activity_.active(a.rt) ? "active" : "inactive") + ")";
+      break;
+  }
+  activity_log_.emplace_back(node + " " + to_string(v) + " " + a.publisher, std::move(line));
+  notes_waker_.notify();
+}
+
+// Under activity_mutex_.
+void Guard::release(const ActivityStates::Release& r, TimeNs now, const std::string& why) {
+  const std::string& node = s_.rt[r.rt];
+  if (r.node_ended) rt_topic_.publish(rt_pub_, RtEventMsg{r.rt, false, now});
+  activity_log_.emplace_back(
+      node + " released " + r.publisher,
+      "warning: " + node + ": active for " + fmt(static_cast<double>(now - r.since) / 1e9) +
+          " s from publisher " + r.publisher + ", " + why +
+          (r.node_ended ? "; the node is inactive" : "; other publishers still hold it"));
+}
+
+void Guard::expire_activity() {
+  std::lock_guard lock(activity_mutex_);
+  const TimeNs now = now_ns();
+  for (const auto& r : activity_.expire(now)) {
+    ++stats_.activity_expired;
+    release(r, now,
+            "longer than activity.max_active_ms (" +
+                fmt(static_cast<double>(s_.max_active_ns) / 1e6) + " ms): counted as its 'false'");
+  }
 }
 
 void Guard::start() {
@@ -216,9 +313,7 @@ void Guard::start() {
   for (const auto& o : outcomes())
     if (!o.detail.empty()) logln("warning: " + o.detail);
   rescan();
-  activity_.start(s_.rt, [this](std::size_t rt, bool active) {
-    rt_topic_.publish(rt_pub_, RtEventMsg{rt, active, now_ns()});
-  });
+  activity_source_.start(s_.rt, [this](const ActivitySignal& a) { on_activity(a); });
   std::string cores;
   for (const auto& n : s_.nrt)
     cores += (cores.empty() ? "" : ", ") + n.name + " (CPU " + std::to_string(n.core) + ")";
@@ -228,8 +323,8 @@ void Guard::start() {
   logln("regulating " + cores + " with " + s_.policy + " at " + fmt(s_.threshold_pct) + " % of " +
         fmt(s_.reference_mbps) + " MB/s per " + fmt(ns_to_us(s_.regulation_period_ns)) +
         " us window, sampled every " + fmt(ns_to_us(s_.sampling_period_ns)) +
-        " us, while any of [" + rts + "] is active (" + activity_.describe() + "); publishing to " +
-        publisher_.describe());
+        " us, while any of [" + rts + "] is active (" + activity_source_.describe() +
+        "); publishing to " + publisher_.describe());
   started_ = true;
 }
 
@@ -257,6 +352,13 @@ void Guard::rescan() {
 }
 
 void Guard::drain() {
+  std::vector<std::pair<std::string, std::string>> heard;
+  {
+    std::lock_guard lock(activity_mutex_);
+    heard.swap(activity_log_);
+  }
+  for (const auto& [key, line] : heard)
+    log_limited(key, line);
   ControllerNote n;
   while (notes_.pop(n)) {
     const std::size_t e = n.entity < s_.nrt.size() ? n.entity : 0;
@@ -277,17 +379,21 @@ void Guard::drain() {
                                : n.command == Command::Off ? NodeState::Off
                                                            : NodeState::On;
         if (n.command == Command::Thr) ++stats_.throttles;
-        if (next != shown_state_[e])
-          logln(s_.nrt[e].name + ": " + std::string(to_string(shown_state_[e])) + " -> " +
-                std::string(to_string(next)) + " (" + std::string(to_string(n.command)) + ")");
+        if (next != shown_state_[e]) {
+          const std::string change = s_.nrt[e].name + ": " +
+                                     std::string(to_string(shown_state_[e])) + " -> " +
+                                     std::string(to_string(next));
+          log_limited(change, change + " (" + std::string(to_string(n.command)) + ")");
+        }
         shown_state_[e] = next;
         publisher_.command({s_.nrt[e].name, s_.nrt[e].core, n.t, n.command, n.cause});
         break;
       }
       case ControllerNote::Kind::Activation:
         if (n.active) ++stats_.activations;
-        logln(n.active ? "regulation active (an RT node started)"
-                       : "regulation inactive (every RT node finished)");
+        log_limited(n.active ? "regulation active" : "regulation inactive",
+                    n.active ? "regulation active (an RT node started)"
+                             : "regulation inactive (every RT node finished)");
         publisher_.active(n.t, n.active);
         break;
       case ControllerNote::Kind::Policy:
@@ -307,6 +413,7 @@ void Guard::drain() {
 
 void Guard::serve(TimeNs max_wait_ns) {
   const auto epoch = notes_waker_.epoch();
+  expire_activity();
   drain();
   const TimeNs now = now_ns();
   if (now >= next_rescan_) {
@@ -347,6 +454,7 @@ bool Guard::reload(const GuardSettings& next) {
   differs(next.source != s_.source, "hw.pmc_source");
   differs(next.throttle != s_.throttle, "hw.throttle");
   differs(next.watchdog_ns != s_.watchdog_ns, "hw.watchdog_ms");
+  differs(next.max_active_ns != s_.max_active_ns, "activity.max_active_ms");
   if (!refused.empty()) {
     logln("reload refused: " + refused +
           " changed (only regulation.threshold_pct and regulation.regulation_period_us can change "
@@ -378,7 +486,7 @@ bool Guard::reload(const GuardSettings& next) {
 void Guard::shutdown() {
   if (shut_) return;
   shut_ = true;
-  activity_.stop();
+  activity_source_.stop();
   // Every core back to nominal first (its throttle released, its threads joined), then the
   // controller, then the processes get their scheduling and cgroups back.
   for (auto& n : nodes_)
@@ -390,13 +498,25 @@ void Guard::shutdown() {
   } catch (const RunError&) {
   }
   nodes_.clear();
+  flush_suppressed();
   if (started_)
     logln("stopped: " + std::to_string(s_.nrt.size()) +
           " core(s) back to nominal, every guard thread joined, " +
           std::to_string(realtime_threads().size()) + " thread(s) left under SCHED_FIFO");
+  if (started_) {
+    const GuardStats t = stats();
+    logln("totals: " + std::to_string(t.activations) + " activation(s), " +
+          std::to_string(t.throttles) + " THR command(s), " + std::to_string(t.samples) +
+          " sample(s); activity: " + std::to_string(t.activity_ignored) + " message(s) ignored, " +
+          std::to_string(t.activity_expired) + " activation(s) ended by activity.max_active_ms, " +
+          std::to_string(t.activity_gone) +
+          " by their publisher leaving; log: " + std::to_string(t.log_lines + 1) + " line(s), " +
+          std::to_string(t.log_suppressed) + " repeat(s) not logged");
+  }
 }
 
 GuardStats Guard::stats() const {
+  std::lock_guard lock(activity_mutex_);  // the activity thread counts what it ignored
   return stats_;
 }
 

@@ -12,8 +12,15 @@
 //   nominal, joins every thread (none is left under SCHED_FIFO) and gives the processes back
 //   their scheduling and cgroups.
 // - ActivitySource: start() is given a callback it calls from ONE thread of its own (or, for
-//   InprocActivity, from whoever calls signal(), one thread at a time) with the RT node's index
-//   and its new state; stop() returns once that thread has stopped calling.
+//   InprocActivity, from whoever calls signal(), one thread at a time) with what a publisher said
+//   (an RT node's index and its new state) or that a publisher is gone; stop() returns once that
+//   thread has stopped calling. The guard keeps the activity as state owned by the publishers
+//   (model/node/activity_states.h): duplicates, unmatched ends and floods are logged with their
+//   publisher and never reach the regulator; a publisher that goes away, or an activation longer
+//   than GuardSettings::max_active_ns, ends what it held.
+// - The log: repeated lines (the same kind of event from the same source) are written at most once
+//   per kLogRepeatNs with a count of those left out, so a busy or attacked guard's log stays
+//   small.
 // - GuardPublisher: called on the main thread only; must not block for long (it is between the
 //   controller's notes and the log).
 #pragma once
@@ -21,7 +28,9 @@
 #include <atomic>
 #include <functional>
 #include <iosfwd>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,11 +39,15 @@
 #include "hw/nodes/controller.h"
 #include "hw/nodes/nrt_node.h"
 #include "hw/throttle/throttle.h"
+#include "node/activity_states.h"
 #include "policy/policy.h"
 
 namespace rosguard::hw {
 
 enum class GuardSource { Auto, Perf, Cputime };
+
+// The log writes a repeated line at most this often (GuardStats::log_suppressed counts the rest).
+inline constexpr TimeNs kLogRepeatNs = 10 * kNsPerS;
 
 struct GuardSettings {
   std::string name;
@@ -57,11 +70,22 @@ struct GuardSettings {
   TimeNs watchdog_ns = 100 * kNsPerMs;
   TimeNs rescan_ns = 200 * kNsPerMs;
   std::size_t publish_every = 1;
+  TimeNs max_active_ns = 60 * kNsPerS;  // activity.max_active_ms; <= 0: none
+};
+
+// What an activity source heard: `publisher` said RT node `rt` is (in)active, or (gone) the
+// publisher disappeared. `publisher` names the sender stably (a DDS writer's GUID, the named pipe,
+// "in-process").
+struct ActivitySignal {
+  std::size_t rt = 0;
+  bool active = false;
+  std::string publisher;
+  bool gone = false;
 };
 
 class ActivitySource {
  public:
-  using Signal = std::function<void(std::size_t rt, bool active)>;
+  using Signal = std::function<void(const ActivitySignal&)>;
   virtual ~ActivitySource() = default;
   virtual std::string describe() const = 0;
   virtual void start(const std::vector<std::string>& rt_names, Signal signal) = 0;
@@ -76,8 +100,11 @@ class InprocActivity : public ActivitySource {
     signal_ = std::move(signal);
   }
   void stop() override { signal_ = {}; }
-  void signal(std::size_t rt, bool active) {
-    if (signal_) signal_(rt, active);
+  void signal(std::size_t rt, bool active, const std::string& publisher = "in-process") {
+    if (signal_) signal_({rt, active, publisher, false});
+  }
+  void gone(const std::string& publisher) {
+    if (signal_) signal_({0, false, publisher, true});
   }
 
  private:
@@ -127,6 +154,10 @@ struct GuardStats {
   std::uint64_t throttles = 0;  // THR commands sent
   std::uint64_t policy_swaps = 0;
   std::uint64_t notes_dropped = 0;
+  std::uint64_t activity_ignored = 0;  // duplicate `true`s and unmatched `false`s
+  std::uint64_t activity_expired = 0;  // activations ended by max_active_ns
+  std::uint64_t activity_gone = 0;     // activations ended because their publisher went away
+  std::uint64_t log_lines = 0, log_suppressed = 0;
   std::vector<double> last_budget_bytes;  // per core, from the latest sample
 };
 
@@ -157,6 +188,12 @@ class Guard {
 
  private:
   void logln(const std::string& line);
+  // logln, at most once per kLogRepeatNs for the same key (the rest counted, then summed up).
+  void log_limited(const std::string& key, const std::string& line);
+  void flush_suppressed();
+  void on_activity(const ActivitySignal& a);  // the activity source's thread
+  void expire_activity();                     // main thread
+  void release(const ActivityStates::Release& r, TimeNs now, const std::string& why);
   std::unique_ptr<Policy> make_policy(const GuardSettings& s) const;
   void drain();
   void rescan();
@@ -164,7 +201,7 @@ class Guard {
 
   GuardSettings s_;
   const PolicyRegistry& policies_;
-  ActivitySource& activity_;
+  ActivitySource& activity_source_;
   GuardPublisher& publisher_;
   std::ostream& log_;
   ThrottleChoice throttle_;
@@ -175,6 +212,16 @@ class Guard {
 
   Waker engine_waker_, notes_waker_;
   NoteRing notes_;
+  // The activity state, the RT topic's publisher slot and the log lines of the activity thread
+  // are shared between that thread and the main thread (expiry): activity_mutex_.
+  mutable std::mutex activity_mutex_;
+  ActivityStates activity_;
+  std::vector<std::pair<std::string, std::string>> activity_log_;  // key, line: drain() logs
+  struct Repeat {
+    TimeNs last = 0;
+    std::uint64_t suppressed = 0;
+  };
+  std::map<std::string, Repeat> repeats_;  // main thread
   InprocTopic<RtEventMsg> rt_topic_;
   InprocTopic<SampleMsg> samples_;  // unused (external sampling); the controller needs one
   std::size_t rt_pub_ = 0;

@@ -29,6 +29,7 @@ struct RtEventMsg {
   std::size_t rt = 0;
   bool started = false;
   TimeNs t = 0;
+  std::uint64_t writer = 0;  // DDS: the sender's publication handle; 0 in process
 };
 
 // Controller -> one nRT node's CFB callback (the control topic).

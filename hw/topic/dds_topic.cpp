@@ -1,6 +1,7 @@
 #include "hw/topic/dds_topic.h"
 
 #include <algorithm>
+#include <optional>
 
 #include "core/error.h"
 #include "hw/common/clock.h"
@@ -21,8 +22,10 @@ struct DdsCodec<RtEventMsg> {
     return dds::active_topic(ns, node);
   }
   static Wire encode(const RtEventMsg& m) { return Wire{m.started}; }
-  static RtEventMsg decode(const Wire& w, std::int64_t source_realtime_ns, const DdsSlot& slot) {
-    return {slot.key, w.data, dds::realtime_to_monotonic_ns(source_realtime_ns)};
+  static std::optional<RtEventMsg> decode(const Wire& w, const dds::SampleOrigin& from,
+                                          const DdsSlot& slot) {
+    return RtEventMsg{slot.key, w.data, dds::realtime_to_monotonic_ns(from.source_realtime_ns),
+                      from.writer};
   }
 };
 
@@ -44,7 +47,7 @@ struct DdsCodec<SampleMsg> {
     }
     return w;
   }
-  static SampleMsg decode(const Wire& w, std::int64_t, const DdsSlot&) {
+  static std::optional<SampleMsg> decode(const Wire& w, const dds::SampleOrigin&, const DdsSlot&) {
     SampleMsg m;
     m.entity = w.entity;
     m.t_published = w.stamp_ns;
@@ -81,7 +84,8 @@ struct DdsCodec<ControlMsg> {
     }
     return Wire{c, m.t_cause};
   }
-  static ControlMsg decode(const Wire& w, std::int64_t, const DdsSlot& slot) {
+  // nullopt for a code the message type does not define (counted and ignored by take()).
+  static std::optional<ControlMsg> decode(const Wire& w, const dds::SampleOrigin&, const DdsSlot&) {
     ControlMsg m;
     m.t_cause = w.cause_ns;
     switch (w.command) {
@@ -102,9 +106,7 @@ struct DdsCodec<ControlMsg> {
         m.command = Command::On;
         break;
       default:
-        // Someone else's writer on our topic: refuse it rather than guess a state.
-        throw RunError("DDS topic of node " + slot.node + ": unknown command code " +
-                       std::to_string(w.command));
+        return std::nullopt;
     }
     return m;
   }
@@ -129,6 +131,7 @@ std::size_t DdsTopic<T>::add_publisher() {
     throw RunError("DDS topic: more publishers than the " + std::to_string(slots_.size()) +
                    " slots it was built with");
   writers_.push_back(std::make_unique<dds::Writer<Wire>>(participant_, topics_[p]));
+  writer_handles_.push_back(writers_.back()->instance_handle());
   return p;
 }
 
@@ -153,7 +156,9 @@ bool DdsTopic<T>::publish(std::size_t publisher, const T& msg) {
   }
 }
 
-// Round robin over the slots, as InprocTopic visits its publishers.
+// Round robin over the slots, as InprocTopic visits its publishers. A slot written here takes
+// only its own writer's samples: another writer on the same DDS topic (another process on the
+// domain) is counted and ignored, as is a message that does not decode (an unknown command code).
 template <class T>
 bool DdsTopic<T>::take(std::size_t subscriber, T& msg) {
   Subscriber& sub = subscribers_.at(subscriber);
@@ -161,10 +166,19 @@ bool DdsTopic<T>::take(std::size_t subscriber, T& msg) {
   for (std::size_t i = 0; i < n; ++i) {
     const std::size_t s = (sub.next + i) % n;
     Wire w{};
-    std::int64_t source_ns = 0;
-    if (sub.readers[s]->take(w, &source_ns)) {
+    dds::SampleOrigin from;
+    while (sub.readers[s]->take(w, &from)) {
+      if (s < writer_handles_.size() && from.writer != writer_handles_[s]) {
+        foreign_.fetch_add(1, std::memory_order_relaxed);
+        continue;
+      }
+      auto m = DdsCodec<T>::decode(w, from, slots_[s]);
+      if (!m) {
+        undecodable_.fetch_add(1, std::memory_order_relaxed);
+        continue;
+      }
       sub.next = (s + 1) % n;
-      msg = DdsCodec<T>::decode(w, source_ns, slots_[s]);
+      msg = *m;
       return true;
     }
   }

@@ -13,7 +13,13 @@
 // - Each publisher slot has its own DDS writer (no writer shared between threads); each
 //   subscriber has one reader per slot whose listener notifies its Waker (no polling).
 // - RtEventMsg::t of a received message is the writer's DDS source timestamp on this host's
-//   CLOCK_MONOTONIC (the sender's publish time, also for a sender in another process).
+//   CLOCK_MONOTONIC (the sender's publish time, also for a sender in another process);
+//   RtEventMsg::writer its DDS publication handle (writer_guid() names it).
+// - A slot written here (it has a publisher of this DdsTopic) is read from that writer only:
+//   samples of any other writer on the same DDS topic (another process on the domain) are
+//   counted (foreign()) and ignored, so no one outside the run can command its nodes or feed
+//   its controller. Samples that do not decode (a command code rosguard_msgs/msg/Command does
+//   not define) are counted (undecodable()) and ignored too.
 #pragma once
 
 #include <atomic>
@@ -59,6 +65,9 @@ class DdsTopic final : public Topic<T> {
   bool publish(std::size_t publisher, const T& msg) override;
   bool take(std::size_t subscriber, T& msg) override;
   std::uint64_t dropped() const override { return dropped_.load(std::memory_order_relaxed); }
+  std::uint64_t ignored() const override { return foreign() + undecodable(); }
+  std::uint64_t foreign() const { return foreign_.load(std::memory_order_relaxed); }
+  std::uint64_t undecodable() const { return undecodable_.load(std::memory_order_relaxed); }
 
   // The ROS 2 topic of a slot (for logs and tests).
   const std::string& ros_topic(std::size_t slot) const { return topics_.at(slot); }
@@ -74,8 +83,9 @@ class DdsTopic final : public Topic<T> {
   std::vector<DdsSlot> slots_;
   std::vector<std::string> topics_;
   std::vector<std::unique_ptr<dds::Writer<Wire>>> writers_;
+  std::vector<dds_instance_handle_t> writer_handles_;  // by slot, of writers_
   std::vector<Subscriber> subscribers_;
-  std::atomic<std::uint64_t> dropped_{0};
+  std::atomic<std::uint64_t> dropped_{0}, foreign_{0}, undecodable_{0};
 };
 
 extern template class DdsTopic<RtEventMsg>;

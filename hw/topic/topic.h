@@ -11,6 +11,8 @@
 //   between several topics and sleep on all of them at once. No transport sleep-polls.
 // - A message that cannot be delivered (full ring, failed DDS write) is counted (dropped()) and
 //   publish() returns false (the engine fails a point whose control topic dropped anything).
+// - A message a subscriber does not accept (DDS: another process's writer on a topic of this
+//   run, an undecodable message) is counted (ignored()) and skipped by take().
 //
 // InprocTopic: each (publisher, subscriber) pair has its own single-producer single-consumer
 // ring, so a publisher preempted mid-publish (e.g. by the THR spinner of its own core) never
@@ -66,6 +68,7 @@ class Topic {
   // Takes one message for `subscriber`; false when none is pending.
   virtual bool take(std::size_t subscriber, T& msg) = 0;
   virtual std::uint64_t dropped() const = 0;
+  virtual std::uint64_t ignored() const = 0;
 };
 
 template <class T>
@@ -108,6 +111,7 @@ class InprocTopic final : public Topic<T> {
   }
 
   std::uint64_t dropped() const override { return dropped_.load(std::memory_order_relaxed); }
+  std::uint64_t ignored() const override { return 0; }
 
  private:
   SpscRing<T>& ring(std::size_t p, std::size_t s) { return *rings_[p * wakers_.size() + s]; }

@@ -339,6 +339,7 @@ HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const st
                      "must be at least repetitions (" + std::to_string(repetitions) +
                          "): with hw.precision_pct, repetitions is the fewest rounds a point runs "
                          "and max_repetitions the most");
+  out.progress_timeout_ms = hw.value("progress_timeout_ms", std::int64_t{60000});
   out.transport =
       hw.value("transport", "inproc") == "dds" ? TransportKind::Dds : TransportKind::Inproc;
   if (hw.contains("dds")) {

@@ -118,6 +118,9 @@ struct HwSettings {
   // (model/results/precision.h). Absent: exactly `repetitions` rounds.
   std::optional<double> precision_pct;
   int max_repetitions = 20;
+  // A point with no progress (no RT job start or end, no finished nRT run, no signal taken) for
+  // this long fails (hw.progress_timeout_ms).
+  std::int64_t progress_timeout_ms = 60000;
   TransportKind transport = TransportKind::Inproc;
   std::optional<std::uint32_t> dds_domain_id;  // absent: ROS_DOMAIN_ID, else 0
   std::string dds_namespace;                   // "" or "/a[/b]"

@@ -203,6 +203,7 @@ TEST_CASE("schema: apply_defaults fills nested objects and array items", "[schem
     CHECK(doc["sim"] == json({{"quantum_us", 10}}));
     CHECK(doc["hw"] == json({{"pmc_source", "auto"},
                              {"max_repetitions", 20},
+                             {"progress_timeout_ms", 60000},
                              {"scheduler", "fifo"},
                              {"throttle", "auto"},
                              {"watchdog_ms", 100},

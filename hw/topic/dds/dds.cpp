@@ -128,6 +128,7 @@ Endpoint::Endpoint(Participant& p, std::string ros_topic, const dds_topic_descri
     if (on_data_) {
       l = dds_create_listener(this);
       dds_lset_data_available(l, &Endpoint::on_data_available);
+      dds_lset_subscription_matched(l, &Endpoint::on_matched);
     }
     entity_ = dds_create_reader(p.handle(), topic_, qos.q, l);
     if (l) dds_delete_listener(l);  // the reader keeps a copy
@@ -150,6 +151,42 @@ void Endpoint::on_data_available(dds_entity_t, void* arg) {
   static_cast<Endpoint*>(arg)->on_data_();
 }
 
+void Endpoint::on_matched(dds_entity_t, dds_subscription_matched_status_t, void* arg) {
+  static_cast<Endpoint*>(arg)->on_data_();
+}
+
+dds_instance_handle_t Endpoint::instance_handle() const {
+  dds_instance_handle_t h = 0;
+  const dds_return_t rc = dds_get_instance_handle(entity_, &h);
+  if (rc < 0) throw DdsError(fail_text("dds_get_instance_handle", ros_topic_, rc));
+  return h;
+}
+
+std::vector<dds_instance_handle_t> Endpoint::matched_writers() const {
+  std::vector<dds_instance_handle_t> out(16);
+  while (true) {
+    const dds_return_t n = dds_get_matched_publications(entity_, out.data(), out.size());
+    if (n < 0) throw DdsError(fail_text("dds_get_matched_publications", ros_topic_, n));
+    if (static_cast<std::size_t>(n) <= out.size()) {
+      out.resize(static_cast<std::size_t>(n));
+      return out;
+    }
+    out.resize(static_cast<std::size_t>(n));  // more than we had room for: ask again
+  }
+}
+
+std::string Endpoint::writer_guid(dds_instance_handle_t writer) const {
+  dds_builtintopic_endpoint_t* e = dds_get_matched_publication_data(entity_, writer);
+  if (!e) return {};
+  static const char* hex = "0123456789abcdef";
+  std::string s = "0x";
+  for (unsigned char b : e->key.v) {
+    s += hex[b >> 4];
+    s += hex[b & 15];
+  }
+  dds_builtintopic_free_endpoint(e);
+  return s;
+}
 std::uint32_t Endpoint::matched() const {
   if (writer_) {
     dds_publication_matched_status_t st{};
@@ -161,7 +198,7 @@ std::uint32_t Endpoint::matched() const {
   return st.current_count;
 }
 
-bool Endpoint::take_raw(void* sample, std::int64_t* source_realtime_ns) {
+bool Endpoint::take_raw(void* sample, SampleOrigin* origin) {
   void* samples[1] = {sample};
   dds_sample_info_t info{};
   // Fixed-size types: the sample is filled in place, nothing to return to Cyclone.
@@ -170,7 +207,7 @@ bool Endpoint::take_raw(void* sample, std::int64_t* source_realtime_ns) {
     if (n < 0) throw DdsError(fail_text("dds_take", ros_topic_, n));
     if (n == 0) return false;
     if (!info.valid_data) continue;  // a lifecycle notice (writer gone), not a message
-    if (source_realtime_ns) *source_realtime_ns = info.source_timestamp;
+    if (origin) *origin = {info.source_timestamp, info.publication_handle};
     return true;
   }
 }

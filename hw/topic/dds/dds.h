@@ -38,8 +38,8 @@
 //   d::Reader<d::BoolMsg> active(p, d::active_topic("", "planner"), [&] { waker.notify(); });
 //   d::Writer<d::CommandMsg> cmd(p, d::command_topic("", "nrt0"));
 //   d::BoolMsg b;
-//   std::int64_t sent_realtime_ns;
-//   while (active.take(b, &sent_realtime_ns)) { /* b.data: job started / ended */ }
+//   d::SampleOrigin from;
+//   while (active.take(b, &from)) { /* b.data: job started / ended; from.writer: by whom */ }
 //   cmd.write({d::command::kThr, cause_ns});
 #pragma once
 
@@ -52,6 +52,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "Bool.h"
 #include "Command.h"
@@ -132,6 +133,14 @@ class Participant {
   std::uint32_t domain_ = 0;
 };
 
+// Where a sample came from: the writer's source timestamp (CLOCK_REALTIME ns, as DDS stamps
+// samples) and its publication handle (compare with Endpoint::instance_handle() of a writer in
+// this process; name it with Endpoint::writer_guid()).
+struct SampleOrigin {
+  std::int64_t source_realtime_ns = 0;
+  dds_instance_handle_t writer = 0;
+};
+
 // A writer or reader of one topic, untyped (the typed wrappers below are what callers use).
 class Endpoint {
  public:
@@ -144,15 +153,23 @@ class Endpoint {
   // reader): lets a publisher wait for its subscriber before the first sample (volatile QoS
   // does not keep samples for late joiners).
   std::uint32_t matched() const;
+  // This endpoint's instance handle: what a reader in this process sees as the publication
+  // handle of a writer's samples (SampleOrigin::writer).
+  dds_instance_handle_t instance_handle() const;
+  // A reader's matched writers now (their publication handles), and a writer's GUID as text
+  // ("0x0110a1b2..." 32 hex digits; "" when it is no longer matched).
+  std::vector<dds_instance_handle_t> matched_writers() const;
+  std::string writer_guid(dds_instance_handle_t writer) const;
 
  protected:
   Endpoint(Participant& p, std::string ros_topic, const dds_topic_descriptor_t* desc, bool writer,
            int depth, std::function<void()> on_data);
-  bool take_raw(void* sample, std::int64_t* source_realtime_ns);
+  bool take_raw(void* sample, SampleOrigin* origin);
   void write_raw(const void* sample);
 
  private:
   static void on_data_available(dds_entity_t reader, void* arg);
+  static void on_matched(dds_entity_t reader, dds_subscription_matched_status_t, void* arg);
 
   std::string ros_topic_;
   bool writer_ = false;
@@ -171,16 +188,14 @@ class Writer : public Endpoint {
 template <class Msg>
 class Reader : public Endpoint {
  public:
-  // on_data: see the contract above (may be empty: then poll take()).
+  // on_data: see the contract above (may be empty: then poll take()). It also runs when the set
+  // of matched writers changes (a writer came or went: see matched_writers()).
   Reader(Participant& p, std::string ros_topic, std::function<void()> on_data = {},
          int depth = kDefaultDepth)
       : Endpoint(p, std::move(ros_topic), MsgTraits<Msg>::descriptor(), false, depth,
                  std::move(on_data)) {}
-  // One sample, oldest first; false when none. source_realtime_ns: the writer's source
-  // timestamp (CLOCK_REALTIME ns, as DDS stamps samples).
-  bool take(Msg& out, std::int64_t* source_realtime_ns = nullptr) {
-    return take_raw(&out, source_realtime_ns);
-  }
+  // One sample, oldest first; false when none. origin: who wrote it, when.
+  bool take(Msg& out, SampleOrigin* origin = nullptr) { return take_raw(&out, origin); }
 };
 
 // A CLOCK_REALTIME stamp (a DDS source timestamp) on this host's CLOCK_MONOTONIC, by the offset

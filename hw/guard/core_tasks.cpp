@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sched.h>
+#include <signal.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -73,6 +74,41 @@ bool write_text(const std::string& path, const std::string& text) {
   return ok;
 }
 
+// Start time of a thread (clock ticks since boot, /proc/<tid>/stat field 22); 0 when it is gone.
+unsigned long long start_time_of(pid_t tid) {
+  std::ifstream in("/proc/" + std::to_string(tid) + "/stat");
+  std::string text;
+  if (!std::getline(in, text)) return 0;
+  const auto close = text.rfind(')');
+  if (close == std::string::npos) return 0;
+  std::istringstream rest(text.substr(close + 2));
+  std::string field;
+  for (int i = 3; i <= 22 && rest >> field; ++i)
+    if (i == 22) return std::stoull(field);
+  return 0;
+}
+
+bool is_rosguard_cgroup(const std::string& path) {
+  const auto slash = path.rfind('/');
+  return path.compare(slash == std::string::npos ? 0 : slash + 1, 9, "rosguard-") == 0;
+}
+
+const char* policy_name(int policy) {
+  switch (policy) {
+    case SCHED_OTHER:
+      return "SCHED_OTHER";
+    case SCHED_BATCH:
+      return "SCHED_BATCH";
+    case SCHED_IDLE:
+      return "SCHED_IDLE";
+    case SCHED_FIFO:
+      return "SCHED_FIFO";
+    case SCHED_RR:
+      return "SCHED_RR";
+  }
+  return "another policy";
+}
+
 // CPU time of a thread in ns (first field of /proc/<tid>/schedstat), or -1 when it is gone.
 long long thread_cpu_ns_of(pid_t tid) {
   char path[64];
@@ -130,8 +166,125 @@ void CpuTimeGroup::read(std::span<CounterValue> out) {
     out[i] = {};
 }
 
-CoreTasks::CoreTasks(ThrottleKind kind, std::vector<Core> cores)
-    : kind_(kind), cores_(std::move(cores)), cgroup_mount_(cgroup2_mount_point()) {}
+CoreTasks::CoreTasks(ThrottleKind kind, std::vector<Core> cores, std::string record)
+    : kind_(kind),
+      cores_(std::move(cores)),
+      record_(std::move(record)),
+      cgroup_mount_(cgroup2_mount_point()) {
+  save();  // the cgroups exist already
+}
+
+// The record: a header line with the guard's pid, then one line per change made.
+void CoreTasks::save() const {
+  if (record_.empty()) return;
+  std::ostringstream out;
+  out << "rosguard-guard-record 1 " << ::getpid() << "\n";
+  for (const auto& c : cores_)
+    if (c.cgroup) out << "cgroup " << c.cgroup->path() << "\n";
+  for (const auto& [tid, t] : tasks_)
+    if (t.idle_applied)
+      out << "idle " << tid << " " << t.start_time << " " << t.policy << " " << t.priority << " "
+          << t.nice << "\n";
+  for (const auto& [pid, m] : moved_)
+    out << "moved " << pid << " " << m.start_time << " " << m.cgroup << "\n";
+  const std::string tmp = record_ + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::trunc);
+    f << out.str();
+    if (!f.flush()) throw RunError("cannot write " + tmp + ": " + errno_text(errno));
+  }
+  if (::rename(tmp.c_str(), record_.c_str()) != 0)
+    throw RunError("cannot rename " + tmp + " to " + record_ + ": " + errno_text(errno));
+}
+
+std::vector<std::string> CoreTasks::repair(const std::string& path) {
+  std::vector<std::string> done;
+  std::ifstream in(path);
+  if (!in) return done;
+  std::string line, magic;
+  long guard_pid = 0;
+  int version = 0;
+  if (!std::getline(in, line) || !(std::istringstream(line) >> magic >> version >> guard_pid) ||
+      magic != "rosguard-guard-record") {
+    done.push_back("ignored " + path + ": not a guard record");
+    return done;
+  }
+  if (guard_pid != ::getpid() && ::kill(static_cast<pid_t>(guard_pid), 0) == 0) {
+    std::ifstream comm("/proc/" + std::to_string(guard_pid) + "/comm");
+    std::string name;
+    std::getline(comm, name);
+    if (name == "rosguard")
+      throw RunError("another rosguard guard runs with this name (pid " +
+                     std::to_string(guard_pid) + ", its record " + path +
+                     "): stop it first, or give this one another name");
+  }
+  const std::string mount = cgroup2_mount_point();
+  std::vector<std::string> cgroups;
+  struct Idle {
+    pid_t tid;
+    unsigned long long start;
+    int policy, priority, nice;
+  };
+  std::vector<Idle> idle;
+  std::vector<std::pair<pid_t, std::pair<unsigned long long, std::string>>> moved;
+  while (std::getline(in, line)) {
+    std::istringstream l(line);
+    std::string kind;
+    l >> kind;
+    if (kind == "cgroup") {
+      std::string p;
+      std::getline(l >> std::ws, p);
+      cgroups.push_back(p);
+    } else if (kind == "idle") {
+      Idle i{};
+      if (l >> i.tid >> i.start >> i.policy >> i.priority >> i.nice) idle.push_back(i);
+    } else if (kind == "moved") {
+      pid_t pid = 0;
+      unsigned long long start = 0;
+      std::string cg;
+      if (l >> pid >> start) {
+        std::getline(l >> std::ws, cg);
+        moved.push_back({pid, {start, cg}});
+      }
+    }
+  }
+  const std::string who = "guard pid " + std::to_string(guard_pid);
+  // Thaw first: a process leaves a frozen cgroup thawed.
+  for (const auto& cg : cgroups)
+    if (write_text(cg + "/cgroup.freeze", "0")) done.push_back("thawed " + cg + " (" + who + ")");
+  for (const auto& [pid, m] : moved) {
+    if (start_time_of(pid) != m.first) continue;  // gone, or another process with its pid
+    const std::string to = is_rosguard_cgroup(m.second) || m.second.empty() ? "/" : m.second;
+    if (!mount.empty() &&
+        write_text(mount + (to == "/" ? "" : to) + "/cgroup.procs", std::to_string(pid)))
+      done.push_back("process " + std::to_string(pid) + " back in cgroup " + to);
+  }
+  for (const auto& i : idle) {
+    if (start_time_of(i.tid) != i.start || ::sched_getscheduler(i.tid) != SCHED_IDLE) continue;
+    const sched_param sp{i.priority};
+    if (::sched_setscheduler(i.tid, i.policy, &sp) == 0) {
+      ::setpriority(PRIO_PROCESS, static_cast<id_t>(i.tid), i.nice);
+      done.push_back("thread " + std::to_string(i.tid) + " back to " + policy_name(i.policy) +
+                     " (nice " + std::to_string(i.nice) + ") from SCHED_IDLE");
+    }
+  }
+  // The cgroups go; what is still in one (a process this record did not name) goes to its parent.
+  for (const auto& cg : cgroups) {
+    std::ifstream procs(cg + "/cgroup.procs");
+    if (!procs) continue;
+    const std::string parent = cg.substr(0, cg.rfind('/'));
+    long p;
+    while (procs >> p)
+      write_text(parent + "/cgroup.procs", std::to_string(p));
+    for (int k = 0; k < 100 && ::rmdir(cg.c_str()) != 0 && errno == EBUSY; ++k)
+      ::usleep(1000);
+    done.push_back(::access(cg.c_str(), F_OK) == 0
+                       ? "could not remove cgroup " + cg + ": " + errno_text(errno)
+                       : "removed cgroup " + cg);
+  }
+  ::unlink(path.c_str());
+  return done;
+}
 
 CoreTasks::~CoreTasks() {
   restore();
@@ -183,31 +336,38 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
       task.priority = sp.sched_priority;
       errno = 0;
       task.nice = ::getpriority(PRIO_PROCESS, static_cast<id_t>(tid));
+      task.start_time = start_time_of(tid);
       Change ch{core->core, pid, tid, comm, true, ""};
       if (task.policy == SCHED_FIFO || task.policy == SCHED_RR) {
         ch.note = "runs under a real-time policy: left alone, not counted";
       } else {
         per_core[core->core].push_back(tid);
         if (kind_ == ThrottleKind::Idle && task.policy != SCHED_IDLE) {
+          // Recorded before it is changed: a guard killed in between leaves a record to repair.
+          task.idle_applied = true;
+          tasks_.emplace(tid, task);
+          save();
           const sched_param zero{};
           if (::sched_setscheduler(tid, SCHED_IDLE, &zero) == 0) {
-            task.idle_applied = true;
             ch.note = "moved to SCHED_IDLE";
           } else {
             ch.note = "SCHED_IDLE refused (" + errno_text(errno) + "): the throttle cannot hold it";
+            tasks_[tid].idle_applied = false;
           }
         } else if (kind_ == ThrottleKind::Freezer && core->cgroup && !moved_.count(pid)) {
           const std::string before = cgroup_of(pid);
+          moved_[pid] = {before, start_time_of(pid)};
+          save();
           try {
             core->cgroup->add(pid);
-            moved_[pid] = before;
             ch.note = "process moved into " + core->cgroup->path();
           } catch (const RunError& e) {
+            moved_.erase(pid);
             ch.note = std::string("not frozen: ") + e.what();
           }
         }
       }
-      tasks_.emplace(tid, task);
+      tasks_.emplace(tid, task);  // (no-op when recorded above)
       changes.push_back(std::move(ch));
     }
   }
@@ -230,6 +390,7 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
   }
   for (auto& c : cores_)
     if (c.cputime) c.cputime->publish(per_core[c.core]);
+  if (!changes.empty()) save();
   return changes;
 }
 
@@ -242,11 +403,14 @@ void CoreTasks::restore() {
     }
   tasks_.clear();
   if (!cgroup_mount_.empty())
-    for (const auto& [pid, path] : moved_)
-      if (!path.empty())
-        write_text(cgroup_mount_ + (path == "/" ? "" : path) + "/cgroup.procs",
-                   std::to_string(pid));
+    for (const auto& [pid, m] : moved_) {
+      // Never back into a guard's cgroup (one a killed guard left): the cgroup root instead.
+      const std::string to = is_rosguard_cgroup(m.cgroup) || m.cgroup.empty() ? "/" : m.cgroup;
+      write_text(cgroup_mount_ + (to == "/" ? "" : to) + "/cgroup.procs", std::to_string(pid));
+    }
   moved_.clear();
+  // Everything undone; the cgroups themselves go with the nodes (FreezerCgroup).
+  if (!record_.empty()) ::unlink(record_.c_str());
 }
 
 }  // namespace rosguard::hw

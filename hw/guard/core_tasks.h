@@ -11,6 +11,12 @@
 //   on the main thread: it takes the latest list rescan() published with a try_lock.
 // - Threads under a real-time policy are left alone (noted once): the guard regulates work that
 //   the scheduler can preempt, not another real-time program.
+// - Crash safety: with a record file (the guard's `state_dir`), every change CoreTasks makes to
+//   another process (a thread moved to SCHED_IDLE, a process moved into a freezer cgroup, the
+//   cgroups themselves) is written there before it takes effect, atomically (rename), and the
+//   file goes when restore() has undone everything. repair() reads the file a killed guard left
+//   and undoes what it says (cgroups thawed, processes back in their cgroups, threads back to
+//   their policy; only threads with the recorded start time, so a reused pid is left alone).
 #pragma once
 
 #include <sys/types.h>
@@ -51,7 +57,8 @@ class CoreTasks {
     FreezerCgroup* cgroup = nullptr;  // freezer: where its processes go
     CpuTimeGroup* cputime = nullptr;  // cputime source: fed by rescan()
   };
-  CoreTasks(ThrottleKind kind, std::vector<Core> cores);
+  // record: the crash-safety file ("" for none).
+  CoreTasks(ThrottleKind kind, std::vector<Core> cores, std::string record = "");
   ~CoreTasks();
   CoreTasks(const CoreTasks&) = delete;
   CoreTasks& operator=(const CoreTasks&) = delete;
@@ -68,6 +75,11 @@ class CoreTasks {
   void restore();
   std::size_t count(int core) const;
 
+  // Undoes what the record at `path` says a guard that did not stop cleanly left behind; returns
+  // one line per repair (nothing when there is no record). Throws RunError when the guard that
+  // wrote it still runs.
+  static std::vector<std::string> repair(const std::string& path);
+
  private:
   struct Task {
     int core = 0;
@@ -75,13 +87,20 @@ class CoreTasks {
     int policy = 0;
     int priority = 0;
     int nice = 0;
+    unsigned long long start_time = 0;  // /proc/<tid>/stat field 22: tells a reused tid apart
     bool idle_applied = false;
-    std::string cgroup;  // the process's cgroup before it was moved (freezer), "" when not moved
   };
+  void save() const;
+
   ThrottleKind kind_;
   std::vector<Core> cores_;
-  std::map<pid_t, Task> tasks_;         // by tid
-  std::map<pid_t, std::string> moved_;  // pid -> original cgroup (freezer)
+  std::string record_;
+  std::map<pid_t, Task> tasks_;  // by tid
+  struct Moved {
+    std::string cgroup;  // the process's cgroup before it was moved
+    unsigned long long start_time = 0;
+  };
+  std::map<pid_t, Moved> moved_;  // by pid (freezer)
   std::string cgroup_mount_;
 };
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <mutex>
 #include <ostream>
 
@@ -54,6 +55,22 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
       publisher_(publisher),
       log_(log),
       activity_(s_.rt.size(), s_.max_active_ns) {
+  // What a killed guard of this name left behind is undone before anything else happens.
+  std::string record;
+  if (!s_.state_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(s_.state_dir, ec);
+    if (ec) {
+      start_log_.push_back("warning: fallback (state_dir): cannot create " + s_.state_dir + " (" +
+                           ec.message() +
+                           "): no crash record, so processes this guard changes stay changed if "
+                           "it is killed");
+    } else {
+      record = s_.state_dir + "/" + s_.name + ".record";
+      for (const auto& line : CoreTasks::repair(record))
+        start_log_.push_back("repaired after a guard that did not stop cleanly: " + line);
+    }
+  }
   const auto cpus = usable_cpus();
   for (std::size_t i = 0; i < s_.nrt.size(); ++i)
     if (std::find(cpus.begin(), cpus.end(), s_.nrt[i].core) == cpus.end())
@@ -179,7 +196,7 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
                                              rt_topic_, samples_, control_ptrs, nullptr,
                                              engine_waker_, on_error, now_ns());
   controller_->set_groups(groups);
-  tasks_ = std::make_unique<CoreTasks>(throttle_.kind, task_cores);
+  tasks_ = std::make_unique<CoreTasks>(throttle_.kind, task_cores, record);
   last_sample_t_.assign(s_.nrt.size(), 0);
   sample_count_.assign(s_.nrt.size(), 0);
   shown_state_.assign(s_.nrt.size(), NodeState::Off);
@@ -300,6 +317,8 @@ void Guard::expire_activity() {
 }
 
 void Guard::start() {
+  for (const auto& line : start_log_)
+    logln(line);
   logln("measuring with " + source_why_);
   std::string holds;
   for (const auto& m : throttle_.measured)

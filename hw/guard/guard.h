@@ -21,6 +21,9 @@
 // - The log: repeated lines (the same kind of event from the same source) are written at most once
 //   per kLogRepeatNs with a count of those left out, so a busy or attacked guard's log stays
 //   small.
+// - Crash safety: what the guard changes in other processes (SCHED_IDLE, freezer cgroups) is
+//   recorded in GuardSettings::state_dir before it is changed (hw/guard/core_tasks.h); the
+//   constructor first repairs what a killed guard of the same name left there, start() logs it.
 // - GuardPublisher: called on the main thread only; must not block for long (it is between the
 //   controller's notes and the log).
 #pragma once
@@ -71,6 +74,9 @@ struct GuardSettings {
   TimeNs rescan_ns = 200 * kNsPerMs;
   std::size_t publish_every = 1;
   TimeNs max_active_ns = 60 * kNsPerS;  // activity.max_active_ms; <= 0: none
+  // Where the guard records what it changes in other processes (<state_dir>/<name>.record), so
+  // that the next guard of this name repairs what a killed one left; "" for no record.
+  std::string state_dir = "/run/rosguard";
 };
 
 // What an activity source heard: `publisher` said RT node `rt` is (in)active, or (gone) the
@@ -236,6 +242,7 @@ class Guard {
   std::vector<std::size_t> sample_count_;
   std::vector<NodeState> shown_state_;
   GuardStats stats_;
+  std::vector<std::string> start_log_;  // the crash repair's lines, logged by start()
   bool started_ = false, shut_ = false;
 };
 

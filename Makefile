@@ -19,7 +19,7 @@ PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
 .PHONY: all deps configure build test test-nosim run install reproduce sensitivity validate \
-        validate-readme bench-parallel bench-middleware bench format clean fit-table1
+        validate-readme bench-parallel bench-soak bench-middleware bench format clean fit-table1
 
 all: build
 
@@ -92,6 +92,11 @@ bench-parallel: build
 bench-middleware: build
 	$(ROSGUARD) run scenarios/bench/hw-middleware.json --backend hw --out results/hw-middleware --overwrite
 	$(PYTHON) tools/middleware_table.py results/hw-middleware
+
+# rosguard guard under regulation for SOAK_S seconds (default 30 min): its memory and log growth.
+SOAK_S ?= 1800
+bench-soak: build
+	tests/bench/guard_soak.sh $(BUILD) $(SOAK_S) results/soak
 
 format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i

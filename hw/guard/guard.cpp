@@ -223,6 +223,11 @@ void Guard::logln(const std::string& line) {
 
 void Guard::log_limited(const std::string& key, const std::string& line) {
   const TimeNs now = now_ns();
+  // Keys come and go with publishers (a GUID per RT program run): quiet ones are forgotten.
+  if (repeats_.size() > kMaxLogKeys) {
+    flush_suppressed();
+    std::erase_if(repeats_, [&](const auto& r) { return now - r.second.last >= kLogRepeatNs; });
+  }
   auto [it, fresh] = repeats_.try_emplace(key);
   Repeat& r = it->second;
   if (!fresh && now - r.last < kLogRepeatNs) {

@@ -51,6 +51,8 @@ enum class GuardSource { Auto, Perf, Cputime };
 
 // The log writes a repeated line at most this often (GuardStats::log_suppressed counts the rest).
 inline constexpr TimeNs kLogRepeatNs = 10 * kNsPerS;
+// Beyond this many kinds of line, those not written for kLogRepeatNs are forgotten.
+inline constexpr std::size_t kMaxLogKeys = 256;
 
 struct GuardSettings {
   std::string name;

@@ -181,7 +181,7 @@ bool Controller::serve() {
     if (ev.rt >= cfg_.rt_count)
       throw RunError("an enable / disable signal names RT node " + std::to_string(ev.rt) + " of " +
                      std::to_string(cfg_.rt_count));
-    signals_.push_back({ev.rt, ev.started, ev.t, t});
+    if (cfg_.keep_measurements) signals_.push_back({ev.rt, ev.started, ev.t, t});
     driver_.rt_signal(t, ev.rt, ev.started, out_);
     handle();
     if (!ev.started) finished_[ev.rt].fetch_add(1, std::memory_order_acq_rel);

@@ -67,9 +67,10 @@ struct ControllerConfig {
   TimeNs fail_after_ns = -1;
   std::size_t rt_count = 1;                // RT indices the enable / disable signals may carry
   std::function<TimeNs()> clock = now_ns;  // CLOCK_MONOTONIC; tests inject their own
-  bool keep_measurements = true;  // false: no per-read timing kept (a daemon: bounded memory)
-  NoteRing* notes = nullptr;      // optional: what the controller did, for its host
-  Waker* notes_waker = nullptr;   // notified after each batch of notes
+  bool keep_measurements =
+      true;                   // false: no read timings or signal records (a daemon: bounded memory)
+  NoteRing* notes = nullptr;  // optional: what the controller did, for its host
+  Waker* notes_waker = nullptr;  // notified after each batch of notes
 };
 
 // One enable / disable signal as the controller saw it: sent (the publisher's stamp: its

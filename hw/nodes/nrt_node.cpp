@@ -216,7 +216,7 @@ void NrtRunner::thr_main() {
     const auto epoch = thr_waker_.epoch();
     if (state_.load(std::memory_order_acquire) == NodeState::Thr) {
       const TimeNs enter = now_ns();
-      thr_entries_.push_back(enter);
+      if (cfg_.keep_measurements) thr_entries_.push_back(enter);
       throttler_->hold(
           [this] {
             return state_.load(std::memory_order_relaxed) == NodeState::Thr &&

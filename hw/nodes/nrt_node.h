@@ -49,7 +49,7 @@ struct NrtConfig {
   // No workload of its own: the node regulates whatever else runs on its core (rosguard guard).
   // No NCT thread; external sampling only; the counter group comes from set_group().
   bool foreign = false;
-  bool keep_measurements = true;  // false: no activation delays kept (a daemon: bounded memory)
+  bool keep_measurements = true;  // false: no delays or THR entries kept (a daemon: bounded memory)
   std::vector<std::string> group_events;  // opened on the workload; the metric's come first
   std::size_t metric_events = 1;          // how many of them the regulator gets
   bool trace = false;

@@ -25,6 +25,14 @@ std::string DdsActivity::describe() const {
          " (std_msgs/msg/Bool)";
 }
 
+std::string DdsActivity::exposure() const {
+  return "any process that reaches DDS domain " + std::to_string(participant_->domain_id()) +
+         " can publish the RT nodes' activity (no DDS Security): it cannot stop the guard or "
+         "unbalance its state, but it can hold regulation on (up to activity.max_active_ms at a "
+         "time) and, by flooding, crowd out an RT node's own messages; keep the domain on a "
+         "private network (CYCLONEDDS_URI)";
+}
+
 void DdsActivity::start(const std::vector<std::string>& rt_names, Signal signal) {
   names_ = rt_names;
   signal_ = std::move(signal);

@@ -34,6 +34,7 @@ class DdsActivity : public ActivitySource {
   explicit DdsActivity(std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "");
   ~DdsActivity() override;
   std::string describe() const override;
+  std::string exposure() const override;
   void start(const std::vector<std::string>& rt_names, Signal signal) override;
   void stop() override;
 

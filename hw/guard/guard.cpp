@@ -331,6 +331,7 @@ void Guard::start() {
   logln("throttle '" + std::string(to_string(throttle_.kind)) + "' (" + throttle_.why +
         "; measured hold, nRT progress while throttled / nominal: " + holds + ")");
   if (!throttle_.fallback.empty()) logln("warning: fallback (throttle): " + throttle_.fallback);
+  if (const auto who = activity_source_.exposure(); !who.empty()) logln("warning: " + who);
   for (auto& n : nodes_)
     n->start();
   controller_->start();

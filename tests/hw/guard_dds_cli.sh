@@ -8,33 +8,9 @@ set -euo pipefail
 rosguard=$1
 rt_node=$2
 src=$3
-command -v stress-ng >/dev/null || { echo "SKIPPED: stress-ng is not installed"; exit 0; }
-[[ $(nproc) -ge 2 ]] || { echo "SKIPPED: needs two CPUs"; exit 0; }
-tmp=$(mktemp -d)
-guard_pid="" stress_pid=""
-cleanup() {
-  [[ -n "$guard_pid" ]] && kill -9 "$guard_pid" 2>/dev/null || true
-  [[ -n "$stress_pid" ]] && kill -9 -- "-$stress_pid" 2>/dev/null || true
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-ns="/rosguard_test_guard_$$_${RANDOM}"
-export CYCLONEDDS_URI="file://$src/tests/hw/cyclonedds-loopback.xml"
-cat >"$tmp/guard.json" <<JSON
-{ "name": "clitest", "controller": { "core": 0 }, "rt": [ { "name": "planner" } ],
-  "nrt": [ { "name": "be", "core": 1 } ],
-  "regulation": { "threshold_pct": 10, "reference_mbps": 1000, "regulation_period_us": 10000 },
-  "hw": { "rescan_ms": 50 },
-  "activity": { "source": "dds" }, "publish": { "transport": "dds" },
-  "dds": { "namespace": "$ns" } }
-JSON
-setsid taskset -c 1 stress-ng --cpu 1 --cpu-method int64 --timeout 120s --quiet &
-stress_pid=$!
-"$rosguard" guard "$tmp/guard.json" 2>"$tmp/log" &
-guard_pid=$!
-for _ in $(seq 200); do grep -q "regulating be (CPU 1)" "$tmp/log" && break; sleep 0.1; done
-grep -q "regulating be (CPU 1)" "$tmp/log" || { cat "$tmp/log"; echo "FAIL: guard did not start"; exit 1; }
-for _ in $(seq 50); do grep -q "regulating pid.*stress-ng" "$tmp/log" && break; sleep 0.1; done
+# shellcheck source=guard_common.sh
+source "$src/tests/hw/guard_common.sh"
+guard_start clitest
 # The RT program: 3 jobs of 300 ms on core 0, signalled over DDS.
 "$rt_node" --name planner --ns "$ns" --jobs 3 --job-ms 300 --gap-ms 200 --core 0 \
   --working-set-kb 4096 --wait-ms 20000 >"$tmp/rt.out"
@@ -43,6 +19,7 @@ sleep 0.3
 "$rt_node" --name planner --ns "$ns" --jobs 1 --job-ms 3000 --core 0 --working-set-kb 4096 \
   --wait-ms 20000 >/dev/null &
 rt_pid=$!
+extra_pids=$rt_pid
 # (Repeated log lines are left out: each RT program's writer logs its first activation.)
 for _ in $(seq 100); do [[ $(grep -c "planner: active (publisher" "$tmp/log") -ge 2 ]] && break; sleep 0.05; done
 sleep 0.2

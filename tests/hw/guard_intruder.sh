@@ -11,35 +11,10 @@ rosguard=$1
 rt_node=$2
 intruder=$3
 src=$4
-command -v stress-ng >/dev/null || { echo "SKIPPED: stress-ng is not installed"; exit 0; }
-[[ $(nproc) -ge 2 ]] || { echo "SKIPPED: needs two CPUs"; exit 0; }
-tmp=$(mktemp -d)
-guard_pid="" stress_pid="" rt_pid=""
-cleanup() {
-  [[ -n "$guard_pid" ]] && kill -9 "$guard_pid" 2>/dev/null || true
-  [[ -n "$rt_pid" ]] && kill -9 "$rt_pid" 2>/dev/null || true
-  [[ -n "$stress_pid" ]] && kill -9 -- "-$stress_pid" 2>/dev/null || true
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
+# shellcheck source=guard_common.sh
+source "$src/tests/hw/guard_common.sh"
 fail() { echo "--- guard log"; grep -v -- "-> THR\|-> ON" "$tmp/log" | head -60; echo "FAIL: $*"; exit 1; }
-ns="/rosguard_test_intruder_$$_${RANDOM}"
-export CYCLONEDDS_URI="file://$src/tests/hw/cyclonedds-loopback.xml"
-cat >"$tmp/guard.json" <<JSON
-{ "name": "intruded", "controller": { "core": 0 }, "rt": [ { "name": "planner" } ],
-  "nrt": [ { "name": "be", "core": 1 } ],
-  "regulation": { "threshold_pct": 10, "reference_mbps": 1000, "regulation_period_us": 10000 },
-  "hw": { "rescan_ms": 50 },
-  "activity": { "source": "dds" }, "publish": { "transport": "dds" },
-  "dds": { "namespace": "$ns" } }
-JSON
-setsid taskset -c 1 stress-ng --cpu 1 --cpu-method int64 --timeout 120s --quiet &
-stress_pid=$!
-"$rosguard" guard "$tmp/guard.json" 2>"$tmp/log" &
-guard_pid=$!
-for _ in $(seq 200); do grep -q "regulating be (CPU 1)" "$tmp/log" && break; sleep 0.1; done
-grep -q "regulating be (CPU 1)" "$tmp/log" || fail "guard did not start"
-for _ in $(seq 50); do grep -q "regulating pid.*stress-ng" "$tmp/log" && break; sleep 0.1; done
+guard_start intruded
 
 # CPU time (ns) of stress-ng's worker; its share of one CPU over 1 s.
 worker=$(pgrep -f "stress-ng-cpu" | head -1)
@@ -62,6 +37,7 @@ alive "after an unmatched false and a double true"
 "$rt_node" --name planner --ns "$ns" --jobs 1 --job-ms 4000 --core 0 --working-set-kb 4096 \
   --wait-ms 20000 >"$tmp/rt.out" &
 rt_pid=$!
+extra_pids=$rt_pid
 for _ in $(seq 100); do [[ $(grep -c "planner: active (publisher" "$tmp/log") -ge 2 ]] && break; sleep 0.05; done
 "$intruder" --ns "$ns" active planner 0 flood planner 100000 sleep 2000 >"$tmp/intruder2.out" &
 intruder_pid=$!
@@ -73,7 +49,6 @@ during=$(share)
 alive "during the flood"
 wait "$intruder_pid"
 wait "$rt_pid" || true
-rt_pid=""
 sleep 0.5
 after=$(share)
 alive "after the intruder left"

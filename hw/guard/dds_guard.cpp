@@ -10,8 +10,11 @@
 
 namespace rosguard::hw {
 
-DdsActivity::DdsActivity(std::optional<std::uint32_t> domain_id, std::string ns)
-    : participant_(std::make_unique<dds::Participant>(domain_id)), ns_(std::move(ns)) {}
+DdsActivity::DdsActivity(std::optional<std::uint32_t> domain_id, std::string ns,
+                         const dds::Security* security)
+    : participant_(std::make_unique<dds::Participant>(domain_id, security)),
+      secured_(security != nullptr),
+      ns_(std::move(ns)) {}
 
 DdsActivity::~DdsActivity() {
   stop();
@@ -21,11 +24,12 @@ std::string DdsActivity::describe() const {
   std::string topics;
   for (const auto& r : readers_)
     topics += (topics.empty() ? "" : ", ") + r->ros_topic();
-  return "DDS domain " + std::to_string(participant_->domain_id()) + ": " + topics +
-         " (std_msgs/msg/Bool)";
+  return "DDS domain " + std::to_string(participant_->domain_id()) +
+         (secured_ ? " with DDS Security" : "") + ": " + topics + " (std_msgs/msg/Bool)";
 }
 
 std::string DdsActivity::exposure() const {
+  if (secured_) return {};
   return "any process that reaches DDS domain " + std::to_string(participant_->domain_id()) +
          " can publish the RT nodes' activity (no DDS Security): it cannot stop the guard or "
          "unbalance its state, but it can hold regulation on (up to activity.max_active_ms at a "
@@ -99,8 +103,9 @@ void DdsActivity::stop() {
 }
 
 DdsPublisher::DdsPublisher(const std::vector<std::string>& core_names,
-                           std::optional<std::uint32_t> domain_id, std::string ns)
-    : participant_(std::make_unique<dds::Participant>(domain_id)), names_(core_names) {
+                           std::optional<std::uint32_t> domain_id, std::string ns,
+                           const dds::Security* security)
+    : participant_(std::make_unique<dds::Participant>(domain_id, security)), names_(core_names) {
   std::vector<DdsSlot> slots;
   for (std::size_t i = 0; i < core_names.size(); ++i)
     slots.push_back({core_names[i], i});

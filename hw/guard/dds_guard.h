@@ -31,7 +31,9 @@ namespace rosguard::hw {
 
 class DdsActivity : public ActivitySource {
  public:
-  explicit DdsActivity(std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "");
+  // security: null for none.
+  explicit DdsActivity(std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "",
+                       const dds::Security* security = nullptr);
   ~DdsActivity() override;
   std::string describe() const override;
   std::string exposure() const override;
@@ -43,6 +45,7 @@ class DdsActivity : public ActivitySource {
   std::string name_of(const dds::Endpoint& reader, dds_instance_handle_t writer);
 
   std::unique_ptr<dds::Participant> participant_;
+  bool secured_ = false;
   std::string ns_;
   std::vector<std::unique_ptr<dds::Reader<dds::BoolMsg>>> readers_;  // per RT node
   // Reader thread only: the writers heard from or matched, and their names (GUIDs).
@@ -57,7 +60,8 @@ class DdsActivity : public ActivitySource {
 class DdsPublisher : public GuardPublisher {
  public:
   DdsPublisher(const std::vector<std::string>& core_names,
-               std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "");
+               std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "",
+               const dds::Security* security = nullptr);
   ~DdsPublisher() override;
   std::string describe() const override;
   void sample(const GuardSample& s) override;

@@ -2,9 +2,10 @@
 # `set -euo pipefail` with $rosguard and $src set: skips where stress-ng or a second CPU is
 # missing; makes $tmp and, on exit, kills the guard, stress-ng and every pid in $extra_pids; a DDS
 # namespace of this run alone ($ns) on the loopback interface.
-# guard_start NAME: writes $tmp/guard.json (RT node 'planner', nRT core 'be' = CPU 1 at 10 % of
+# guard_start NAME [DDS_EXTRA]: writes $tmp/guard.json (RT node 'planner', nRT core 'be' = CPU 1 at 10 % of
 # 1000 MB/s per 10 ms window, controller on CPU 0, DDS in and out), starts a stress-ng pinned on
-# CPU 1 and the guard (log: $tmp/log), and waits until the guard regulates stress-ng.
+# CPU 1 and the guard (log: $tmp/log), and waits until the guard regulates stress-ng. DDS_EXTRA:
+# more keys of the configuration's "dds" object (JSON text).
 command -v stress-ng >/dev/null || { echo "SKIPPED: stress-ng is not installed"; exit 0; }
 [[ $(nproc) -ge 2 ]] || { echo "SKIPPED: needs two CPUs"; exit 0; }
 tmp=$(mktemp -d)
@@ -26,7 +27,7 @@ guard_start() {
   "regulation": { "threshold_pct": 10, "reference_mbps": 1000, "regulation_period_us": 10000 },
   "hw": { "rescan_ms": 50 },
   "activity": { "source": "dds" }, "publish": { "transport": "dds" },
-  "dds": { "namespace": "$ns" } }
+  "dds": { "namespace": "$ns"${2:+, $2} } }
 JSON
   setsid taskset -c 1 stress-ng --cpu 1 --cpu-method int64 --timeout 120s --quiet &
   stress_pid=$!

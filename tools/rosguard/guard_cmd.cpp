@@ -3,6 +3,7 @@
 #include <signal.h>
 
 #include <atomic>
+#include <filesystem>
 #include <iostream>
 
 #include "core/error.h"
@@ -103,6 +104,19 @@ int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyR
       dds_cfg.contains("domain_id") ? std::optional(dds_cfg.at("domain_id").get<std::uint32_t>())
                                     : std::nullopt;
   const std::string ns = dds_cfg.at("namespace").get<std::string>();
+  std::optional<dds::Security> security;
+  if (dds_cfg.contains("security")) {
+    const auto& j = dds_cfg.at("security");
+    // Relative paths are relative to the configuration file.
+    const auto path = [&](const char* key) {
+      const std::filesystem::path p = j.at(key).get<std::string>();
+      return (p.is_absolute() ? p : std::filesystem::path(args.config).parent_path() / p).string();
+    };
+    security =
+        dds::Security{path("identity_ca"),    path("identity_certificate"), path("private_key"),
+                      path("permissions_ca"), path("governance"),           path("permissions")};
+  }
+  const dds::Security* sec = security ? &*security : nullptr;
   std::unique_ptr<hw::ActivitySource> activity;
   if (act.at("source").get<std::string>() == "fifo") {
     activity = std::make_unique<hw::FifoActivity>(
@@ -111,7 +125,7 @@ int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyR
                     << "' (expected '<rt name> 1|0')\n";
         });
   } else {
-    activity = std::make_unique<hw::DdsActivity>(domain, ns);
+    activity = std::make_unique<hw::DdsActivity>(domain, ns, sec);
   }
   std::unique_ptr<hw::GuardPublisher> publisher;
   if (doc.at("publish").at("transport").get<std::string>() == "none") {
@@ -120,7 +134,7 @@ int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyR
     std::vector<std::string> cores;
     for (const auto& n : settings.nrt)
       cores.push_back(n.name);
-    publisher = std::make_unique<hw::DdsPublisher>(cores, domain, ns);
+    publisher = std::make_unique<hw::DdsPublisher>(cores, domain, ns, sec);
   }
 
   // Signals: SIGINT / SIGTERM stop, SIGHUP reloads; the handlers only set flags, which the main

@@ -1,9 +1,13 @@
 #include "hw/topic/dds/dds.h"
 
+#include <dlfcn.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <cctype>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 
 namespace rosguard::dds {
@@ -101,12 +105,69 @@ std::uint32_t default_domain_id() {
   return static_cast<std::uint32_t>(v);
 }
 
-Participant::Participant(std::optional<std::uint32_t> domain_id)
+namespace {
+
+// Where Cyclone's security plugins are: beside libddsc, or in Debian's libddsc0debian/ there.
+std::string security_plugin(const char* name) {
+  Dl_info info{};
+  if (::dladdr(reinterpret_cast<void*>(&dds_create_participant), &info) && info.dli_fname) {
+    const std::string lib = info.dli_fname;
+    const std::string dir = lib.substr(0, lib.rfind('/'));
+    for (const std::string& d : {dir + "/libddsc0debian", dir}) {
+      const std::string p = d + "/lib" + name + ".so";
+      if (::access(p.c_str(), R_OK) == 0) return p;
+    }
+  }
+  return name;  // found by name on the library path, or Cyclone says it is missing
+}
+
+std::string file_uri(const std::string& path, const char* what) {
+  if (::access(path.c_str(), R_OK) != 0)
+    throw DdsError(std::string("DDS Security: the ") + what + " '" + path +
+                   "' cannot be read: " + std::strerror(errno));
+  return "file:" + path;
+}
+
+}  // namespace
+
+Participant::Participant(std::optional<std::uint32_t> domain_id, const Security* security)
     : domain_(domain_id ? *domain_id : default_domain_id()) {
-  handle_ = dds_create_participant(domain_, nullptr, nullptr);
+  dds_qos_t* qos = nullptr;
+  if (security) {
+    qos = dds_create_qos();
+    const auto prop = [&](const char* k, const std::string& v) {
+      dds_qset_prop(qos, k, v.c_str());
+    };
+    try {
+      prop("dds.sec.auth.library.path", security_plugin("dds_security_auth"));
+      prop("dds.sec.auth.library.init", "init_authentication");
+      prop("dds.sec.auth.library.finalize", "finalize_authentication");
+      prop("dds.sec.crypto.library.path", security_plugin("dds_security_crypto"));
+      prop("dds.sec.crypto.library.init", "init_crypto");
+      prop("dds.sec.crypto.library.finalize", "finalize_crypto");
+      prop("dds.sec.access.library.path", security_plugin("dds_security_ac"));
+      prop("dds.sec.access.library.init", "init_access_control");
+      prop("dds.sec.access.library.finalize", "finalize_access_control");
+      prop("dds.sec.auth.identity_ca", file_uri(security->identity_ca, "identity CA"));
+      prop("dds.sec.auth.identity_certificate",
+           file_uri(security->identity_certificate, "identity certificate"));
+      prop("dds.sec.auth.private_key", file_uri(security->private_key, "private key"));
+      prop("dds.sec.access.permissions_ca", file_uri(security->permissions_ca, "permissions CA"));
+      prop("dds.sec.access.governance", file_uri(security->governance, "governance"));
+      prop("dds.sec.access.permissions", file_uri(security->permissions, "permissions"));
+    } catch (...) {
+      dds_delete_qos(qos);
+      throw;
+    }
+  }
+  handle_ = dds_create_participant(domain_, qos, nullptr);
+  if (qos) dds_delete_qos(qos);
   if (handle_ < 0)
-    throw DdsError(
-        fail_text("dds_create_participant on domain " + std::to_string(domain_), "", handle_));
+    throw DdsError(fail_text("dds_create_participant on domain " + std::to_string(domain_) +
+                                 (security ? " with DDS Security (a certificate, key or signed "
+                                             "document that does not verify?)"
+                                           : ""),
+                             "", handle_));
 }
 
 Participant::~Participant() {

@@ -118,9 +118,25 @@ inline constexpr int kDefaultDepth = 10;
 // Throws DdsError for a malformed ROS_DOMAIN_ID.
 std::uint32_t default_domain_id();
 
+// DDS Security (OMG DDS-Security 1.1 with Cyclone's built-in plugins: PKI-DH authentication,
+// permissions access control, AES-GCM-GMAC cryptography): the files, PEM or S/MIME-signed XML
+// (`make_certs.sh` in docs/guard/security/ makes a test set). The plugins are loaded from the
+// directory of Cyclone's own library (Debian: its libddsc0debian/ subdirectory) when found
+// there, else by name from the library path.
+struct Security {
+  std::string identity_ca;           // PEM: the CA that signed every participant's certificate
+  std::string identity_certificate;  // PEM: this participant's
+  std::string private_key;           // PEM: this participant's
+  std::string permissions_ca;        // PEM: the CA that signed governance and permissions
+  std::string governance;            // S/MIME-signed XML (.p7s): the domain's rules
+  std::string permissions;           // S/MIME-signed XML (.p7s): this participant's grants
+};
+
 class Participant {
  public:
-  explicit Participant(std::optional<std::uint32_t> domain_id = std::nullopt);
+  // security: null for none (then the CYCLONEDDS_URI configuration decides, as in ROS 2).
+  explicit Participant(std::optional<std::uint32_t> domain_id = std::nullopt,
+                       const Security* security = nullptr);
   ~Participant();
   Participant(const Participant&) = delete;
   Participant& operator=(const Participant&) = delete;

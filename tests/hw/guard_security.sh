@@ -1,0 +1,98 @@
+#!/usr/bin/env bash
+# Issue 23 item 2: `rosguard guard` with DDS Security. A test CA (docs/guard/security/
+# make_certs.sh) signs the guard's and the RT program's certificates and permissions. A publisher
+# without credentials and one whose certificate comes from another CA say 'true' for the RT node:
+# neither is matched, the guard does not activate and stress-ng on the nRT core runs free. The
+# signed RT program (rosguard-rt-node with its identity in CYCLONEDDS_URI) is heard and
+# regulated.
+# Usage: guard_security.sh ROSGUARD RT_NODE INTRUDER SOURCE_DIR
+set -euo pipefail
+rosguard=$1
+rt_node=$2
+intruder=$3
+src=$4
+command -v openssl >/dev/null || { echo "SKIPPED: openssl is not installed"; exit 0; }
+# shellcheck source=guard_common.sh
+source "$src/tests/hw/guard_common.sh"
+fail() { echo "--- guard log"; grep -v -- "-> THR\|-> ON" "$tmp/log" | head -60; echo "FAIL: $*"; exit 1; }
+plugins=$(dirname "$(ldconfig -p | awk '/libddsc\.so/ {print $NF; exit}')")
+[[ -e $plugins/libddsc0debian/libdds_security_auth.so ]] && plugins=$plugins/libddsc0debian
+[[ -e $plugins/libdds_security_auth.so ]] || { echo "SKIPPED: Cyclone's DDS Security plugins are not installed"; exit 0; }
+"$src/docs/guard/security/make_certs.sh" "$tmp/ca" guard planner >/dev/null
+"$src/docs/guard/security/make_certs.sh" "$tmp/other" rogue >/dev/null
+# A process's identity in its Cyclone configuration (as a ROS 2 program would take it).
+identity_xml() {  # $1 dir, $2 name
+  cat <<XML
+<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">
+  <General><Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast></General>
+  <Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>
+    <Peers><Peer address="127.0.0.1"/></Peers></Discovery>
+  <Security>
+    <Authentication>
+      <Library path="$plugins/libdds_security_auth.so" initFunction="init_authentication" finalizeFunction="finalize_authentication"/>
+      <IdentityCA>file:$1/ca.pem</IdentityCA>
+      <IdentityCertificate>file:$1/$2.pem</IdentityCertificate>
+      <PrivateKey>file:$1/$2.key</PrivateKey>
+    </Authentication>
+    <AccessControl>
+      <Library path="$plugins/libdds_security_ac.so" initFunction="init_access_control" finalizeFunction="finalize_access_control"/>
+      <PermissionsCA>file:$1/ca.pem</PermissionsCA>
+      <Governance>file:$1/governance.p7s</Governance>
+      <Permissions>file:$1/permissions_$2.p7s</Permissions>
+    </AccessControl>
+    <Cryptographic>
+      <Library path="$plugins/libdds_security_crypto.so" initFunction="init_crypto" finalizeFunction="finalize_crypto"/>
+    </Cryptographic>
+  </Security>
+</Domain></CycloneDDS>
+XML
+}
+identity_xml "$tmp/ca" planner >"$tmp/planner.xml"
+identity_xml "$tmp/other" rogue >"$tmp/rogue.xml"
+guard_start secured '"security": { "identity_ca": "ca/ca.pem", "identity_certificate": "ca/guard.pem",
+  "private_key": "ca/guard.key", "permissions_ca": "ca/ca.pem", "governance": "ca/governance.p7s",
+  "permissions": "ca/permissions_guard.p7s" }'
+grep -q "with DDS Security" "$tmp/log" || fail "the guard does not say it runs with DDS Security"
+! grep -q "no DDS Security" "$tmp/log" || fail "the guard warns about a missing DDS Security"
+
+worker=$(pgrep -f "stress-ng-cpu" | head -1)
+share() {
+  local c0 t0 c1 t1
+  c0=$(awk '{print $1}' "/proc/$worker/schedstat"); t0=$(date +%s%N); sleep 1
+  c1=$(awk '{print $1}' "/proc/$worker/schedstat"); t1=$(date +%s%N)
+  echo "$c0 $c1 $t0 $t1" | awk '{printf "%.3f", ($2 - $1) / ($4 - $3)}'
+}
+# No credentials, then a certificate of another CA: both say 'true' and stay a while.
+"$intruder" --ns "$ns" --wait-ms 3000 active planner 1 >"$tmp/plain.out" &
+plain=$!
+CYCLONEDDS_URI="file://$tmp/rogue.xml" "$intruder" --ns "$ns" --wait-ms 3000 active planner 1 \
+  >"$tmp/rogue.out" 2>"$tmp/rogue.err" &
+rogue=$!
+extra_pids="$plain $rogue"
+sleep 1.5
+attacked=$(share)
+wait "$plain" "$rogue" || true
+grep -q "regulation active" "$tmp/log" && fail "an unauthenticated publisher activated regulation"
+# The signed RT program: one 3 s job.
+CYCLONEDDS_URI="file://$tmp/planner.xml" "$rt_node" --name planner --ns "$ns" --jobs 1 \
+  --job-ms 3000 --core 0 --working-set-kb 4096 --wait-ms 20000 >"$tmp/rt.out" 2>&1 &
+rt=$!
+extra_pids="$rt"
+for _ in $(seq 200); do grep -q "planner: active (publisher" "$tmp/log" && break; sleep 0.05; done
+sleep 0.3
+signed=$(share)
+wait "$rt" || true
+kill -TERM "$guard_pid"
+rc=0
+wait "$guard_pid" || rc=$?
+guard_pid=""
+cat "$tmp/plain.out" "$tmp/rogue.out" "$tmp/rt.out"
+echo "stress-ng share of CPU 1: while the intruders said 'true' $attacked, during the signed job $signed"
+grep -E "totals:|planner: active" "$tmp/log"
+[[ $rc -eq 0 ]] || fail "guard exited $rc"
+grep -q "active planner 1 (matched 0)" "$tmp/plain.out" || fail "the publisher without credentials was matched"
+grep -q "active planner 1 (matched 0)" "$tmp/rogue.out" || fail "the publisher of another CA was matched"
+grep -q "totals: 1 activation(s)" "$tmp/log" || fail "expected exactly the signed program's activation"
+awk -v a="$attacked" -v s="$signed" 'BEGIN { exit !(a > 0.6 && s < 0.5 * a) }' ||
+  echo "note (CPU shares, not checked: the machine may be busy): attacked $attacked, signed $signed"
+echo "OK: unauthenticated and foreign-CA publishers unheard, the signed RT program regulates"

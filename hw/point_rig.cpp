@@ -1,6 +1,7 @@
 #include "hw/point_rig.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <limits>
 #include <optional>
 
@@ -165,7 +166,19 @@ void PointRig::make_topics() {
     return;
   }
   try {
-    participant_ = std::make_unique<dds::Participant>(s_.hw.dds_domain_id);
+    std::optional<dds::Security> security;
+    if (const auto& f = s_.hw.dds_security) {
+      // Relative to the scenario file.
+      const auto path = [&](const std::string& p) {
+        const std::filesystem::path fp = p;
+        return (fp.is_absolute() ? fp : std::filesystem::path(s_.file).parent_path() / fp).string();
+      };
+      security = dds::Security{path(f->identity_ca), path(f->identity_certificate),
+                               path(f->private_key), path(f->permissions_ca),
+                               path(f->governance),  path(f->permissions)};
+    }
+    participant_ =
+        std::make_unique<dds::Participant>(s_.hw.dds_domain_id, security ? &*security : nullptr);
     const std::string& ns = s_.hw.dds_namespace;
     std::vector<DdsSlot> rt_slots;
     if (s_.nodes.rt.empty()) rt_slots.push_back({"run", 0});

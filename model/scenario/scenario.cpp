@@ -347,6 +347,13 @@ HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const st
     if (dds.contains("domain_id")) out.dds_domain_id = dds.at("domain_id").get<std::uint32_t>();
     out.dds_namespace = dds.value("namespace", "");
     out.signal_timeout_ms = dds.value("signal_timeout_ms", std::int64_t{60000});
+    if (dds.contains("security")) {
+      const auto& j = dds.at("security");
+      out.dds_security = DdsSecurityFiles{
+          j.at("identity_ca").get<std::string>(), j.at("identity_certificate").get<std::string>(),
+          j.at("private_key").get<std::string>(), j.at("permissions_ca").get<std::string>(),
+          j.at("governance").get<std::string>(),  j.at("permissions").get<std::string>()};
+    }
   }
   return out;
 }

@@ -105,6 +105,12 @@ struct SimSettings {
   double quantum_us = 10.0;
 };
 
+// DDS Security files of a hw run (hw.dds.security), as written in the scenario.
+struct DdsSecurityFiles {
+  std::string identity_ca, identity_certificate, private_key, permissions_ca, governance,
+      permissions;
+};
+
 struct HwSettings {
   PmcSourceKind pmc_source = PmcSourceKind::Auto;
   SchedulerKind scheduler = SchedulerKind::Fifo;
@@ -125,6 +131,7 @@ struct HwSettings {
   std::optional<std::uint32_t> dds_domain_id;  // absent: ROS_DOMAIN_ID, else 0
   std::string dds_namespace;                   // "" or "/a[/b]"
   std::int64_t signal_timeout_ms = 60000;
+  std::optional<DdsSecurityFiles> dds_security;
 };
 
 struct Scenario {

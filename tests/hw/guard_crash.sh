@@ -35,10 +35,12 @@ start_guard() {  # $1 throttle, $2 log
   for _ in $(seq 200); do grep -q "regulating be (CPU 1)" "$tmp/$2" && break; sleep 0.05; done
   grep -q "regulating be (CPU 1)" "$tmp/$2" || fail "guard ($1) did not start"
 }
-worker_tids() { ls "/proc/$(pgrep -f stress-ng-cpu | head -1)/task"; }
+# stress-ng's worker: the child of this iteration's stress-ng (not one of an earlier that exits).
+worker() { pgrep -P "$stress_pid" | head -1; }
+worker_tids() { ls "/proc/$(worker)/task"; }
 policies() { for t in $(worker_tids); do chrt -p "$t" | head -1 | sed 's/.*: //'; done | sort -u | tr '\n' ' '; }
-cgroup_of() { sed -n 's/^0:://p' "/proc/$(pgrep -f stress-ng-cpu | head -1)/cgroup"; }
-cpu_ns() { awk '{print $1}' "/proc/$(pgrep -f stress-ng-cpu | head -1)/schedstat"; }
+cgroup_of() { sed -n 's/^0:://p' "/proc/$(worker)/cgroup"; }
+cpu_ns() { awk '{print $1}' "/proc/$(worker)/schedstat"; }
 
 for throttle in idle freezer; do
   cat >"$tmp/guard-$throttle.json" <<JSON
@@ -52,7 +54,7 @@ for throttle in idle freezer; do
 JSON
   setsid taskset -c 1 stress-ng --cpu 1 --cpu-method int64 --timeout 120s --quiet &
   stress_pid=$!
-  sleep 0.3
+  for _ in $(seq 50); do [[ -n $(worker) ]] && break; sleep 0.05; done
   policy0=$(policies) cgroup0=$(cgroup_of)
   start_guard "$throttle" "log-$throttle-1"
   for _ in $(seq 100); do grep -q "regulating pid.*stress-ng-cpu" "$tmp/log-$throttle-1" && break; sleep 0.05; done
@@ -88,6 +90,7 @@ JSON
   ((c1 > c0)) || fail "$throttle: stress-ng does not run"
   kill -9 -- "-$stress_pid" 2>/dev/null || true
   wait "$stress_pid" 2>/dev/null || true
+  for _ in $(seq 100); do pgrep -f stress-ng-cpu >/dev/null || break; sleep 0.05; done
   stress_pid=""
 done
 echo "OK: after SIGKILL and a new guard, nothing is left held (idle and freezer)"

@@ -20,33 +20,8 @@ plugins=$(dirname "$(ldconfig -p | awk '/libddsc\.so/ {print $NF; exit}')")
 [[ -e $plugins/libdds_security_auth.so ]] || { echo "SKIPPED: Cyclone's DDS Security plugins are not installed"; exit 0; }
 "$src/docs/guard/security/make_certs.sh" "$tmp/ca" guard planner >/dev/null
 "$src/docs/guard/security/make_certs.sh" "$tmp/other" rogue >/dev/null
-# A process's identity in its Cyclone configuration (as a ROS 2 program would take it).
-identity_xml() {  # $1 dir, $2 name
-  cat <<XML
-<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">
-  <General><Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast></General>
-  <Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>
-    <Peers><Peer address="127.0.0.1"/></Peers></Discovery>
-  <Security>
-    <Authentication>
-      <Library path="$plugins/libdds_security_auth.so" initFunction="init_authentication" finalizeFunction="finalize_authentication"/>
-      <IdentityCA>file:$1/ca.pem</IdentityCA>
-      <IdentityCertificate>file:$1/$2.pem</IdentityCertificate>
-      <PrivateKey>file:$1/$2.key</PrivateKey>
-    </Authentication>
-    <AccessControl>
-      <Library path="$plugins/libdds_security_ac.so" initFunction="init_access_control" finalizeFunction="finalize_access_control"/>
-      <PermissionsCA>file:$1/ca.pem</PermissionsCA>
-      <Governance>file:$1/governance.p7s</Governance>
-      <Permissions>file:$1/permissions_$2.p7s</Permissions>
-    </AccessControl>
-    <Cryptographic>
-      <Library path="$plugins/libdds_security_crypto.so" initFunction="init_crypto" finalizeFunction="finalize_crypto"/>
-    </Cryptographic>
-  </Security>
-</Domain></CycloneDDS>
-XML
-}
+# shellcheck source=security_identity.sh
+source "$src/tests/hw/security_identity.sh"
 identity_xml "$tmp/ca" planner >"$tmp/planner.xml"
 identity_xml "$tmp/other" rogue >"$tmp/rogue.xml"
 guard_start secured '"security": { "identity_ca": "ca/ca.pem", "identity_certificate": "ca/guard.pem",

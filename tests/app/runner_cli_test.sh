@@ -357,6 +357,25 @@ assert all(c["unit"] and c["meaning"] for c in d["points.csv"] + d["samples.csv"
 assert {c["name"]: c["unit"] for c in d["points.csv"]}["nrt_bandwidth_mbps"] == "MiB/s"
 PY
   ;;
+seed)
+  # The seed is a u64: 2^64 - 1 is valid (it was "must be >= 0": valijson read it as -1) and
+  # goes into the manifest exactly; the runs differ from those of seed 1.
+  sed 's/"name": "runner-test",/"name": "runner-test", "seed": 18446744073709551615,/' \
+    $scenario > tests/app/fixtures/.seed-$$.json
+  trap 'rm -rf "$tmp" tests/app/fixtures/.seed-$$.json' EXIT
+  "$bin" check tests/app/fixtures/.seed-$$.json > "$tmp/out" 2>&1 || fail "check: $(cat "$tmp/out")"
+  "$bin" run tests/app/fixtures/.seed-$$.json --out "$tmp/s" --quiet || fail "run"
+  "$bin" run $scenario --out "$tmp/one" --quiet || fail "run with seed 1"
+  /usr/bin/python3 - "$tmp/s/manifest.json" <<'PY' || fail "the seed is not in the manifest exactly"
+import json, sys
+m = json.load(open(sys.argv[1]))
+assert m["seed"] == 2**64 - 1, m["seed"]
+assert m["scenario"]["expanded"]["seed"] == 2**64 - 1, m["scenario"]["expanded"]["seed"]
+assert m["status"] == "complete", m["status"]
+PY
+  grep -q '"seed": 18446744073709551615,' "$tmp/s/manifest.json" || fail "manifest: $(grep seed "$tmp/s/manifest.json")"
+  cmp -s "$tmp/s/samples.csv" "$tmp/one/samples.csv" && fail "seed 2^64 - 1 gave the samples of seed 1"
+  ;;
 list)
   # `list` alone shows every catalogue; `list KIND` one; an unknown kind is a usage error.
   "$bin" list > "$tmp/all" || fail "list"

@@ -134,6 +134,32 @@ TEST_CASE("loader: schema defaults fill what the scenario leaves out", "[loader]
   CHECK_FALSE(ls.expanded["regulation"].contains("reference_mbps"));
 }
 
+TEST_CASE("loader: the seed is read exactly over the whole u64 range", "[loader]") {
+  TempDir dir;
+  Loader loader = make_loader();
+  SECTION("given") {
+    const LoadedScenario ls =
+        loader.load(dir.write("s.json", scenario(R"("seed": 18446744073709551615,)")));
+    CHECK(ls.points[0].scenario.seed == 18446744073709551615ULL);
+    CHECK(ls.expanded["seed"].dump() == "18446744073709551615");
+  }
+  SECTION("swept") {
+    const LoadedScenario ls = loader.load(dir.write(
+        "s.json",
+        scenario(R"("sweep": {"seed": [0, 9223372036854775808, 18446744073709551615]},)")));
+    REQUIRE(ls.points.size() == 3);
+    CHECK(ls.points[0].scenario.seed == 0);
+    CHECK(ls.points[1].scenario.seed == 9223372036854775808ULL);
+    CHECK(ls.points[2].scenario.seed == 18446744073709551615ULL);
+  }
+  SECTION("beyond it: an input error naming the file and the path") {
+    const auto file = dir.write("s.json", scenario(R"("seed": 18446744073709551616,)"));
+    const InputError e = load_error(file);
+    CHECK_THAT(e.what(), Contains(file) && Contains("/seed") &&
+                             Contains("must be an integer in [0, 18446744073709551615]"));
+  }
+}
+
 TEST_CASE("loader: nRT mode defaults to loop with RT nodes and to once without", "[loader]") {
   TempDir dir;
   Loader loader = make_loader();

@@ -166,6 +166,52 @@ TEST_CASE("schema: type errors name the expected and the given type", "[schema]"
   }
 }
 
+TEST_CASE("schema: integers above INT64_MAX are compared as they are written", "[schema]") {
+  // valijson's nlohmann adapter reads integers as int64_t: 2^64 - 1 used to be -1 there.
+  json doc = scenario();
+  SECTION("the whole u64 range is a seed") {
+    for (const char* seed :
+         {"0", "9223372036854775807", "9223372036854775808", "18446744073709551615"}) {
+      doc["seed"] = json::parse(seed);
+      CHECK_FALSE(schemas().first_error(doc, SchemaKind::Scenario).has_value());
+    }
+  }
+  SECTION("a bound they break is still reported, with the value as written") {
+    doc["nodes"]["rt"][0]["iterations"] = json::parse("18446744073709551615");
+    CHECK(error_of(doc) ==
+          std::pair<std::string, std::string>{"/nodes/rt/0/iterations",
+                                              "must be in [1, 100000], not 18446744073709551615"});
+  }
+  SECTION("without an upper bound of 2^63 or more a field takes no more than INT64_MAX") {
+    // period_us has no maximum and is read as an int64_t.
+    doc["nodes"]["rt"][0]["period_us"] = json::parse("9223372036854775807");
+    CHECK_FALSE(schemas().first_error(doc, SchemaKind::Scenario).has_value());
+    doc["nodes"]["rt"][0]["period_us"] = json::parse("9223372036854775808");
+    CHECK(error_of(doc) ==
+          std::pair<std::string, std::string>{"/nodes/rt/0/period_us",
+                                              "must be an integer in [1, 9223372036854775807], not "
+                                              "9223372036854775808"});
+    doc["nodes"]["rt"][0]["period_us"] = json::parse("18446744073709551615");
+    doc["seed"] = json::parse("18446744073709551615");
+    const auto all = schemas().errors(doc, SchemaKind::Scenario);
+    REQUIRE(all.size() == 1);
+    CHECK(all[0].first == "/nodes/rt/0/period_us");
+  }
+  SECTION("beyond 2^64 - 1 or below -2^63: not a 64-bit integer") {
+    doc["seed"] = json::parse("18446744073709551616");
+    CHECK(error_of(doc) == std::pair<std::string, std::string>{
+                               "/seed",
+                               "must be an integer in [0, 18446744073709551615], not "
+                               "1.8446744073709552e+19 (beyond the 64-bit integers)"});
+    doc["seed"] = json::parse("-9223372036854775809");
+    CHECK(error_of(doc).second ==
+          "must be an integer in [0, 18446744073709551615], not "
+          "-9.223372036854776e+18 (beyond the 64-bit integers)");
+    doc["seed"] = -1;
+    CHECK(error_of(doc).second == "must be in [0, 18446744073709551615], not -1");
+  }
+}
+
 TEST_CASE("schema: further problems are counted after the first", "[schema]") {
   json doc = scenario();
   doc["nodes"]["rt"][0]["iterations"] = 0;

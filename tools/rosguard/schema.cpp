@@ -1,10 +1,15 @@
 #include "schema.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <map>
 #include <optional>
 #include <regex>
+#include <string_view>
 #include <valijson/adapters/nlohmann_json_adapter.hpp>
 #include <valijson/schema.hpp>
 #include <valijson/schema_parser.hpp>
@@ -66,6 +71,69 @@ std::string schema_type_name(const std::string& t) {
 std::string shown(const json& v) {
   std::string s = v.dump();
   return s.size() > 60 ? s.substr(0, 57) + "..." : s;
+}
+
+// valijson's nlohmann adapter reads every integer as an int64_t: an unsigned one above INT64_MAX
+// wraps negative, so a u64 seed of 2^63 or more failed "minimum": 0, and such a value passed any
+// "maximum". An integer field takes one only where its schema says so with a "maximum" of 2^63
+// or more (the seed's: 18446744073709551615); elsewhere the code reads int64_t or less. So:
+// - valijson validates a copy of the document with these values as INT64_MAX: the same type,
+//   and the same verdict against every bound below 2^63 (errors are rendered from the document
+//   as given);
+// - it compiles the schemas without the bounds it would misread (an unsigned above INT64_MAX is
+//   -1 to it as well), and SchemaSet::Impl::check_big_unsigned judges these values against them
+//   exactly, refusing them where the schema has no such bound.
+// Whether schema node `s` wants a number ("type" integer or number, alone or among others).
+bool is_number_type(const json& s) {
+  const auto number = [](const json& t) { return t == "integer" || t == "number"; };
+  if (!s.contains("type")) return false;
+  const json& t = s["type"];
+  return t.is_array() ? std::any_of(t.begin(), t.end(), number) : number(t);
+}
+
+constexpr std::uint64_t kInt64Max = std::numeric_limits<std::int64_t>::max();
+
+bool big_unsigned(const json& v) {
+  return v.is_number_unsigned() && v.get<std::uint64_t>() > kInt64Max;
+}
+
+bool has_big_unsigned(const json& v) {
+  if (big_unsigned(v)) return true;
+  if (v.is_structured())
+    return std::any_of(v.begin(), v.end(), [](const json& e) { return has_big_unsigned(e); });
+  return false;
+}
+
+void clamp_big_unsigned(json& v) {
+  if (big_unsigned(v)) {
+    v = std::numeric_limits<std::int64_t>::max();
+  } else if (v.is_structured()) {
+    for (auto& e : v)
+      clamp_big_unsigned(e);
+  }
+}
+
+// A schema document as valijson gets it: without the bounds above INT64_MAX.
+json without_big_bounds(json schema) {
+  const std::function<void(json&)> strip = [&](json& n) {
+    if (n.is_object())
+      for (const char* bound : {"maximum", "exclusiveMaximum"})
+        if (n.contains(bound) && big_unsigned(n[bound])) n.erase(bound);
+    if (n.is_structured())
+      for (auto& e : n)
+        strip(e);
+  };
+  strip(schema);
+  return schema;
+}
+
+constexpr std::string_view kBeyond64Bits = " (beyond the 64-bit integers)";
+
+// A number written as an integer too long for 64 bits (nlohmann reads it as a double).
+bool beyond_64_bit_integers(const json& v) {
+  if (!v.is_number_float()) return false;
+  const double d = v.get<double>();
+  return std::isfinite(d) && std::nearbyint(d) == d && (d >= 0x1p64 || d <= -0x1p63);
 }
 
 std::size_t edit_distance(const std::string& a, const std::string& b) {
@@ -241,6 +309,59 @@ struct SchemaSet::Impl {
     return "in range";
   }
 
+  // The range of an integer: its schema's bounds, the upper one INT64_MAX where it has none.
+  std::string integer_range_text(const json& s) const {
+    if (s.contains("maximum") || s.contains("exclusiveMaximum")) return range_text(s);
+    const bool open = s.contains("exclusiveMinimum");
+    const std::string lo = s.contains("minimum") ? s["minimum"].dump()
+                           : open                ? s["exclusiveMinimum"].dump()
+                                  : std::to_string(std::numeric_limits<std::int64_t>::min());
+    return std::string(open ? "in (" : "in [") + lo + ", " + std::to_string(kInt64Max) + "]";
+  }
+
+  // The integers above INT64_MAX in `doc` (validated as INT64_MAX) against the schema's own
+  // bounds: allowed up to a "maximum" of 2^63 or more, refused where a number's schema has no
+  // upper bound (the fields the code reads as int64_t or less); those with a lower "maximum" are
+  // in `out` already (valijson's error at INT64_MAX). A value the schema does not constrain (a
+  // sweep's) is judged where it lands.
+  void check_big_unsigned(SchemaKind kind, const json& doc, std::vector<std::string>& tokens,
+                          const json& v,
+                          std::vector<std::pair<std::string, std::string>>& out) const {
+    if (v.is_object()) {
+      for (const auto& [key, e] : v.items()) {
+        tokens.push_back(key);
+        check_big_unsigned(kind, doc, tokens, e, out);
+        tokens.pop_back();
+      }
+    } else if (v.is_array()) {
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        tokens.push_back(std::to_string(i));
+        check_big_unsigned(kind, doc, tokens, v[i], out);
+        tokens.pop_back();
+      }
+    }
+    if (!big_unsigned(v)) return;
+    std::string pointer;
+    for (const auto& t : tokens)
+      pointer += "/" + escape_token(t);
+    if (std::any_of(out.begin(), out.end(), [&](const auto& e) { return e.first == pointer; }))
+      return;  // already wrong there
+    const auto [node, inst] = locate(kind, doc, tokens);
+    const json* s = node ? resolve(*node).schema : nullptr;
+    const auto value = v.get<std::uint64_t>();
+    if (s && s->contains("maximum") && big_unsigned((*s)["maximum"])) {
+      if (value <= (*s)["maximum"].get<std::uint64_t>()) return;
+      out.push_back({pointer, "must be " + range_text(*s) + ", not " + shown(v)});
+    } else if (s && s->contains("exclusiveMaximum") && big_unsigned((*s)["exclusiveMaximum"])) {
+      if (value < (*s)["exclusiveMaximum"].get<std::uint64_t>()) return;
+      out.push_back({pointer, "must be " + range_text(*s) + ", not " + shown(v)});
+    } else if (s && is_number_type(*s) && !s->contains("maximum") &&
+               !s->contains("exclusiveMaximum")) {
+      out.push_back(
+          {pointer, "must be an integer " + integer_range_text(*s) + ", not " + shown(v)});
+    }
+  }
+
   // valijson reports some failures (propertyNames) only as "failed to validate against the
   // schema of property X": find what is wrong at X from the schema itself.
   std::pair<std::string, std::string> explain_wrapper(
@@ -321,6 +442,9 @@ struct SchemaSet::Impl {
         for (std::size_t i = 0; i < t.size(); ++i)
           want += (i ? " or " : "") + schema_type_name(t[i].get<std::string>());
       }
+      if (t == "integer" && beyond_64_bit_integers(*inst))
+        return {pointer, "must be an integer " + integer_range_text(*s) + ", not " + shown(*inst) +
+                             std::string(kBeyond64Bits)};
       return {pointer, "must be " + want + ", not " + type_name(*inst) + " (" + shown(*inst) + ")"};
     }
     if (d.find("enum values") != std::string::npos && s && s->contains("enum")) {
@@ -368,14 +492,17 @@ SchemaSet::SchemaSet(const std::filesystem::path& dir) : impl_(std::make_unique<
     }
   }
   using Adapter = valijson::adapters::NlohmannJsonAdapter;
+  std::map<std::string, json> compiled;  // see without_big_bounds
+  for (const auto& [file, doc] : impl_->docs)
+    compiled[file] = without_big_bounds(doc);
   for (SchemaKind kind :
        {SchemaKind::Scenario, SchemaKind::Platform, SchemaKind::Workload, SchemaKind::Guard}) {
     auto schema = std::make_unique<valijson::Schema>();
     valijson::SchemaParser parser;
-    Adapter adapter(impl_->docs[file_of(kind)]);
-    const auto fetch = [this](const std::string& uri) -> const json* {
-      auto it = impl_->docs.find(uri);
-      return it == impl_->docs.end() ? nullptr : new json(it->second);
+    Adapter adapter(compiled[file_of(kind)]);
+    const auto fetch = [&compiled](const std::string& uri) -> const json* {
+      auto it = compiled.find(uri);
+      return it == compiled.end() ? nullptr : new json(it->second);
     };
     const auto release = [](const json* doc) { delete doc; };
     parser.populateSchema(adapter, *schema, fetch, release);
@@ -388,9 +515,18 @@ SchemaSet::~SchemaSet() = default;
 std::vector<std::pair<std::string, std::string>> SchemaSet::errors(const json& doc,
                                                                    SchemaKind kind) const {
   valijson::ValidationResults results;
-  valijson::adapters::NlohmannJsonAdapter adapter(doc);
-  if (impl_->validator.validate(*impl_->compiled.at(kind), adapter, &results)) return {};
+  std::optional<json> clamped;  // see big_unsigned
+  if (has_big_unsigned(doc)) clamp_big_unsigned(clamped.emplace(doc));
+  valijson::adapters::NlohmannJsonAdapter adapter(clamped ? *clamped : doc);
+  const bool valid = impl_->validator.validate(*impl_->compiled.at(kind), adapter, &results);
   std::vector<std::pair<std::string, std::string>> out;
+  if (valid) {
+    if (clamped) {
+      std::vector<std::string> tokens;
+      impl_->check_big_unsigned(kind, doc, tokens, doc, out);
+    }
+    return out;
+  }
   valijson::ValidationResults::Error e;
   valijson::ValidationResults::Error deepest;
   while (results.popError(e)) {
@@ -399,6 +535,17 @@ std::vector<std::pair<std::string, std::string>> SchemaSet::errors(const json& d
       continue;
     }
     out.push_back(impl_->render(kind, doc, e));
+  }
+  // An integer beyond 64 bits also breaks the bounds it is compared with as a double: its type
+  // error says both.
+  for (const auto& [pointer, message] : std::vector(out))
+    if (message.ends_with(kBeyond64Bits))
+      std::erase_if(out, [&](const auto& other) {
+        return other.first == pointer && !other.second.ends_with(kBeyond64Bits);
+      });
+  if (clamped) {
+    std::vector<std::string> tokens;
+    impl_->check_big_unsigned(kind, doc, tokens, doc, out);
   }
   if (out.empty()) out.push_back(impl_->explain_wrapper(kind, doc, deepest));
   return out;

@@ -357,6 +357,46 @@ assert all(c["unit"] and c["meaning"] for c in d["points.csv"] + d["samples.csv"
 assert {c["name"]: c["unit"] for c in d["points.csv"]}["nrt_bandwidth_mbps"] == "MiB/s"
 PY
   ;;
+resume_twice)
+  # One writer per shard (issue 23): a second `run --resume` of the shard that another rosguard
+  # is writing into the same folder exits 4, names the first one (its pid) and writes nothing;
+  # the first finishes with every run's row and samples once, as a single run writes them. (Both
+  # used to run the missing runs: samples.csv kept both copies.) A writer killed with SIGKILL
+  # leaves its lock file but not its lock.
+  "$bin" run $scenario --out "$tmp/ref" --quiet || fail "reference run"
+  ROSGUARD_FAKE_SLEEP_MS=100 "$bin" run $scenario --out "$tmp/r" --resume --jobs 1 --quiet &
+  pid=$!
+  wait_rows "$tmp/r" 1
+  ROSGUARD_FAKE_SLEEP_MS=100 "$bin" run $scenario --out "$tmp/r" --resume --jobs 1 --quiet \
+    2> "$tmp/err"
+  rc=$?
+  echo "second writer: exit $rc: $(cat "$tmp/err")"
+  [[ $rc -eq 4 ]] || fail "a second writer of shard 0/1: exit $rc, expected 4"
+  grep -q "^error: another rosguard (pid $pid on [^,]*, since [^)]*) is writing shard 0 of 1 into $tmp/r; " \
+    "$tmp/err" || fail "the refusal does not name the writer and the shard"
+  wait $pid || fail "the first writer exited $?"
+  echo "samples.csv: $(wc -l < "$tmp/r/samples.csv") lines, a single run: $(wc -l < "$tmp/ref/samples.csv")"
+  cmp "$tmp/ref/points.csv" "$tmp/r/points.csv" || fail "points.csv differs from a single run"
+  cmp "$tmp/ref/samples.csv" "$tmp/r/samples.csv" || fail "samples.csv differs from a single run"
+  /usr/bin/python3 - "$tmp/r/manifest.json" "$pid" <<'PY' || fail "the refused writer changed the manifest"
+import json, sys
+m = json.load(open(sys.argv[1]))
+assert m["status"] == "complete", m["status"]
+assert list(m["shards"]) == ["0/1"], m["shards"]
+assert m["shards"]["0/1"]["pid"] == int(sys.argv[2]), m["shards"]["0/1"]
+assert m["counts"]["rows_this_invocation"] == 24, m["counts"]
+PY
+  [[ -z $(find "$tmp/r" -name '.shard-*') ]] || fail "the finished writer left its lock file"
+  # Killed: its lock goes with it; the next writer of the shard runs.
+  ROSGUARD_FAKE_SLEEP_MS=100 setsid "$bin" run $scenario --out "$tmp/k" --jobs 1 --quiet &
+  pid=$!
+  wait_rows "$tmp/k" 1
+  kill -9 -- -$pid 2>/dev/null || kill -9 $pid
+  wait $pid 2>/dev/null
+  [[ -e "$tmp/k/.shard-0-of-1.lock" ]] || fail "no lock file while shard 0/1 ran"
+  "$bin" run $scenario --out "$tmp/k" --resume --quiet 2>/dev/null || fail "resume after SIGKILL"
+  cmp "$tmp/ref/samples.csv" "$tmp/k/samples.csv" || fail "resumed samples.csv differs"
+  ;;
 seed)
   # The seed is a u64: 2^64 - 1 is valid (it was "must be >= 0": valijson read it as -1) and
   # goes into the manifest exactly; the runs differ from those of seed 1.

@@ -90,3 +90,21 @@ TEST_CASE("a FileLock excludes other processes and is released when its holder d
   ::close(ready[1]);
   fs::remove_all(d);
 }
+
+TEST_CASE("FileLock::try_lock does not wait: nullptr while the lock is held, the lock once free",
+          "[files]") {
+  const fs::path d = temp_dir();
+  const fs::path lock = d / ".shard-0-of-1.lock";
+  auto held = FileLock::try_lock(lock);
+  REQUIRE(held);
+  held->write_note("pid 1 on here\n");
+  CHECK(read_file(lock) == "pid 1 on here\n");
+  CHECK_FALSE(FileLock::try_lock(lock));  // another open file description: refused
+  held.reset();
+  auto again = FileLock::try_lock(lock);
+  REQUIRE(again);
+  // Removed by its holder: the path names a fresh file, which a newcomer locks.
+  again->remove_file();
+  CHECK(FileLock::try_lock(lock));
+  fs::remove_all(d);
+}

@@ -147,17 +147,30 @@ void AppendFile::append(const std::string& data) {
   write_all(fd_, data, path_);
 }
 
-FileLock::FileLock(const fs::path& path) : path_(path) {
+FileLock::FileLock(const fs::path& path) {
+  acquire(path, true);
+}
+
+std::unique_ptr<FileLock> FileLock::try_lock(const fs::path& path) {
+  std::unique_ptr<FileLock> lock(new FileLock());
+  if (!lock->acquire(path, false)) return nullptr;
+  return lock;
+}
+
+bool FileLock::acquire(const fs::path& path, bool wait) {
+  path_ = path;
   while (true) {
     fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd_ < 0) fail("cannot open lock file", path);
     struct flock whole {};  // l_start = l_len = 0: the whole file
     whole.l_type = F_WRLCK;
     whole.l_whence = SEEK_SET;
-    while (::fcntl(fd_, F_OFD_SETLKW, &whole) != 0) {
+    while (::fcntl(fd_, wait ? F_OFD_SETLKW : F_OFD_SETLK, &whole) != 0) {
       if (errno == EINTR) continue;
       const int err = errno;
       ::close(fd_);
+      fd_ = -1;
+      if (!wait && (err == EAGAIN || err == EACCES)) return false;  // held by another
       errno = err;
       fail("cannot lock", path);
     }
@@ -166,8 +179,23 @@ FileLock::FileLock(const fs::path& path) : path_(path) {
     }, named{};
     if (::fstat(fd_, &held) == 0 && ::stat(path.c_str(), &named) == 0 &&
         held.st_dev == named.st_dev && held.st_ino == named.st_ino)
-      return;
+      return true;
     ::close(fd_);
+    fd_ = -1;
+  }
+}
+
+void FileLock::write_note(const std::string& note) const {
+  if (::ftruncate(fd_, 0) != 0) fail("cannot write", path_);
+  const char* p = note.data();
+  std::size_t left = note.size();
+  for (off_t at = 0; left > 0;) {
+    const ssize_t n = ::pwrite(fd_, p, left, at);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) fail("cannot write", path_);
+    p += n;
+    at += n;
+    left -= static_cast<std::size_t>(n);
   }
 }
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -55,10 +56,19 @@ class FileLock {
   FileLock(const FileLock&) = delete;
   FileLock& operator=(const FileLock&) = delete;
 
+  // The lock if nobody holds it now, else nullptr (no waiting).
+  static std::unique_ptr<FileLock> try_lock(const std::filesystem::path& path);
+
+  // Replaces the lock file's content with `note` (who holds it, for those refused).
+  void write_note(const std::string& note) const;
+
   // Unlinks the lock file while holding it (its lock is released at destruction as usual).
   void remove_file();
 
  private:
+  FileLock() = default;
+  bool acquire(const std::filesystem::path& path, bool wait);
+
   std::filesystem::path path_;
   int fd_ = -1;
 };

@@ -1,6 +1,7 @@
 // rosguard: simulate (sim), run (hw) and analyse memory-bandwidth regulation for ROS2-style
 // mixed-criticality applications. Only this file turns errors into exit codes:
-// 0 success, 1 runtime failure, 2 invalid input (usage or scenario), 130 / 143 interrupted.
+// 0 success, 1 runtime failure, 2 invalid input (usage or scenario), 4 the shard of the results
+// folder is being written by another rosguard (run), 130 / 143 interrupted.
 #include <CLI/CLI.hpp>
 #include <charconv>
 #include <climits>
@@ -16,6 +17,7 @@
 #include "host_model.h"
 #include "loader.h"
 #include "profile.h"
+#include "results_store.h"
 #include "runner.h"
 #include "slurm.h"
 #include "status.h"
@@ -80,7 +82,7 @@ CLI::App* add_run_command(CLI::App& app, RunArgs& args) {
       ->check(CLI::Range(1, 65536));
   run->add_option("--shard", args.shard,
                   "Run only shard I of N (points with index % N == I); shards may share --out, "
-                  "also at the same time");
+                  "also at the same time (one writer per shard: a second one exits 4)");
   run->add_flag("--resume", opt.resume, "Continue a run in --out, skipping finished points");
   run->add_flag("--overwrite", opt.overwrite, "Replace the results already in --out");
   run->add_flag("--trace", opt.trace, "Also write trace.json (Chrome trace, opens in Perfetto)");
@@ -105,6 +107,10 @@ CLI::App* add_run_command(CLI::App& app, RunArgs& args) {
                 "With --slurm: print the sbatch script; write and submit nothing");
   run->footer(
       "Writes manifest.json, points.csv and samples.csv (docs/design.md, results format).\n"
+      "Exit codes: 0 done, 1 a run failed (the manifest records the error), 2 invalid "
+      "input\n(nothing is written), 4 another rosguard is writing the same shard into --out "
+      "(nothing is written;\none writer per shard), 130 / 143 interrupted (continue with "
+      "--resume).\n"
       "With --slurm the script goes to OUT/slurm/run.sbatch, the tasks' logs to "
       "OUT/slurm/JOB_TASK.out;\nfollow the run with 'rosguard status OUT', which also prints how "
       "to re-run a failed shard.");
@@ -402,6 +408,9 @@ int main(int argc, char** argv) {
     for (const auto& problem : e.problems())
       std::cerr << "error: " << problem << "\n";
     return 2;
+  } catch (const ShardBusyError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 4;
   } catch (const RunError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

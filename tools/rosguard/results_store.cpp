@@ -237,6 +237,42 @@ ResultsStore::ResultsStore(fs::path dir, std::string header_line,
       repetitions_(repetitions),
       adaptive_(adaptive) {}
 
+ResultsStore::~ResultsStore() {
+  if (shard_lock_) shard_lock_->remove_file();  // never opened (an input error), or failed
+}
+
+void ResultsStore::claim_shard(const std::string& shard) {
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec) throw RunError("cannot create results folder " + dir_.string() + ": " + ec.message());
+  std::string name = shard;
+  if (const auto slash = name.find('/'); slash != std::string::npos) name.replace(slash, 1, "-of-");
+  const fs::path path = dir_ / (".shard-" + name + ".lock");
+  shard_lock_ = FileLock::try_lock(path);
+  if (!shard_lock_) {
+    std::string holder;
+    try {
+      holder = read_file(path);  // as its holder wrote it (a moment ago, maybe not yet)
+    } catch (const RunError&) {
+    }
+    while (!holder.empty() && (holder.back() == '\n' || holder.back() == '\0'))
+      holder.pop_back();
+    std::string index = shard, count = "1";
+    if (const auto slash = shard.find('/'); slash != std::string::npos) {
+      index = shard.substr(0, slash);
+      count = shard.substr(slash + 1);
+    }
+    throw ShardBusyError("another rosguard" + (holder.empty() ? "" : " (" + holder + ")") +
+                         " is writing shard " + index + " of " + count + " into " + dir_.string() +
+                         "; two writers of one shard would run and write its runs twice: wait "
+                         "for it to finish (rosguard status " +
+                         dir_.string() + "), or stop it and run again with --resume");
+  }
+  const json me = process_facts();
+  shard_lock_->write_note("pid " + std::to_string(me.value("pid", 0LL)) + " on " +
+                          me.value("host", std::string("?")) + ", since " + iso_time_now() + "\n");
+}
+
 void ResultsStore::prepare(bool overwrite, bool joining, const std::string& scenario_hash) const {
   std::error_code ec;
   const fs::path manifest = dir_ / "manifest.json";
@@ -449,6 +485,10 @@ std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefres
   m["elapsed_s"] = report.elapsed_s;
   write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
   lock.remove_file();  // a shard still running locks a fresh one
+  if (shard_lock_) {
+    shard_lock_->remove_file();
+    shard_lock_.reset();
+  }
   return rows;
 }
 

@@ -2,15 +2,16 @@
 // baselines.json and, with --trace, trace.json.
 //
 // Several writers may use one folder at the same time: shards of one scenario, on one machine
-// or on several sharing it over NFS (Slurm arrays). Every read-modify-write of a shared file
-// happens under an exclusive lock on DIR/.lock (FileLock: a POSIX lock, which NFS forwards to
-// the server, released by the kernel when its holder dies). A run's rows are appended under
-// that lock, samples first and then the point's row, each file opened by its path for every
-// append: a file that another writer replaced (when it sorted at its end) is never written
-// through a stale descriptor, and while nobody holds the lock every row has all its samples.
-// A killed writer leaves at most samples without their row; the next open or finish drops them.
-// Each writer sorts both files when it finishes, so the last one leaves points.csv byte-identical
-// to a single-process run, whatever the shards and their timing.
+// or on several sharing it over NFS (Slurm arrays); but one writer per shard, as two would run
+// and append the same runs (claim_shard refuses the second: ShardBusyError). Every
+// read-modify-write of a shared file happens under an exclusive lock on DIR/.lock (FileLock: a
+// POSIX lock, which NFS forwards to the server, released by the kernel when its holder dies). A
+// run's rows are appended under that lock, samples first and then the point's row, each file
+// opened by its path for every append: a file that another writer replaced (when it sorted at
+// its end) is never written through a stale descriptor, and while nobody holds the lock every
+// row has all its samples. A killed writer leaves at most samples without their row; the next
+// open or finish drops them. Each writer sorts both files when it finishes, so the last one
+// leaves points.csv byte-identical to a single-process run, whatever the shards and their timing.
 // "Not measured" (NaN) is written as null in JSON and read back as NaN.
 // baselines.json holds every measurement of every isolation baseline:
 //   {KEY: {"time_us", "ipc", "mbps" (medians), "time_cv", "runs": [{"rep", "time_us", "ipc",
@@ -22,6 +23,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
@@ -30,8 +32,19 @@
 #include <vector>
 
 #include "backend/backend.h"
+#include "core/error.h"
 
 namespace rosguard {
+
+class FileLock;
+
+// Another live rosguard writes the shard of the results folder that this invocation would write
+// (ResultsStore::claim_shard). main() exits 4 for it (rosguard run --help): a status that a
+// script or a requeued Slurm task can tell from a failed run.
+class ShardBusyError : public RunError {
+ public:
+  using RunError::RunError;
+};
 
 // A JSON number, or NaN for null (a value that was not measured).
 double number_or_nan(const nlohmann::json& value);
@@ -76,9 +89,19 @@ class ResultsStore {
   // precision or their cap).
   ResultsStore(std::filesystem::path dir, std::string header_line,
                std::map<std::string, std::size_t> order, int repetitions, bool adaptive = false);
+  ~ResultsStore();
+  ResultsStore(const ResultsStore&) = delete;
+  ResultsStore& operator=(const ResultsStore&) = delete;
 
   const std::filesystem::path& dir() const { return dir_; }
   std::filesystem::path points_path() const { return dir_ / "points.csv"; }
+
+  // First of all: makes this invocation the one writer of `shard` ("I/N") in the folder (created
+  // if need be) until finish() or the store's end, by a lock on DIR/.shard-I-of-N.lock that
+  // names this process (FileLock::try_lock; the kernel drops it when its holder dies). Throws
+  // ShardBusyError, naming the holder, when another process holds it; nothing is written then.
+  // Other shards may write into the folder at the same time.
+  void claim_shard(const std::string& shard);
 
   // Before anything is written: a folder that holds a run may be joined (`joining`: --resume or
   // --shard) only by the same scenario (`scenario_hash`), or emptied first with `overwrite`.
@@ -111,6 +134,7 @@ class ResultsStore {
   // its row, else failed / interrupted / running when a shard says so, else partial). Returns
   // the rows now in points.csv.
   // `points`: each point's rows refreshed together after `refresh` (PointRefresher).
+  // Releases claim_shard's lock.
   std::size_t finish(const InvocationReport& report, const RowRefresher& refresh = {},
                      const PointRefresher& points = {});
 
@@ -126,6 +150,7 @@ class ResultsStore {
   int repetitions_;
   bool adaptive_;
   std::string shard_;
+  std::unique_ptr<FileLock> shard_lock_;  // claim_shard's
 };
 
 }  // namespace rosguard

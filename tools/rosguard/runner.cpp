@@ -805,12 +805,13 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   // 2. The results folder: new, resumed, or shared with other shards of the same scenario.
   ResultsStore store(results_folder(opt, loaded), join(header_of(loaded), ","), order,
                      adaptive ? min_rounds : first.repetitions, adaptive);
+  const std::string shard = std::to_string(opt.shard_index) + "/" + std::to_string(opt.shard_count);
+  store.claim_shard(shard);  // one writer per shard: a second one would write its runs twice
   store.prepare(opt.overwrite, opt.resume || opt.shard_count > 1, scenario_hash(loaded));
   std::error_code ec;
   if (opt.overwrite) fs::remove(store.dir() / "unregulated.json", ec);
   const ResultsStore::Opened opened =
-      store.open(describe_run(loaded, first.backend, opt.command_line),
-                 std::to_string(opt.shard_index) + "/" + std::to_string(opt.shard_count));
+      store.open(describe_run(loaded, first.backend, opt.command_line), shard);
   const int repetitions = first.repetitions;
   const std::size_t point_count = loaded.points.size();
 

@@ -397,6 +397,74 @@ PY
   "$bin" run $scenario --out "$tmp/k" --resume --quiet 2>/dev/null || fail "resume after SIGKILL"
   cmp "$tmp/ref/samples.csv" "$tmp/k/samples.csv" || fail "resumed samples.csv differs"
   ;;
+results_disk_full)
+  # A write that fails ends the run: exit 1, the file and the OS error named, the manifest's
+  # shard failed with that error (not "running": `rosguard status` said "killed?"), and a
+  # --resume completes the folder as a single run writes it. The disk fills up while the run
+  # goes on: a file size limit (RLIMIT_FSIZE, set on the running process with prlimit) between
+  # the manifest's size and the CSV files' makes every write that grows the CSV files fail with
+  # EFBIG, through the same write(2) path as ENOSPC, for any user and on any filesystem. With
+  # SIGXFSZ ignored, write(2) returns the error instead of the signal killing the process.
+  trap '' XFSZ
+  s=tests/app/fixtures/.disk-$$.json
+  trap 'rm -rf "$tmp" '"$s" EXIT
+  sed 's/"repetitions": 2,/"repetitions": 40,/' $scenario > "$s"
+  "$bin" run "$s" --out "$tmp/ref" --quiet || fail "reference run"
+  size() { stat -c %s "$1" 2>/dev/null || echo 0; }
+  limit() {  # limit PID BYTES: the process's soft file size limit
+    /usr/bin/python3 -c '
+import resource, sys
+pid, limit = int(sys.argv[1]), int(sys.argv[2])
+hard = resource.prlimit(pid, resource.RLIMIT_FSIZE)[1]
+resource.prlimit(pid, resource.RLIMIT_FSIZE, (limit, hard))' "$1" "$2"
+  }
+  # start_full DIR BYTES: a run into DIR whose files may not grow past BYTES once points.csv and
+  # samples.csv have; sets pid.
+  start_full() {
+    ROSGUARD_FAKE_SLEEP_MS=10 "$bin" run "$s" --out "$1" --jobs 1 --quiet 2> "$1.err" &
+    pid=$!
+    for _ in $(seq 600); do
+      [[ $(size "$1/points.csv") -gt $2 && $(size "$1/samples.csv") -gt $2 ]] && break
+      sleep 0.05
+    done
+    limit $pid "$2" || fail "cannot set the file size limit of pid $pid"
+    [[ $(rows "$1") -lt 480 ]] || fail "the run finished before its disk was full"
+  }
+  # The manifest can be written (with room for the error), the CSV files cannot.
+  start_full "$tmp/d" $(($(size "$tmp/ref/manifest.json") + 8192))
+  wait $pid
+  rc=$?
+  echo "run: exit $rc: $(cat "$tmp/d.err")"
+  [[ $rc -eq 1 ]] || fail "exit $rc after a failed write, expected 1"
+  grep -Eq "^error: cannot write $tmp/d/(samples|points)\.csv: File too large$" "$tmp/d.err" ||
+    fail "the error does not name the file and the OS error"
+  [[ $(status "$tmp/d") == failed ]] || fail "manifest status $(status "$tmp/d"), expected failed"
+  /usr/bin/python3 - "$tmp/d/manifest.json" <<'PY' || fail "the manifest does not record the error"
+import json, sys
+m = json.load(open(sys.argv[1]))
+e = m["shards"]["0/1"]
+assert e["status"] == "failed" and "File too large" in e["error"], e
+assert m["error"] == e["error"], m.get("error")
+PY
+  "$bin" status "$tmp/d" > "$tmp/status" || fail "status"
+  echo "status: $(cat "$tmp/status")"
+  grep -Eq "^  0/1 .* failed: cannot write $tmp/d/(samples|points)\.csv: File too large$" \
+    "$tmp/status" || fail "status does not show the error"
+  [[ -z $(tail -c 1 "$tmp/d/samples.csv") ]] || fail "samples.csv ends in a torn line"
+  "$bin" run "$s" --out "$tmp/d" --resume --quiet || fail "resume after the disk error"
+  cmp "$tmp/ref/points.csv" "$tmp/d/points.csv" || fail "resumed points.csv differs"
+  cmp "$tmp/ref/samples.csv" "$tmp/d/samples.csv" || fail "resumed samples.csv differs"
+  # Nothing can be written, the manifest neither: stderr says that it still says running.
+  start_full "$tmp/e" 4096
+  wait $pid
+  rc=$?
+  echo "run: exit $rc: $(cat "$tmp/e.err")"
+  [[ $rc -eq 1 ]] || fail "exit $rc after a failed write, expected 1"
+  grep -q "^error: could not record the failure in $tmp/e/manifest.json (cannot write $tmp/e/manifest.json: File too large): it still says that shard 0/1 is running$" \
+    "$tmp/e.err" || fail "stderr does not say that the manifest could not record the failure"
+  grep -Eq "^error: cannot write $tmp/e/(samples|points)\.csv: File too large$" "$tmp/e.err" ||
+    fail "the write error is not named"
+  ;;
 seed)
   # The seed is a u64: 2^64 - 1 is valid (it was "must be >= 0": valijson read it as -1) and
   # goes into the manifest exactly; the runs differ from those of seed 1.

@@ -1,5 +1,6 @@
 // Crash-safe file primitives: atomic replace, torn-tail repair, single-write appends, the lock.
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -106,5 +107,36 @@ TEST_CASE("FileLock::try_lock does not wait: nullptr while the lock is held, the
   // Removed by its holder: the path names a fresh file, which a newcomer locks.
   again->remove_file();
   CHECK(FileLock::try_lock(lock));
+  fs::remove_all(d);
+}
+
+TEST_CASE("an append that fails (the file may not grow) leaves the file as it was", "[files]") {
+  const fs::path d = temp_dir();
+  const fs::path f = d / "samples.csv";
+  write_file_atomic(f, "header\n");
+  // In a child: a file size limit of 4 KiB makes the write stop there with EFBIG (SIGXFSZ
+  // ignored), as a full disk stops it with ENOSPC.
+  const pid_t child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    ::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit{};
+    ::getrlimit(RLIMIT_FSIZE, &limit);
+    limit.rlim_cur = 4096;
+    if (::setrlimit(RLIMIT_FSIZE, &limit) != 0) ::_exit(3);
+    AppendFile out(f);
+    try {
+      out.append(std::string(10000, 'x') + "\n");
+    } catch (const std::exception& e) {
+      const std::string what = e.what();
+      ::_exit(what == "cannot write " + f.string() + ": File too large" ? 0 : 2);
+    }
+    ::_exit(1);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(child, &status, 0) == child);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);  // 1: no error, 2: another message, 3: no limit
+  CHECK(read_file(f) == "header\n");
   fs::remove_all(d);
 }

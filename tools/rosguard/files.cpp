@@ -40,9 +40,9 @@ void write_file_atomic(const fs::path& path, const std::string& content) {
   const fs::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) fail("cannot create", tmp);
-  try {
-    write_all(fd, content, tmp);
-    if (::fsync(fd) != 0) fail("cannot sync", tmp);
+  try {  // the errors name the file replaced, not its temporary
+    write_all(fd, content, path);
+    if (::fsync(fd) != 0) fail("cannot write", path);
   } catch (...) {
     ::close(fd);
     ::unlink(tmp.c_str());
@@ -144,7 +144,19 @@ AppendFile::~AppendFile() {
 }
 
 void AppendFile::append(const std::string& data) {
-  write_all(fd_, data, path_);
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0) fail("cannot read the size of", path_);
+  size_before_ = static_cast<long long>(st.st_size);
+  try {
+    write_all(fd_, data, path_);
+  } catch (const RunError&) {
+    undo();
+    throw;
+  }
+}
+
+void AppendFile::undo() const {
+  if (::ftruncate(fd_, static_cast<off_t>(size_before_)) != 0) return;  // best effort
 }
 
 FileLock::FileLock(const fs::path& path) {

@@ -25,7 +25,10 @@ std::size_t truncate_torn_tail(const std::filesystem::path& path);
 // Splits text into lines without their '\n' (a final line without '\n' is kept).
 std::vector<std::string> split_lines(const std::string& text);
 
-// An append-only file; each append() is one write() of the whole buffer.
+// An append-only file; each append() is one write() of the whole buffer. An append that fails
+// (a full disk: ENOSPC, EDQUOT, EFBIG) cuts the file back to its size before it and throws
+// RunError naming the file and errno: no torn tail, and the space a partial write took is free
+// again (for the manifest to record the failure). The caller serialises appends (FileLock).
 class AppendFile {
  public:
   explicit AppendFile(const std::filesystem::path& path);
@@ -34,10 +37,14 @@ class AppendFile {
   AppendFile& operator=(const AppendFile&) = delete;
 
   void append(const std::string& data);
+  // Cuts the file back to its size before the last append() (best effort: a tail it leaves is
+  // cut when the folder is next opened).
+  void undo() const;
 
  private:
   std::filesystem::path path_;
   int fd_ = -1;
+  long long size_before_ = 0;
 };
 
 // An exclusive advisory lock on a whole file, held for the object's lifetime, so that writers

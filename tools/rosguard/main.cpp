@@ -107,7 +107,7 @@ CLI::App* add_run_command(CLI::App& app, RunArgs& args) {
                 "With --slurm: print the sbatch script; write and submit nothing");
   run->footer(
       "Writes manifest.json, points.csv and samples.csv (docs/design.md, results format).\n"
-      "Exit codes: 0 done, 1 a run failed (the manifest records the error), 2 invalid "
+      "Exit codes: 0 done, 1 a run or a write failed (the manifest records the error), 2 invalid "
       "input\n(nothing is written), 4 another rosguard is writing the same shard into --out "
       "(nothing is written;\none writer per shard), 130 / 143 interrupted (continue with "
       "--resume).\n"

@@ -381,15 +381,22 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
   if (!m.contains("facts")) m["facts"] = json::object();
   for (const auto& f : m["fallbacks"])
     opened.fallbacks.emplace(f.value("what", ""), f.value("detail", ""));
-  write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
+  // The manifest last: a write that fails before it leaves no shard said to run.
   write_file_atomic(dir_ / "columns.json", columns_json(header_line_).dump(2) + "\n");
+  write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
   return opened;
 }
 
 void ResultsStore::append_runs(const std::string& samples, const std::string& rows) const {
   FileLock lock(dir_ / ".lock");
-  append_under_lock(dir_ / "samples.csv", samples);
-  append_under_lock(points_path(), rows);
+  AppendFile samples_file(dir_ / "samples.csv");
+  samples_file.append(samples);
+  try {
+    append_under_lock(points_path(), rows);
+  } catch (const RunError&) {
+    samples_file.undo();  // no samples without their rows, and their space free again
+    throw;
+  }
 }
 
 void ResultsStore::save_baselines(const Baselines& baselines) const {
@@ -409,6 +416,48 @@ void ResultsStore::add_trace(const json& events) const {
 std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefresher& refresh,
                                  const PointRefresher& point_refresh) {
   FileLock lock(dir_ / ".lock");
+  std::size_t rows = 0;
+  try {
+    rows = finish_locked(report, refresh, point_refresh);
+  } catch (const std::exception& e) {
+    // A write failed (a full disk): the manifest must not go on saying that this shard runs.
+    const std::string error =
+        report.status == "failed" && !report.error.empty() ? report.error : e.what();
+    try {
+      record_failure(error);
+    } catch (const std::exception& m) {
+      throw ManifestNotUpdatedError(
+          // This write's error leads when it is the one to record (the caller has none).
+          (error == e.what() ? std::string(e.what()) + "; " : std::string()) +
+          "could not record the failure in " + (dir_ / "manifest.json").string() + " (" + m.what() +
+          "): it still says that shard " + shard_ + " is running");
+    }
+    throw;
+  }
+  lock.remove_file();  // a shard still running locks a fresh one
+  if (shard_lock_) {
+    shard_lock_->remove_file();
+    shard_lock_.reset();
+  }
+  return rows;
+}
+
+void ResultsStore::record_failure(const std::string& error) const {
+  json m = read_manifest();
+  if (m.empty()) throw RunError("it is missing or unreadable");
+  const std::string now = iso_time_now();
+  json& entry = m["shards"][shard_];
+  entry["status"] = "failed";
+  entry["error"] = error;
+  entry["end_time"] = now;
+  m["status"] = "failed";
+  m["error"] = first_error(m["shards"]);
+  m["end_time"] = now;
+  write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
+}
+
+std::size_t ResultsStore::finish_locked(const InvocationReport& report, const RowRefresher& refresh,
+                                        const PointRefresher& point_refresh) {
   const std::set<RunKey> done = tidy_csv_files(refresh, point_refresh);
   const std::size_t rows = done.size();
   json m = read_manifest();
@@ -484,11 +533,6 @@ std::size_t ResultsStore::finish(const InvocationReport& report, const RowRefres
                  {"skipped_on_resume", report.skipped_on_resume}};
   m["elapsed_s"] = report.elapsed_s;
   write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
-  lock.remove_file();  // a shard still running locks a fresh one
-  if (shard_lock_) {
-    shard_lock_->remove_file();
-    shard_lock_.reset();
-  }
   return rows;
 }
 

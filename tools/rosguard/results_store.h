@@ -46,6 +46,13 @@ class ShardBusyError : public RunError {
   using RunError::RunError;
 };
 
+// ResultsStore::finish could not record a failure in manifest.json (a full disk), which still
+// says that the shard runs.
+class ManifestNotUpdatedError : public RunError {
+ public:
+  using RunError::RunError;
+};
+
 // A JSON number, or NaN for null (a value that was not measured).
 double number_or_nan(const nlohmann::json& value);
 
@@ -134,7 +141,9 @@ class ResultsStore {
   // its row, else failed / interrupted / running when a shard says so, else partial). Returns
   // the rows now in points.csv.
   // `points`: each point's rows refreshed together after `refresh` (PointRefresher).
-  // Releases claim_shard's lock.
+  // When a write fails (a full disk), the manifest records this shard as failed (with the
+  // report's error, or else the write's) before the error is thrown on; when the manifest cannot
+  // record it either, ManifestNotUpdatedError says so. Releases claim_shard's lock.
   std::size_t finish(const InvocationReport& report, const RowRefresher& refresh = {},
                      const PointRefresher& points = {});
 
@@ -143,6 +152,10 @@ class ResultsStore {
                                                        const PointRefresher& points = {}) const;
   Baselines read_baselines() const;
   nlohmann::json read_manifest() const;
+  std::size_t finish_locked(const InvocationReport& report, const RowRefresher& refresh,
+                            const PointRefresher& points);
+  // The manifest with this shard (and so the folder) failed with `error`, nothing else changed.
+  void record_failure(const std::string& error) const;
 
   std::filesystem::path dir_;
   std::string header_line_;

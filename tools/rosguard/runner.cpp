@@ -930,6 +930,8 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     try {
       store.finish(report, row_refresher(loaded, corun_plan, store.dir()),
                    point_refresher(loaded, *backend));
+    } catch (const ManifestNotUpdatedError& m) {  // said, as `rosguard status` cannot say it
+      std::cerr << "error: " << m.what() << "\n";
     } catch (const std::exception&) {  // the first error is the one to report
     }
     throw;

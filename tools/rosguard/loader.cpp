@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -12,8 +13,10 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <tuple>
 
 #include "core/error.h"
@@ -590,15 +593,19 @@ Scenario Loader::build_point(json document, const std::string& file, bool skip_s
     if (auto err = schemas_.first_error(document, SchemaKind::Scenario))
       throw InputError(file, err->first, err->second);
   ResolvedRefs refs;
-  refs.platform = resolve_platform(document["platform"], base, file, "/platform",
-                                   document["backend"].get<std::string>());
-  const auto& nodes = document["nodes"];
-  for (std::size_t i = 0; i < nodes["rt"].size(); ++i)
-    refs.rt_workloads.push_back(resolve_workload(nodes["rt"][i]["workload"], base, file,
-                                                 "/nodes/rt/" + std::to_string(i) + "/workload"));
-  for (std::size_t i = 0; i < nodes["nrt"].size(); ++i)
-    refs.nrt_workloads.push_back(resolve_workload(nodes["nrt"][i]["workload"], base, file,
-                                                  "/nodes/nrt/" + std::to_string(i) + "/workload"));
+  {
+    const std::lock_guard<std::mutex> lock(refs_mutex_);  // the caches (load_points' threads)
+    refs.platform = resolve_platform(document["platform"], base, file, "/platform",
+                                     document["backend"].get<std::string>());
+    const auto& nodes = document["nodes"];
+    for (std::size_t i = 0; i < nodes["rt"].size(); ++i)
+      refs.rt_workloads.push_back(resolve_workload(nodes["rt"][i]["workload"], base, file,
+                                                   "/nodes/rt/" + std::to_string(i) + "/workload"));
+    for (std::size_t i = 0; i < nodes["nrt"].size(); ++i)
+      refs.nrt_workloads.push_back(
+          resolve_workload(nodes["nrt"][i]["workload"], base, file,
+                           "/nodes/nrt/" + std::to_string(i) + "/workload"));
+  }
   Scenario s = build_scenario(document, std::move(refs), file);
   s.regulation.policy_defaults = std::move(policy_defaults);
   return s;
@@ -689,12 +696,50 @@ LoadedPoint Loader::point(const LoadedScenario& loaded, std::uint64_t index, boo
   }
 }
 
-void Loader::load_points(LoadedScenario& out, PointSelection selection) {
+void Loader::load_points(LoadedScenario& out, PointSelection selection, unsigned threads) {
   // An error in one point names the sweep value that caused it (a problem inside a platform or
-  // workload file is reported as it is).
-  for (const std::uint64_t index :
-       selected_points(out.point_count, out.source->plan.sizes(), selection))
-    out.points.push_back(point(out, index));
+  // workload file is reported as it is). With several threads, each takes the next chunk of
+  // points; the error reported is that of the first point (in sweep order) that has one, as
+  // without threads: a thread stops at a point after a failed one.
+  const std::vector<std::uint64_t> indexes =
+      selected_points(out.point_count, out.source->plan.sizes(), selection);
+  std::vector<std::optional<LoadedPoint>> built(indexes.size());
+  constexpr std::size_t kChunk = 64;
+  std::atomic<std::size_t> next{0};
+  std::mutex failed_mutex;
+  std::size_t failed_at = indexes.size();  // the first failed position
+  std::exception_ptr failure;
+  const auto work = [&] {
+    for (std::size_t begin; (begin = next.fetch_add(kChunk)) < indexes.size();)
+      for (std::size_t i = begin; i < std::min(begin + kChunk, indexes.size()); ++i) {
+        {
+          const std::lock_guard<std::mutex> lock(failed_mutex);
+          if (i > failed_at) return;
+        }
+        try {
+          built[i] = point(out, indexes[i]);
+        } catch (...) {
+          const std::lock_guard<std::mutex> lock(failed_mutex);
+          if (i < failed_at) {
+            failed_at = i;
+            failure = std::current_exception();
+          }
+          return;
+        }
+      }
+  };
+  const std::size_t extra =
+      std::min<std::size_t>(std::max(threads, 1U) - 1, indexes.size() / kChunk);
+  std::vector<std::thread> pool;
+  for (std::size_t t = 0; t < extra; ++t)
+    pool.emplace_back(work);
+  work();
+  for (auto& t : pool)
+    t.join();
+  if (failure) std::rethrow_exception(failure);
+  out.points.reserve(indexes.size());
+  for (auto& p : built)
+    out.points.push_back(std::move(*p));
   for (const auto& p : out.points)
     for (const auto& d : p.scenario.regulation.policy_defaults) {
       auto it = std::find_if(out.policy_defaults.begin(), out.policy_defaults.end(),

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <string>
@@ -88,7 +89,9 @@ class Loader {
   // selected points of a load_base result and fills them in. `rosguard run` starts its task
   // host between the two (it forks a process that holds no point: task_pool.h).
   LoadedScenario load_base(const std::string& file, const std::optional<std::string>& backend = {});
-  void load_points(LoadedScenario& loaded, PointSelection selection = PointSelection::All);
+  // `threads`: how many threads build the points (rosguard run: its --jobs).
+  void load_points(LoadedScenario& loaded, PointSelection selection = PointSelection::All,
+                   unsigned threads = 1);
   // Point `index` of a scenario from load_base or load, built as load_points builds it (an
   // error names the sweep value that caused it). `skip_schema`: the document is not checked
   // against the scenario schema again (only for a point that load_points already built in
@@ -125,6 +128,7 @@ class Loader {
 
   Home home_;
   SchemaSet schemas_;
+  std::mutex refs_mutex_;  // the caches below (points are built on several threads)
   std::map<std::string, PlatformInfo> platform_cache_;
   std::map<std::string, WorkloadInfo> workload_cache_;
   // "platform|workload\n<base folder>\n<reference>" -> its cache key (the canonical path)

@@ -66,20 +66,23 @@ std::string Progress::text(std::size_t done, const std::string& what) const {
 }
 
 void Progress::update(std::size_t done, const std::string& what) {
+  update(done, [&what] { return what; });
+}
+
+void Progress::update(std::size_t done, const std::function<std::string()>& what) {
   done_ = done;
-  what_ = what;
   if (mode_ == Mode::Off) return;
   const double now = seconds();
   if (now - last_line_s_ < interval_s_) return;
   last_line_s_ = now;
   if (mode_ == Mode::Terminal) {
-    std::string line = text(done, what);
+    std::string line = text(done, what());
     // One column spare: writing the last column makes some terminals wrap at once.
     if (columns_ > 1 && line.size() > columns_ - 1) line.resize(columns_ - 1);
     out_ << "\r\033[K" << line << std::flush;
   } else {
     printed_ = done;
-    out_ << "progress: " << text(done, what) << "\n" << std::flush;
+    out_ << "progress: " << text(done, what()) << "\n" << std::flush;
   }
 }
 

@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cstddef>
+#include <functional>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -27,6 +28,9 @@ class Progress {
            double interval_s = 5.0);
 
   void update(std::size_t done, const std::string& what);
+  // The same, with `what` made only when a line is printed (a label per run costs the runner of
+  // a large sweep more than the line does).
+  void update(std::size_t done, const std::function<std::string()>& what);
   // A new total, for work whose size is re-estimated as it goes (adaptive repetitions add rounds;
   // the calibration suite's windows shrink as measurements finish early); the ETA follows it.
   void set_total(std::size_t total) { total_ = total; }
@@ -51,7 +55,6 @@ class Progress {
   clock::time_point start_;
   double last_line_s_ = -1e300;
   std::size_t done_ = 0, printed_ = static_cast<std::size_t>(-1);
-  std::string what_;
   std::string unit_ = "runs";
 };
 

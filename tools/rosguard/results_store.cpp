@@ -350,7 +350,19 @@ std::set<RunKey> ResultsStore::tidy_csv_files(const RowRefresher& refresh,
   flush();
   write_file_atomic(points_path(), text);
 
-  tidy_samples(dir_ / "samples.csv", order_, done);
+  const fs::path samples = dir_ / "samples.csv";
+  std::error_code ec;
+  const auto size = fs::file_size(samples, ec);
+  // samples.csv as this store left it (see append_runs): tidy, and not read again (a
+  // 10,000-point sweep writes some 150 MB of it).
+  if (!(samples_tidy_ && !ec && size == samples_size_)) tidy_samples(samples, order_, done);
+  samples_tidy_ = true;
+  samples_size_ = fs::file_size(samples);
+  last_run_ = {0, -1};
+  for (const auto& [id, rep] : done) {
+    const auto it = order_.find(id);
+    last_run_ = std::max(last_run_, {it == order_.end() ? order_.size() : it->second, rep});
+  }
   return done;
 }
 
@@ -389,14 +401,38 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
 
 void ResultsStore::append_runs(const std::string& samples, const std::string& rows) const {
   FileLock lock(dir_ / ".lock");
-  AppendFile samples_file(dir_ / "samples.csv");
+  const fs::path samples_path = dir_ / "samples.csv";
+  // samples.csv stays tidy (tidy_samples would not change it) while only this store appends,
+  // each run after the last one in sweep order.
+  std::error_code ec;
+  if (samples_tidy_ && (fs::file_size(samples_path, ec) != samples_size_ || ec))
+    samples_tidy_ = false;  // another shard wrote
+  for (std::size_t pos = 0; samples_tidy_ && pos < rows.size();) {
+    std::size_t end = rows.find('\n', pos);
+    end = end == std::string::npos ? rows.size() : end;
+    const std::string_view line(rows.data() + pos, end - pos);
+    const std::size_t c0 = line.find(',');
+    const std::string_view id = line.substr(0, c0);
+    const auto it = order_.find(std::string(id));
+    int rep = -1;
+    if (c0 != std::string_view::npos)
+      std::from_chars(line.data() + c0 + 1, line.data() + line.size(), rep);
+    const std::pair<std::size_t, int> run{it == order_.end() ? order_.size() : it->second, rep};
+    if (line.find('"') != std::string_view::npos || it == order_.end() || run <= last_run_)
+      samples_tidy_ = false;
+    last_run_ = run;
+    pos = end + 1;
+  }
+  AppendFile samples_file(samples_path);
   samples_file.append(samples);
   try {
     append_under_lock(points_path(), rows);
   } catch (const RunError&) {
     samples_file.undo();  // no samples without their rows, and their space free again
+    samples_tidy_ = false;
     throw;
   }
+  samples_size_ += samples.size();
 }
 
 void ResultsStore::save_baselines(const Baselines& baselines) const {

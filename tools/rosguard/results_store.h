@@ -20,6 +20,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -164,6 +165,11 @@ class ResultsStore {
   bool adaptive_;
   std::string shard_;
   std::unique_ptr<FileLock> shard_lock_;  // claim_shard's
+  // Whether samples.csv is as tidy_csv_files left it plus this store's appends, each of a run
+  // after the last (sweep index, rep): its size then, and that run.
+  mutable bool samples_tidy_ = false;
+  mutable std::uintmax_t samples_size_ = 0;
+  mutable std::pair<std::size_t, int> last_run_{0, -1};
 };
 
 }  // namespace rosguard

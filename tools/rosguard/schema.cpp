@@ -7,6 +7,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <regex>
 #include <string_view>
@@ -186,10 +187,24 @@ bool is_wrapper(const std::string& d) {
 struct SchemaSet::Impl {
   std::map<std::string, json> docs;  // schema file name -> document
   std::map<SchemaKind, std::unique_ptr<valijson::Schema>> compiled;
-  // One validator for every document: it keeps the std::regex of each "pattern" it compiled
-  // (a fresh validator per document compiled them all again: most of the time a 10,000-point
-  // sweep took to load).
-  valijson::Validator validator;
+  // Validators kept for reuse: each keeps the std::regex of every "pattern" it compiled (a
+  // fresh validator per document compiled them all again: most of the time a 10,000-point sweep
+  // took to load). A validator is not thread-safe, so each call borrows one (Loader::load_points
+  // checks points on several threads).
+  mutable std::mutex validators_mutex;
+  mutable std::vector<std::unique_ptr<valijson::Validator>> validators;
+
+  std::unique_ptr<valijson::Validator> borrow() const {
+    const std::lock_guard<std::mutex> lock(validators_mutex);
+    if (validators.empty()) return std::make_unique<valijson::Validator>();
+    auto v = std::move(validators.back());
+    validators.pop_back();
+    return v;
+  }
+  void give_back(std::unique_ptr<valijson::Validator> v) const {
+    const std::lock_guard<std::mutex> lock(validators_mutex);
+    validators.push_back(std::move(v));
+  }
 
   // A schema node and the file it lives in (for resolving its relative $refs).
   struct Node {
@@ -518,7 +533,9 @@ std::vector<std::pair<std::string, std::string>> SchemaSet::errors(const json& d
   std::optional<json> clamped;  // see big_unsigned
   if (has_big_unsigned(doc)) clamp_big_unsigned(clamped.emplace(doc));
   valijson::adapters::NlohmannJsonAdapter adapter(clamped ? *clamped : doc);
-  const bool valid = impl_->validator.validate(*impl_->compiled.at(kind), adapter, &results);
+  std::unique_ptr<valijson::Validator> validator = impl_->borrow();
+  const bool valid = validator->validate(*impl_->compiled.at(kind), adapter, &results);
+  impl_->give_back(std::move(validator));
   std::vector<std::pair<std::string, std::string>> out;
   if (valid) {
     if (clamped) {

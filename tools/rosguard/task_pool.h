@@ -7,10 +7,10 @@
 // itself, which holds every point of a 10,000-point sweep, made copy_page_range the largest
 // part of the runner's CPU time). The runner sends each task to the host over a Unix socket
 // with the write end of a pipe; the host forks a worker, which builds its task's point again
-// (Loader::point, from the same scenario text the runner checked) and sends its TaskResult as
-// JSON through the pipe straight to the runner, then leaves with _exit. The host reaps the
-// workers and reports each exit status. Other backends (hw: one point at a time on the
-// machine) run tasks in this process. Only the runner's thread calls an Executor.
+// (Loader::point, from the same scenario text the runner checked) and sends its TaskResult
+// (task_pool.cpp: encode) through the pipe straight to the runner, then leaves with _exit. The
+// host reaps the workers and reports each exit status. Other backends (hw: one point at a time on
+// the machine) run tasks in this process. Only the runner's thread calls an Executor.
 //
 // Containment: the host and every worker die with their parent (PR_SET_PDEATHSIG: SIGKILL), the
 // host ignores SIGINT / SIGTERM (the runner decides: it asks the host to stop its workers with

@@ -1,17 +1,19 @@
 #!/usr/bin/env bash
 # Parallel efficiency of `rosguard run` on the sim backend: wall time of a whole sweep at
 # --jobs 1 and --jobs N, median over repeats, points per second and efficiency
-# T(1) / (N x T(N)). Not a test: nothing is asserted about the times (the machine may be
-# shared), but every run must succeed, write every row, and give the same points.csv and
-# samples.csv at --jobs 1 and --jobs N.
+# T(1) / (N x T(N)), and how many CPUs the run at --jobs N kept busy on average. Not a test:
+# nothing is asserted about the times (the machine may be shared), but every run must succeed,
+# write every row, and give the same points.csv and samples.csv at --jobs 1 and --jobs N.
 # Usage: tests/bench/parallel_efficiency.sh [BUILD_DIR] [REPEATS] [N] [SCENARIO] [SHARD]
 #   defaults: build 5 2 scenarios/bench/sweep-10k.json 0/1 (SHARD 0/10 times a tenth; the whole
 #   scenario is still loaded and checked, so a shard's efficiency is lower than the sweep's)
 # The runs at --jobs 1 and --jobs N alternate, so that a change in the machine's load hits both.
-# Each run's line has its wall time, the CPU time of all its processes (runner, task host,
-# workers: /usr/bin/time) and the CPU time the rest of the machine used meanwhile (the busy time
-# in /proc/stat less the run's own); when that exceeds 2 % of the run's CPU time, the machine was
-# not quiet, which is said at the end. (The load average would count the benchmark's own runs.)
+# Each run's line has its wall time, the CPU time of all its processes (runner, task hosts,
+# workers: bash's `time`, which counts every waited-for descendant) and the CPU time the rest of
+# the machine used meanwhile (the busy time in /proc/stat less the run's own); when that exceeds
+# 2 % of the run's CPU time, the machine was not quiet, which is said at the end. (The load
+# average would count the benchmark's own runs.) Needs bash, awk and coreutils only (no bc, no
+# /usr/bin/time), so that it runs on a machine without the development packages.
 set -euo pipefail
 build=${1:-build}
 repeats=${2:-5}
@@ -22,10 +24,9 @@ exe="$build/rosguard"
 [[ -x $exe ]] || { echo "error: $exe not found (build first: make build)" >&2; exit 2; }
 [[ -f $scenario ]] || { echo "error: $scenario not found" >&2; exit 2; }
 [[ $repeats -ge 1 && $jobs -ge 2 ]] || { echo "error: REPEATS >= 1 and N >= 2" >&2; exit 2; }
-timer=()
-[[ -x /usr/bin/time ]] && timer=(/usr/bin/time -f '%U %S' -o)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
+calc() { awk "BEGIN {print $*}"; }
 median_of() { sort -g | awk '{a[NR]=$1} END {print (NR % 2) ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2}'; }
 busy_s() { # CPU seconds all CPUs spent busy since boot (user nice system irq softirq steal)
   awk -v hz="$(getconf CLK_TCK)" '/^cpu / {print ($2 + $3 + $4 + $7 + $8 + $9) / hz}' /proc/stat
@@ -34,25 +35,17 @@ declare -A walls cpus
 max_other=0
 echo "$scenario --shard $shard: $repeats runs each at --jobs 1 and --jobs $jobs, alternating" \
   "($(nproc) CPUs)"
+TIMEFORMAT='%R %U %S'
 for ((i = 0; i < repeats; i++)); do
   for j in 1 "$jobs"; do
     busy0=$(busy_s)
-    start=$(date +%s.%N)
-    if [[ ${#timer[@]} -gt 0 ]]; then
-      "${timer[@]}" "$tmp/cpu" "$exe" run "$scenario" --out "$tmp/out$j" --overwrite --quiet \
-        --jobs "$j" --shard "$shard"
-    else
-      "$exe" run "$scenario" --out "$tmp/out$j" --overwrite --quiet --jobs "$j" --shard "$shard"
-    fi
-    end=$(date +%s.%N)
-    wall=$(echo "$end - $start" | bc -l)
-    cpu=nan other=nan
-    if [[ ${#timer[@]} -gt 0 ]]; then
-      cpu=$(awk '{print $1 + $2}' "$tmp/cpu")
-      other=$(echo "$(busy_s) - $busy0 - $cpu" | bc -l)
-      share=$(echo "$other / $cpu" | bc -l)
-      max_other=$(echo "if ($share > $max_other) $share else $max_other" | bc -l)
-    fi
+    { time "$exe" run "$scenario" --out "$tmp/out$j" --overwrite --quiet --jobs "$j" \
+      --shard "$shard" 2>"$tmp/err"; } 2>"$tmp/time" ||
+      { cat "$tmp/err" >&2; echo "error: the run at --jobs $j failed" >&2; exit 1; }
+    read -r wall user sys <"$tmp/time"
+    cpu=$(calc "$user + $sys")
+    other=$(calc "$(busy_s) - $busy0 - $cpu")
+    max_other=$(calc "($other / $cpu > $max_other) ? $other / $cpu : $max_other")
     walls[$j]+="$wall "
     cpus[$j]+="$cpu "
     printf '  run %d --jobs %-3s wall %8.2f s  cpu %8.2f s  (rest of the machine %.2f s)\n' \
@@ -69,24 +62,22 @@ done
 declare -A median cpum
 for j in 1 "$jobs"; do
   median[$j]=$(tr ' ' '\n' <<<"${walls[$j]}" | grep . | median_of)
-  cpu=$(tr ' ' '\n' <<<"${cpus[$j]}" | grep . | median_of)
-  cpum[$j]=$cpu
+  cpum[$j]=$(tr ' ' '\n' <<<"${cpus[$j]}" | grep . | median_of)
   printf '%s --jobs %-3s %6d runs  median %8.2f s  %8.1f runs/s  cpu %8.2f s  (%s)\n' \
-    "$scenario" "$j" "$rows1" "${median[$j]}" "$(echo "$rows1 / ${median[$j]}" | bc -l)" "$cpu" \
+    "$scenario" "$j" "$rows1" "${median[$j]}" "$(calc "$rows1 / ${median[$j]}")" "${cpum[$j]}" \
     "${walls[$j]% }"
 done
 printf 'parallel efficiency at --jobs %s: %.1f %%\n' "$jobs" \
-  "$(echo "100 * ${median[1]} / ($jobs * ${median[$jobs]})" | bc -l)"
+  "$(calc "100 * ${median[1]} / ($jobs * ${median[$jobs]})")"
 # The same work can take more CPU time at --jobs 1 than at --jobs N (seen on the 2-vCPU
 # development VM: 1.12-1.36 times; why is not established), which flatters the figure above; how
 # busy the run kept its N CPUs does not depend on the --jobs 1 run.
-if [[ ${#timer[@]} -gt 0 ]]; then
-  printf 'CPU time at --jobs 1 / --jobs %s: %.3f; --jobs %s kept its %s CPUs %.1f %% busy\n' \
-    "$jobs" "$(echo "${cpum[1]} / ${cpum[$jobs]}" | bc -l)" "$jobs" "$jobs" \
-    "$(echo "100 * ${cpum[$jobs]} / ($jobs * ${median[$jobs]})" | bc -l)"
-fi
-if (($(echo "$max_other > 0.02" | bc -l))); then
+printf 'CPU time at --jobs 1 / --jobs %s: %.3f; --jobs %s kept %.1f CPUs busy on average (%.1f %% of %s)\n' \
+  "$jobs" "$(calc "${cpum[1]} / ${cpum[$jobs]}")" "$jobs" \
+  "$(calc "${cpum[$jobs]} / ${median[$jobs]}")" \
+  "$(calc "100 * ${cpum[$jobs]} / ($jobs * ${median[$jobs]})")" "$jobs"
+if [[ $(calc "($max_other > 0.02) ? 1 : 0") == 1 ]]; then
   printf 'note: other processes used up to %.1f %% of a run'"'"'s CPU time: the machine was not quiet,' \
-    "$(echo "100 * $max_other" | bc -l)"
+    "$(calc "100 * $max_other")"
   echo " so these wall times (and the efficiency) are not the tool's alone"
 fi

@@ -293,6 +293,13 @@ elif CASE == "joined-keys":
     if u["policy"] != "none" or u["rt_slowdown"] is None or u["nrt_slowdown"] is None \
             or u["rt_slowdown"] <= t["best"]["rt_slowdown"]:
         fail(f"the unregulated co-run: {u}")
+    # Its rows in points.csv (a batch without the setting key): the case's cell kept, the
+    # setting key's cells empty.
+    none = [r for r in rows(out) if r["policy"] == "none"]
+    if sorted(r["param:nodes.nrt[0].workload"] for r in none) != ["bandwidth_read",
+                                                                  "bandwidth_write"] \
+            or any(r["param:regulation.sampling_period_us"] for r in none):
+        fail(f"the unregulated rows of points.csv: {none}")
     # The policy and sampling mode only through a joined key: each configuration at its
     # policy's own default periods (memguard 200 / 1000 us, interval 1000 / 5000 us).
     doc = json.load(open(s))

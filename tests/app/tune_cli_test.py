@@ -12,6 +12,13 @@ Cases:
                 holds every simulated point.
   errors        bad input exits 2 naming the file and path; no setting meeting the bound exits 1
                 with the closest; an earlier tune is not replaced without --overwrite.
+  joined-keys   periods set only through the joined key sampling_period_us+regulation_period_us
+                (and, in a second tune, policy and sampling only through policy+sampling): tune
+                returns a setting that meets the bound on re-run, each configuration at the
+                periods its key and policy give it; the unregulated co-run is policy none.
+  status        `rosguard status` on a tune's folder: finished (its batches, the command, the
+                best setting), stopped (tune.json gone, the process ended: how to run it again),
+                interrupted, and while it runs (its process group stopped mid-search).
   confirm-hw    --confirm hw on the 2-core example measures the winner and the unregulated
                 co-run on this machine (SKIPPED where the hw backend cannot run here).
 """
@@ -20,9 +27,11 @@ import csv
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 
 BIN, CASE = sys.argv[1], sys.argv[2]
 TMP = tempfile.mkdtemp(prefix="tune-test-")
@@ -154,6 +163,40 @@ def check_tune(scenario, x, extra=(), name="tune"):
     return t, out
 
 
+def joined_periods_scenario():
+    """scenarios/examples/tune.json with its periods set only through the joined sweep key and
+    no sampling mode (the policy's default): the space is interval x two period pairs."""
+    doc = json.load(open("scenarios/examples/tune.json"))
+    doc.pop("$schema", None)
+    doc["name"] = "tune-joined-periods"
+    doc["regulation"] = {"policy": "interval", "threshold_pct": 20}
+    doc["sweep"]["regulation.sampling_period_us+regulation.regulation_period_us"] = [
+        [250, 1250], [1000, 5000]]
+    f = os.path.join(TMP, "joined-periods.json")
+    json.dump(doc, open(f, "w"), indent=1)
+    return f
+
+
+def tune_status(folder, expect_state):
+    code, text = cli("status", folder, expect=0)
+    print(text)
+    if "rosguard tune" not in text:
+        fail(f"status of a tune's folder does not say it is one:\n{text}")
+    lines = [line.split() for line in text.splitlines() if line.startswith("  ")]
+    heads = [r[0] if r else "" for r in lines]
+    if "batch" not in heads or "all" not in heads:
+        fail(f"status of a tune's folder has no batch table:\n{text}")
+    table = lines[heads.index("batch") + 1:heads.index("all") + 1]  # the batches, then all
+    batches = [r[0] for r in table if r and (r[0] == "unregulated" or r[0].startswith("step-"))]
+    if not batches or batches[0] != "unregulated" or \
+            batches[1:] != [f"step-{i:02d}" for i in range(len(batches) - 1)]:
+        fail(f"status lists the batches {batches}, not unregulated, step-00, ...")
+    every = [r for r in table if r and r[0] == "all"]
+    if len(every) != 1 or expect_state not in " ".join(every[0][3:]):
+        fail(f"status: the 'all' row does not say {expect_state!r}:\n{text}")
+    return text, table
+
+
 if CASE == "paper":
     t, out = check_tune("scenarios/paper/exp4-setpoint.json", 1.2)
     if len(t["cases"]) != 2:
@@ -236,6 +279,95 @@ elif CASE == "errors":
         fail("an earlier tune: message does not mention --overwrite:\n" + text)
     cli("tune", "scenarios/paper/exp4-setpoint.json", "--rt-slowdown-max", "1.2", "--out",
         f"{TMP}/d", "--overwrite", "--quiet", expect=0)
+elif CASE == "joined-keys":
+    # The periods only through a joined key (the unregulated co-run once got null periods and
+    # the generated step-00.json was refused).
+    s = joined_periods_scenario()
+    t, out = check_tune(s, 1.5, name="joined-periods")
+    pairs = {(c["sampling_period_us"], c["regulation_period_us"]) for c in t["settings"]}
+    if pairs != {(250, 1250), (1000, 5000)}:
+        fail(f"the simulated settings' periods {pairs} are not the joined key's pairs")
+    if {c["sampling"] for c in t["settings"]} != {"self"}:
+        fail("the sampling mode is not interval's default (self) in every setting")
+    u = t["unregulated"]
+    if u["policy"] != "none" or u["rt_slowdown"] is None or u["nrt_slowdown"] is None \
+            or u["rt_slowdown"] <= t["best"]["rt_slowdown"]:
+        fail(f"the unregulated co-run: {u}")
+    # Its rows in points.csv (a batch without the setting key): the case's cell kept, the
+    # setting key's cells empty.
+    none = [r for r in rows(out) if r["policy"] == "none"]
+    if sorted(r["param:nodes.nrt[0].workload"] for r in none) != ["bandwidth_read",
+                                                                  "bandwidth_write"] \
+            or any(r["param:regulation.sampling_period_us"] for r in none):
+        fail(f"the unregulated rows of points.csv: {none}")
+    # The policy and sampling mode only through a joined key: each configuration at its
+    # policy's own default periods (memguard 200 / 1000 us, interval 1000 / 5000 us).
+    doc = json.load(open(s))
+    doc["name"] = "tune-joined-policy"
+    doc["sweep"] = {"regulation.policy+regulation.sampling": [["memguard", "external"],
+                                                              ["interval", "external"]],
+                    "nodes.nrt[0].workload": ["bandwidth_read", "bandwidth_write"]}
+    json.dump(doc, open(f"{TMP}/joined-policy.json", "w"))
+    out = f"{TMP}/joined-policy"
+    cli("tune", f"{TMP}/joined-policy.json", "--rt-slowdown-max", "1.5", "--out", out,
+        "--jobs", "2", "--quiet", expect=0)
+    t = json.load(open(f"{out}/tune.json"))
+    periods = {(c["policy"], c["sampling"], c["sampling_period_us"], c["regulation_period_us"])
+               for c in t["settings"]}
+    if periods != {("memguard", "external", 200, 1000), ("interval", "external", 1000, 5000)}:
+        fail(f"the configurations of policy+sampling: {periods}")
+    rt, nrt = rerun(f"{TMP}/joined-policy.json", t["best"], "joined-policy")
+    if rt > 1.5:
+        fail(f"re-run of {t['best']['label']}: RT slowdown {rt} > 1.5")
+elif CASE == "status":
+    s = joined_periods_scenario()
+    out = f"{TMP}/status"
+    cli("tune", s, "--rt-slowdown-max", "1.5", "--out", out, "--jobs", "2", "--quiet", expect=0)
+    t = json.load(open(f"{out}/tune.json"))
+    text, table = tune_status(out, "finished")
+    every = next(r for r in table if r[0] == "all")
+    if every[1] != f"{t['simulated_points']}/{t['simulated_points']}":
+        fail(f"status: all points {every[1]}, tune.json simulated {t['simulated_points']}")
+    if t["best"]["label"] not in text or "--rt-slowdown-max 1.5" not in text:
+        fail("status of a finished tune does not give its best setting and its command")
+    # tune.json gone and the tune's process ended: stopped, with how to run it again.
+    os.remove(f"{out}/tune.json")
+    text, _ = tune_status(out, "stopped after step-")
+    if "--overwrite" not in text or "is gone without finishing" not in text:
+        fail("status of a stopped tune does not say how to run it again:\n" + text)
+    # The last batch interrupted: its manifest says so and a row is missing.
+    last = sorted(d for d in os.listdir(f"{out}/probes") if d.startswith("step-")
+                  and not d.endswith(".json"))[-1]
+    m = json.load(open(f"{out}/probes/{last}/manifest.json"))
+    m["status"] = m["shards"]["0/1"]["status"] = "interrupted"
+    json.dump(m, open(f"{out}/probes/{last}/manifest.json", "w"))
+    lines = open(f"{out}/probes/{last}/points.csv").readlines()
+    open(f"{out}/probes/{last}/points.csv", "w").writelines(lines[:-1])
+    text, table = tune_status(out, f"stopped after {last}: interrupted")
+    row = next(r for r in table if r[0] == last)
+    done, total = map(int, row[1].split("/"))
+    if done != total - 1 or row[3] != "interrupted":
+        fail(f"status of the interrupted batch: {row}")
+    # A tune that runs: its process group stopped (SIGSTOP) once a batch has begun.
+    out = f"{TMP}/status-running"
+    p = subprocess.Popen([BIN, "tune", s, "--rt-slowdown-max", "1.5", "--out", out, "--jobs",
+                          "2", "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         start_new_session=True)
+    try:
+        deadline = time.time() + 60
+        while not os.path.exists(f"{out}/probes/unregulated/manifest.json"):
+            if time.time() > deadline or p.poll() is not None:
+                fail("tune did not start its first batch")
+            time.sleep(0.005)
+        os.killpg(p.pid, signal.SIGSTOP)
+        text, _ = tune_status(out, "running")
+        if "stopped" in text:
+            fail("status of a running tune says stopped:\n" + text)
+    finally:
+        os.killpg(p.pid, signal.SIGCONT)
+    if p.wait(timeout=120) != 0:
+        fail(f"the tune whose status was read exited {p.returncode}")
+    tune_status(out, "finished")
 elif CASE == "confirm-hw":
     if os.cpu_count() < 2:
         print("SKIPPED: the 2-core example needs 2 CPUs")

@@ -191,7 +191,8 @@ int main(int argc, char** argv) {
   tune->add_flag("--overwrite", tune_opt.overwrite, "Replace an earlier tune in --out");
   tune->add_flag("--quiet", tune_opt.quiet, "No progress on stderr");
   tune->footer(
-      "The space: the scenario's swept regulation keys (policy, sampling, periods, ...); when it "
+      "The space: the scenario's swept regulation keys (policy, sampling, periods, ..., joined "
+      "keys too; an unswept key keeps the scenario's value, else the policy's default); when it "
       "sweeps none but the threshold, the policies that throttle x each sampling mode they run "
       "with "
       "x periods 100/1000, 500/2500, 1000/5000 us and the policy's own default pair. Thresholds: "
@@ -201,7 +202,8 @@ int main(int argc, char** argv) {
       "Per configuration the threshold is bisected (RT slowdown grows, nRT slowdown falls with "
       "it); a configuration whose probes contradict that is scanned, with a note.\n"
       "Writes OUT/tune.json, OUT/points.csv (every simulated setting; rosguard plot OUT) and "
-      "OUT/probes/. Exit 0: a setting meets the bound; 1: none does (the closest is printed); 2: "
+      "OUT/probes/ (unregulated/, step-NN/: one run folder per batch; rosguard status OUT "
+      "follows them). Exit 0: a setting meets the bound; 1: none does (the closest is printed); 2: "
       "invalid input.");
 
   std::string check_file, check_backend;
@@ -216,11 +218,16 @@ int main(int argc, char** argv) {
   auto* status = app.add_subcommand(
       "status",
       "Show how far a run is: points and runs done per shard and overall, the shards that failed "
-      "or still run (also on Slurm), and the commands that re-run a failed shard.");
-  status->add_option("results", status_dir, "Results folder of a run (its --out)")->required();
+      "or still run (also on Slurm), and the commands that re-run a failed shard; for a tune's "
+      "folder, its batches and what it chose.");
+  status->add_option("results", status_dir, "Results folder of a run or a tune (its --out)")
+      ->required();
   status->footer(
       "Reads DIR/manifest.json, DIR/points.csv and, after --slurm, DIR/slurm/job.json "
-      "and squeue. Exit 0; 2 when DIR is not a results folder.");
+      "and squeue. A tune's folder (DIR/tune.json or DIR/probes/): one row per batch "
+      "(probes/unregulated, probes/step-NN, confirm-hw) with its points, runs and state, the "
+      "tune's state (running, between batches, stopped: run it again with --overwrite, "
+      "finished) and, finished, its best setting. Exit 0; 2 when DIR is not a results folder.");
 
   std::string plot_dir, plot_out, plot_rt_max;
   auto* plot = app.add_subcommand("plot", "Draw every figure a results folder supports.");

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -36,7 +37,8 @@ struct Folder {
   json shards = json::object();                 // the manifest's entries by "I/N"
   std::string status;                           // the manifest's (as its last writer left it)
   std::string scenario_file;
-  json job;  // slurm/job.json, or null
+  std::string command;  // the manifest's
+  json job;             // slurm/job.json, or null
 };
 
 json read_json_or_throw(const fs::path& path, const fs::path& dir) {
@@ -80,6 +82,7 @@ Folder read_folder(const fs::path& dir) {
     f.index_of[p.value("id", "")] = p.value("index", std::size_t{0});
   if (m.contains("shards") && m["shards"].is_object()) f.shards = m["shards"];
   f.status = m.value("status", "");
+  f.command = m.value("command", "");
   f.scenario_file = has_job ? f.job.value("scenario_file", "") : m.value("scenario_file", "");
 
   // Rows: complete lines only (a row being appended now has no '\n' yet), each run once.
@@ -247,10 +250,15 @@ std::string fraction(std::size_t done, std::size_t total) {
   return std::to_string(done) + "/" + std::to_string(total);
 }
 
-}  // namespace
+// A folder's shards and totals, each shard judged.
+struct RunView {
+  std::vector<ShardView> shards;
+  std::size_t points_done = 0, runs_done = 0, runs_total = 0;
+  bool live = false;      // a shard runs or is queued
+  bool complete = false;  // every run has its row
+};
 
-int results_status(const fs::path& dir) {
-  const Folder f = read_folder(dir);
+RunView assess(const fs::path& dir, const Folder& f, Queue& queue) {
   const int job_shards = f.job.is_object() ? f.job.value("shards", 0) : 0;
   const fs::path script = f.job.is_object() ? fs::path(f.job.value("script", "")) : fs::path();
 
@@ -264,8 +272,7 @@ int results_status(const fs::path& dir) {
     for (int i = 0; i < n && static_cast<std::size_t>(i) < std::max<std::size_t>(f.points, 1); ++i)
       keys.insert({n, i});
 
-  Queue queue;
-  std::vector<ShardView> views;
+  RunView r;
   for (const auto& [n, i] : keys) {
     ShardView v;
     v.index = i;
@@ -282,17 +289,193 @@ int results_status(const fs::path& dir) {
     const std::string key = std::to_string(i) + "/" + std::to_string(n);
     const json* entry = f.shards.contains(key) ? &f.shards[key] : nullptr;
     judge(v, entry, queue, dir, script, n == job_shards && !script.empty());
-    views.push_back(v);
+    r.shards.push_back(v);
   }
 
-  std::size_t runs_done = 0, points_done = 0;
   for (const auto& [p, runs] : f.runs_of) {
-    runs_done += runs;
-    points_done += runs == static_cast<std::size_t>(f.repetitions) ? 1 : 0;
+    r.runs_done += runs;
+    r.points_done += runs == static_cast<std::size_t>(f.repetitions) ? 1 : 0;
   }
-  const std::size_t runs_total = f.points * static_cast<std::size_t>(f.repetitions);
-  const bool live = std::any_of(views.begin(), views.end(), [](const auto& v) { return v.live; });
-  const bool complete = f.points > 0 && runs_done == runs_total;
+  r.runs_total = f.points * static_cast<std::size_t>(f.repetitions);
+  r.live = std::any_of(r.shards.begin(), r.shards.end(), [](const auto& v) { return v.live; });
+  r.complete = f.points > 0 && r.runs_done == r.runs_total;
+  return r;
+}
+
+// A tune's folder (rosguard tune): its tune.json (once the search finished) or its probes/
+// (from the start).
+bool is_tune_folder(const fs::path& dir) {
+  std::error_code ec;
+  return fs::is_regular_file(dir / "tune.json", ec) || fs::is_directory(dir / "probes", ec);
+}
+
+// One batch of a tune: one `rosguard run` of a generated scenario (NAME.json, written before
+// the run starts) into the results folder NAME/.
+struct Batch {
+  std::string name;
+  fs::path dir;
+  bool started = false;  // the folder has its manifest
+  Folder folder;
+  RunView view;
+  std::string state;
+};
+
+// The batches in the order tune runs them: probes/unregulated, probes/step-NN, then those of
+// --confirm hw (confirm-hw, confirm-hw-unregulated beside probes/).
+std::vector<Batch> tune_batches(const fs::path& dir, Queue& queue) {
+  std::vector<std::pair<std::string, fs::path>> found;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir / "probes", ec))
+    if (e.path().extension() == ".json")
+      found.emplace_back(e.path().stem().string(), e.path().parent_path() / e.path().stem());
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
+    return std::make_pair(a.first != "unregulated", a.first) <
+           std::make_pair(b.first != "unregulated", b.first);
+  });
+  for (const char* name : {"confirm-hw", "confirm-hw-unregulated"})
+    if (fs::is_regular_file(dir / (std::string(name) + ".json"), ec))
+      found.emplace_back(name, dir / name);
+  std::vector<Batch> batches;
+  for (const auto& [name, folder] : found) {
+    Batch b;
+    b.name = name;
+    b.dir = folder;
+    b.started = fs::is_regular_file(folder / "manifest.json", ec);
+    if (b.started) {
+      b.folder = read_folder(folder);
+      b.view = assess(folder, b.folder, queue);
+      b.state = b.view.complete             ? "complete"
+                : b.view.shards.size() == 1 ? b.view.shards.front().state
+                : b.view.live               ? "running"
+                                            : "incomplete";
+    } else {
+      b.state = "not started";
+    }
+    batches.push_back(std::move(b));
+  }
+  return batches;
+}
+
+std::string slowdowns(const json& setting) {
+  const auto num = [&](const char* k) {
+    const json& v = setting.value(k, json());
+    if (!v.is_number()) return std::string("n/a");
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4f", v.get<double>());
+    return std::string(buf);
+  };
+  return "RT slowdown " + num("rt_slowdown") + " (worst), nRT slowdown " + num("nrt_slowdown") +
+         " (mean)";
+}
+
+// `rosguard status` of a tune's folder: what it searches, each batch's progress and state,
+// whether the tune runs, stopped or finished, and its choice once finished.
+int tune_status(const fs::path& dir) {
+  Queue queue;
+  const std::vector<Batch> batches = tune_batches(dir, queue);
+  std::error_code ec;
+  const bool finished = fs::is_regular_file(dir / "tune.json", ec);
+  const json tune = finished ? read_json_or_throw(dir / "tune.json", dir) : json::object();
+
+  std::cout << dir.string() << ": rosguard tune, " << batches.size() << " batch(es)\n";
+  // The command: the tune's own, as each batch's manifest records it ("... (step-00)").
+  std::string command;
+  for (const auto& b : batches)
+    if (b.started && !b.folder.command.empty()) {
+      command = b.folder.command;
+      const std::string suffix = " (" + b.name + ")";
+      if (command.size() > suffix.size() &&
+          command.compare(command.size() - suffix.size(), suffix.size(), suffix) == 0)
+        command.erase(command.size() - suffix.size());
+      break;
+    }
+  if (!command.empty()) std::cout << "  command      " << command << "\n";
+  if (finished)
+    std::cout << "  searched     " << tune.value("configurations", json::array()).size()
+              << " configuration(s) x " << tune.value("ladder_pct", json::array()).size()
+              << " threshold(s) x "
+              << std::max<std::size_t>(1, tune.value("cases", json::array()).size())
+              << " case(s): " << tune.value("simulated_points", 0)
+              << " point(s) simulated of the full grid's " << tune.value("grid_points", 0) << "\n";
+
+  std::printf("  %-24s %-13s %-13s %s\n", "batch", "points", "runs", "state");
+  std::size_t points_done = 0, points = 0, runs_done = 0, runs = 0;
+  for (const auto& b : batches) {
+    const std::string p = b.started ? fraction(b.view.points_done, b.folder.points) : "-";
+    const std::string r = b.started ? fraction(b.view.runs_done, b.view.runs_total) : "-";
+    std::printf("  %-24s %-13s %-13s %s\n", b.name.c_str(), p.c_str(), r.c_str(), b.state.c_str());
+    points_done += b.view.points_done;
+    points += b.folder.points;
+    runs_done += b.view.runs_done;
+    runs += b.view.runs_total;
+  }
+
+  // The tune's state: finished (tune.json), a batch runs, or the tune's process (the last
+  // started batch's manifest entry names it) is between batches, or gone.
+  const Batch* judged = nullptr;
+  const Batch* running = nullptr;
+  for (const auto& b : batches) {
+    if (b.started && b.folder.shards.contains("0/1")) judged = &b;
+    if (b.view.live) running = &b;
+  }
+  std::string state = "finished";
+  bool stopped = false;
+  if (running) {
+    state = "running: " + running->name;
+  } else if (!finished && judged) {
+    ShardView v;
+    judge_running(v, judged->folder.shards["0/1"], queue, judged->dir);
+    stopped = !v.live;
+    if (v.live)
+      state = v.state + (judged == &batches.back() ? ", between batches"
+                                                   : ", starting " + batches.back().name);
+    else if (judged->state == "complete")  // v.state: "stopped: its process (pid N) is gone ..."
+      state = "stopped after " + judged->name + v.state.substr(std::string("stopped").size());
+    else
+      state = "stopped after " + judged->name + ": " + judged->state;
+  } else if (!finished) {
+    state = "no batch has run yet (starting, or stopped before its first batch)";
+  }
+  std::printf("  %-24s %-13s %-13s %s\n", "all", fraction(points_done, points).c_str(),
+              fraction(runs_done, runs).c_str(), state.c_str());
+  if (queue.failed()) std::cout << "note: Slurm's queue could not be read: " << queue.why() << "\n";
+
+  if (finished) {
+    const auto line = [](const char* what, const json& setting) {
+      std::cout << "  " << std::left << std::setw(13) << what << setting.value("label", "?")
+                << "\n  " << std::setw(13) << "" << slowdowns(setting) << "\n";
+    };
+    std::cout << "  bound        every RT node's slowdown <= "
+              << tune.value("rt_slowdown_max", json()).dump() << "\n";
+    const json& best = tune.value("best", json());
+    if (best.is_object()) {
+      line("best", best);
+    } else {
+      std::cout << "  best         none: no simulated setting meets the bound\n";
+      if (tune.value("closest", json()).is_object()) line("closest", tune["closest"]);
+    }
+    if (tune.value("runner_up", json()).is_object()) line("runner-up", tune["runner_up"]);
+    if (tune.value("unregulated", json()).is_object())
+      std::cout << "  " << std::left << std::setw(13) << "unregulated"
+                << slowdowns(tune["unregulated"]) << "\n";
+    std::cout << "  results      " << (dir / "tune.json").string() << ", "
+              << (dir / "points.csv").string() << " (rosguard plot " << dir.string() << ")\n";
+  }
+  if (stopped)
+    std::cout << "A tune does not resume: run it again with --overwrite"
+              << (command.empty() ? std::string(".") : ":\n  " + command + " --overwrite") << "\n";
+  return 0;
+}
+}  // namespace
+
+int results_status(const fs::path& dir) {
+  if (is_tune_folder(dir)) return tune_status(dir);
+  const Folder f = read_folder(dir);
+  const int job_shards = f.job.is_object() ? f.job.value("shards", 0) : 0;
+  const fs::path script = f.job.is_object() ? fs::path(f.job.value("script", "")) : fs::path();
+  Queue queue;
+  const RunView r = assess(dir, f, queue);
+  const std::vector<ShardView>& views = r.shards;
 
   std::cout << dir.string() << ": " << (f.scenario_file.empty() ? "" : f.scenario_file + ", ")
             << f.points << " point(s) x " << f.repetitions << " repetition(s)\n";
@@ -314,11 +497,11 @@ int results_status(const fs::path& dir) {
     }
   }
   if (unlisted > 0) std::printf("  (%zu complete shard(s) not listed)\n", unlisted);
-  std::printf("  %-9s %-13s %-13s %s\n", "all", fraction(points_done, f.points).c_str(),
-              fraction(runs_done, runs_total).c_str(),
-              complete ? "complete"
-              : live   ? "running"
-                       : "incomplete");
+  std::printf("  %-9s %-13s %-13s %s\n", "all", fraction(r.points_done, f.points).c_str(),
+              fraction(r.runs_done, r.runs_total).c_str(),
+              r.complete ? "complete"
+              : r.live   ? "running"
+                         : "incomplete");
   std::cout.flush();
   if (queue.failed()) std::cout << "note: Slurm's queue could not be read: " << queue.why() << "\n";
 

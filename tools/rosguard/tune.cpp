@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "files.h"
+#include "policy/rules.h"
 #include "results/results.h"
 #include "runner.h"
 #include "scenario/sweep.h"
@@ -159,11 +160,19 @@ class Tuner {
   void load_source();
   void build_space();
   void prepare_folder();
+  // The scenario of one batch: `settings` (rows of the setting key) x every case.
   json batch_document(const std::vector<json>& settings, const std::string& backend) const;
-  // Runs the settings (x every case) as one scenario into probes/<name>; returns the exit code
-  // of the run (0, or 130 / 143 when interrupted) and adds the evaluations.
-  int run_batch(const std::string& name, const std::vector<json>& settings,
-                const std::string& backend, const fs::path& out, std::map<std::string, Eval>& into);
+  // The scenario of the unregulated co-run: the unregulated policy with the other regulation
+  // settings at their defaults (the metric and reference bandwidth kept), x every case.
+  json unregulated_document(const std::string& backend) const;
+  // Runs `doc` (batch_document of `settings`, or unregulated_document, whose one setting is
+  // `settings`) into `out`; returns the exit code of the run (0, or 130 / 143 when
+  // interrupted) and adds the evaluations.
+  int run_batch(const std::string& name, json doc, const std::vector<json>& settings,
+                const fs::path& out, std::map<std::string, Eval>& into);
+  // run_batch into probes/<name> as a batch of the search (merged into DIR at the end).
+  int run_probe(const std::string& name, json doc, const std::vector<json>& settings,
+                std::map<std::string, Eval>& into);
   json setting_json(const Eval& e) const;
   std::string setting_label(const json& setting) const;
   std::optional<double> budget_mbps(const json& setting) const;
@@ -196,11 +205,12 @@ class Tuner {
   std::vector<std::string> evals_order_;
   std::optional<json> unregulated_setting_;
   std::vector<std::string> notes_;
-  std::vector<fs::path> batch_dirs_;
   std::size_t simulated_points_ = 0;
   std::size_t case_count_ = 1;
   std::size_t grid_points_ = 0;
   int step_ = 0;
+  // The search's batches in the order they ran: the unregulated co-run's, then step-NN's.
+  std::vector<fs::path> batch_dirs_;
 };
 
 void Tuner::load_source() {
@@ -344,7 +354,6 @@ void Tuner::build_space() {
   if (ladder_.empty()) throw InputError(file, "/sweep", "no threshold to search");
 
   // The configurations: the swept regulation keys, else the default space.
-  const json& reg = src_.expanded["regulation"];
   const bool default_space = dims.empty();
   if (default_space) {
     // Every policy that throttles, with each sampling mode its traits say it runs with, at the
@@ -378,11 +387,21 @@ void Tuner::build_space() {
     setting_key_ += p + "+";
   setting_key_ += kThreshold;
 
-  // The value of a config path where no dimension sets it: the scenario's.
-  const auto base_value = [&](const std::string& path) -> json {
-    const json::json_pointer ptr(to_json_pointer(parse_sweep_path(path)));
-    if (src_.expanded.contains(ptr)) return src_.expanded.at(ptr);
-    return nullptr;
+  // Every config path's value in a configuration (`swept`: the values its dimensions set):
+  // where no dimension sets it, the scenario's, else what a run of that setting resolves it to
+  // (the policy's own sampling mode and periods, else the generic ones: apply_policy_defaults).
+  // So each row of a generated sweep is a complete setting, whichever paths a joined key sets.
+  const auto resolve = [&](const std::map<std::string, json>& swept) {
+    json doc = {{"regulation", src_.expanded.value("regulation", json::object())}};
+    for (const auto& [path, value] : swept)
+      doc[json::json_pointer(to_json_pointer(parse_sweep_path(path)))] = value;
+    apply_policy_defaults(doc["regulation"]);
+    json config = json::array();
+    for (const auto& p : config_paths_) {
+      const json::json_pointer ptr(to_json_pointer(parse_sweep_path(p)));
+      config.push_back(doc.contains(ptr) ? doc.at(ptr) : json(nullptr));
+    }
+    return config;
   };
   std::vector<std::map<std::string, json>> assigned = {{}};
   for (const auto& [paths, tuples] : dims) {
@@ -398,20 +417,23 @@ void Tuner::build_space() {
   }
   std::set<std::string> seen;
   std::set<std::string> dropped_policies;
-  bool collapsed = false;
+  std::set<std::string> collapsed;  // the regulation periods the policies that ignore it run at
   for (auto& a : assigned) {
-    json config = json::array();
-    for (const auto& p : config_paths_)
-      config.push_back(a.count(p) ? a[p] : base_value(p));
+    json config = resolve(a);
     const std::string policy = config[0].get<std::string>();
     const PolicyInfo* info = policies_.find(policy);
     if (!info || !info->traits.regulates || !info->traits.throttles) {
       dropped_policies.insert(policy);
       continue;
     }
-    if (!info->traits.periodic_windows && config[3] != reg.value("regulation_period_us", json())) {
-      config[3] = reg.value("regulation_period_us", json());  // not used by the policy
-      collapsed = true;
+    if (!info->traits.periodic_windows) {  // the regulation period is not used by the policy
+      auto unswept = a;
+      unswept.erase(kRegulationPeriod);
+      const json period = resolve(unswept)[3];
+      if (config[3] != period) {
+        config[3] = period;
+        collapsed.insert(value_text(period));
+      }
     }
     if (!seen.insert(config.dump()).second) continue;
     searches_.push_back({config, "", ThresholdSearch(static_cast<int>(ladder_.size())), {}});
@@ -419,11 +441,13 @@ void Tuner::build_space() {
   for (const auto& p : dropped_policies)
     note("policy " + p + " is left out of the space: it does not throttle" +
          (p == "none" ? " (the unregulated co-run is reported on its own)" : ""));
-  if (collapsed)
-    note(
-        "policies with one budget per RT run ignore the regulation period: they are run at the "
-        "scenario's " +
-        value_text(reg.value("regulation_period_us", json())) + " us");
+  if (!collapsed.empty()) {
+    std::string periods;
+    for (const auto& p : collapsed)
+      periods += (periods.empty() ? "" : ", ") + p;
+    note("policies with one budget per RT run ignore the regulation period: they are run at " +
+         periods + " us (the scenario's regulation_period_us, else the policy's default)");
+  }
 
   // Each configuration must be a valid scenario in every case (policy rules, backend checks):
   // those that are not are left out, with the reason.
@@ -478,14 +502,11 @@ void Tuner::build_space() {
     }
   }
 
-  // Unregulated: the policy that does not regulate, at the scenario's other values.
+  // Unregulated: the policy that does not regulate, a setting of the policy alone (its batch
+  // has no setting key: unregulated_document).
   for (const auto& p : policies_.all())
     if (!p.traits.regulates) {
-      json u = json::array({p.name});
-      for (std::size_t c = 1; c < config_paths_.size(); ++c)
-        u.push_back(base_value(config_paths_[c]));
-      u.push_back(number_json(reg.value("threshold_pct", ladder_.back())));
-      unregulated_setting_ = u;
+      unregulated_setting_ = json::array({p.name});
       break;
     }
   if (!unregulated_setting_)
@@ -549,10 +570,36 @@ json Tuner::batch_document(const std::vector<json>& settings, const std::string&
   return doc;
 }
 
-int Tuner::run_batch(const std::string& name, const std::vector<json>& settings,
-                     const std::string& backend, const fs::path& out,
+json Tuner::unregulated_document(const std::string& backend) const {
+  json doc = base_;
+  doc["backend"] = backend;
+  json reg = {{"policy", unregulated_setting_->at(0)}};
+  if (base_.contains("regulation"))
+    for (const char* k : {"metric", "reference_mbps"})
+      if (base_["regulation"].contains(k)) reg[k] = base_["regulation"][k];
+  doc["regulation"] = reg;
+  json sweep = json::object();
+  for (const auto& [key, values] : case_keys_)
+    sweep[key] = values;
+  if (!sweep.empty()) doc["sweep"] = sweep;
+  return doc;
+}
+
+int Tuner::run_probe(const std::string& name, json doc, const std::vector<json>& settings,
                      std::map<std::string, Eval>& into) {
-  json doc = batch_document(settings, backend);
+  const fs::path out = dir_ / "probes" / name;
+  const int rc = run_batch(name, std::move(doc), settings, out, into);
+  batch_dirs_.push_back(out);
+  if (rc != 0)
+    std::cerr << "rosguard: tune interrupted; the batches so far are in "
+              << (dir_ / "probes").string()
+              << " (tune does not resume: run it again with --overwrite)\n";
+  return rc;
+}
+
+int Tuner::run_batch(const std::string& name, json doc, const std::vector<json>& settings,
+                     const fs::path& out, std::map<std::string, Eval>& into) {
+  const std::string backend = doc.at("backend").get<std::string>();
   doc["name"] = name_.substr(0, 100) + "-" + name;  // names have at most 128 characters
   const fs::path file = out.string() + ".json";
   write_file_atomic(file, doc.dump(2) + "\n");
@@ -688,14 +735,16 @@ int Tuner::run_batch(const std::string& name, const std::vector<json>& settings,
 
 json Tuner::setting_json(const Eval& e) const {
   json j = json::object();
-  j["policy"] = e.setting[0];
-  j["sampling"] = e.setting[1];
-  j["sampling_period_us"] = e.setting[2];
-  j["regulation_period_us"] = e.setting[3];
-  for (std::size_t c = 4; c < config_paths_.size(); ++c)
-    j[config_paths_[c]] = e.setting[c];
   const PolicyInfo* info = policies_.find(e.setting[0].get<std::string>());
   const bool regulates = !info || info->traits.regulates;
+  // The unregulated setting is the policy alone: the other settings are null (not used).
+  const auto value = [&](std::size_t c) { return regulates ? e.setting.at(c) : json(nullptr); };
+  j["policy"] = e.setting[0];
+  j["sampling"] = value(1);
+  j["sampling_period_us"] = value(2);
+  j["regulation_period_us"] = value(3);
+  for (std::size_t c = 4; c < config_paths_.size(); ++c)
+    j[config_paths_[c]] = value(c);
   j["threshold_pct"] = regulates ? e.setting[config_paths_.size()] : json(nullptr);
   const auto b = regulates ? budget_mbps(e.setting) : std::nullopt;
   j["budget_mbps"] = b ? json(std::round(*b * 10.0) / 10.0) : json(nullptr);
@@ -721,17 +770,36 @@ json Tuner::setting_json(const Eval& e) const {
 // what the folder is.
 void Tuner::merge_results() {
   std::string points, samples;
-  std::string points_header, samples_header;
+  std::string samples_header;
+  // The columns: the last step's (the setting key's param: columns among them). The unregulated
+  // batch sweeps no setting key: its rows have those cells empty.
+  const std::string points_header = split_lines(read_file(batch_dirs_.back() / "points.csv")).at(0);
+  const std::vector<std::string> columns = csv_split(points_header);
   for (const auto& d : batch_dirs_) {
     auto p = split_lines(read_file(d / "points.csv"));
     if (p.empty()) continue;
-    if (points_header.empty()) {
-      points_header = p[0];
-    } else if (p[0] != points_header) {
-      throw RunError((d / "points.csv").string() + " has other columns than the first batch's");
+    if (p[0] == points_header) {
+      for (std::size_t i = 1; i < p.size(); ++i)
+        points += p[i] + "\n";
+    } else {
+      std::vector<std::size_t> from;  // per column of points_header: its index in this batch
+      const std::vector<std::string> own = csv_split(p[0]);
+      for (const auto& c : own)
+        if (std::find(columns.begin(), columns.end(), c) == columns.end())
+          throw RunError((d / "points.csv").string() +
+                         " has a column the last batch has not: " + c);
+      for (const auto& c : columns)
+        from.push_back(
+            static_cast<std::size_t>(std::find(own.begin(), own.end(), c) - own.begin()));
+      for (std::size_t i = 1; i < p.size(); ++i) {
+        const auto cells = csv_split(p[i]);
+        std::string line;
+        for (std::size_t c = 0; c < from.size(); ++c)
+          line += (c ? "," : "") +
+                  (from[c] < std::min(own.size(), cells.size()) ? csv_escape(cells[from[c]]) : "");
+        points += line + "\n";
+      }
     }
-    for (std::size_t i = 1; i < p.size(); ++i)
-      points += p[i] + "\n";
     std::error_code ec;
     if (!fs::exists(d / "samples.csv", ec)) continue;
     auto s = split_lines(read_file(d / "samples.csv"));
@@ -759,17 +827,20 @@ void Tuner::merge_results() {
 }
 
 int Tuner::confirm_hw(const Eval& best, const Eval* unregulated, json& doc) {
-  std::vector<json> settings = {best.setting};
-  if (unregulated) settings.push_back(unregulated->setting);
   const fs::path out = dir_ / "confirm-hw";
   if (!opt_.quiet) std::cerr << "tune: measuring the winner and the unregulated co-run on hw\n";
   std::map<std::string, Eval> measured;
   const std::size_t simulated = simulated_points_;  // hw points are measured, not simulated
-  const int rc = run_batch("confirm-hw", settings, "hw", out, measured);
+  int rc =
+      run_batch("confirm-hw", batch_document({best.setting}, "hw"), {best.setting}, out, measured);
+  if (rc == 0 && unregulated)
+    rc = run_batch("confirm-hw-unregulated", unregulated_document("hw"), {unregulated->setting},
+                   dir_ / "confirm-hw-unregulated", measured);
   simulated_points_ = simulated;
   if (rc != 0) return rc;
   json confirm = json::object();
-  std::cout << "\nconfirmed on this machine (hw backend, " << out.string() << "):\n";
+  std::cout << "\nconfirmed on this machine (hw backend, " << out.string()
+            << (unregulated ? ", " + (dir_ / "confirm-hw-unregulated").string() : "") << "):\n";
   std::cout << "  " << std::left << std::setw(14) << "setting" << std::setw(12) << "RT sim"
             << std::setw(12) << "RT hw" << std::setw(12) << "nRT sim" << std::setw(12) << "nRT hw"
             << "\n";
@@ -810,10 +881,26 @@ int Tuner::search() {
     setting.push_back(number_json(ladder_[static_cast<std::size_t>(r)]));
     return setting;
   };
+  const auto add = [&](const std::map<std::string, Eval>& got) {
+    for (auto& [k, e] : got) {
+      if (!evals_.count(k)) evals_order_.push_back(k);
+      evals_[k] = e;
+    }
+  };
+  if (unregulated_setting_) {
+    if (!opt_.quiet)
+      std::cerr << "tune: unregulated: policy " << value_text(unregulated_setting_->at(0)) << " x "
+                << case_count_ << " case(s)\n";
+    std::map<std::string, Eval> got;
+    if (const int rc =
+            run_probe("unregulated", unregulated_document("sim"), {*unregulated_setting_}, got);
+        rc != 0)
+      return rc;
+    add(got);
+  }
   while (true) {
     std::vector<json> settings;
     std::vector<std::pair<std::size_t, int>> owners;  // (search, rung) per setting
-    if (step_ == 0 && unregulated_setting_) settings.push_back(*unregulated_setting_);
     std::size_t searching = 0, scanning = 0;
     for (std::size_t i = 0; i < searches_.size(); ++i) {
       const std::vector<int> rungs = searches_[i].search.next();
@@ -826,26 +913,14 @@ int Tuner::search() {
     if (owners.empty()) return 0;
     char name[32];
     std::snprintf(name, sizeof name, "step-%02d", step_);
-    const fs::path out = dir_ / "probes" / name;
     if (!opt_.quiet)
       std::cerr << "tune: " << name << ": " << settings.size() << " setting(s) x " << case_count_
                 << " case(s) (" << searching << " configuration(s) bisected, " << scanning
-                << " scanned"
-                << (step_ == 0 && unregulated_setting_ ? ", the unregulated co-run" : "") << "); "
-                << simulated_points_ << " point(s) simulated so far\n";
+                << " scanned); " << simulated_points_ << " point(s) simulated so far\n";
     std::map<std::string, Eval> got;
-    const int rc = run_batch(name, settings, "sim", out, got);
-    batch_dirs_.push_back(out);
-    if (rc != 0) {
-      std::cerr << "rosguard: tune interrupted; the batches so far are in "
-                << (dir_ / "probes").string()
-                << " (tune does not resume: run it again with --overwrite)\n";
+    if (const int rc = run_probe(name, batch_document(settings, "sim"), settings, got); rc != 0)
       return rc;
-    }
-    for (auto& [k, e] : got) {
-      if (!evals_.count(k)) evals_order_.push_back(k);
-      evals_[k] = e;
-    }
+    add(got);
     for (const auto& [i, r] : owners) {
       const std::string k = setting_at(searches_[i], r).dump();
       Eval& e = evals_.at(k);
@@ -909,7 +984,7 @@ void Tuner::print_summary(const Outcome& o) const {
             << " thresholds (" << compact_number(ladder_.front()) << " .. "
             << compact_number(ladder_.back()) << " %) x " << case_count_ << " case(s)\n";
   const std::size_t unregulated_points = o.unregulated ? o.unregulated->cases.size() : 0;
-  std::cout << "  simulated    " << simulated_points_ << " point(s) in " << step_
+  std::cout << "  simulated    " << simulated_points_ << " point(s) in " << batch_dirs_.size()
             << " batches: " << simulated_points_ - unregulated_points << " of the full grid's "
             << grid_points_;
   if (o.unregulated) std::cout << ", and " << unregulated_points << " unregulated";

@@ -2,23 +2,26 @@
 // gives the nRT nodes the most progress, found in sim.
 //
 // The space: the scenario's regulation sweep keys (regulation.policy, .sampling, the periods,
-// any other regulation.* key) bound it; a scenario that sweeps none of them but the threshold
-// gets the default space (every registered policy whose traits say it throttles x sampling self
-// and external x three sampling / regulation period pairs). The threshold ladder is the swept
-// regulation.threshold_pct list, else the default ladder (1 .. 100 %). The other sweep keys
-// (workloads, cores, ...) are cases the setting must satisfy together.
+// any other regulation.* key, joined or not) bound it, a path no key sets keeping the
+// scenario's value, else the policy's default; a scenario that sweeps none of them but the
+// threshold gets the default space (every registered policy whose traits say it throttles x
+// sampling self and external x three sampling / regulation period pairs). The threshold ladder is
+// the swept regulation.threshold_pct list, else the default ladder (1 .. 100 %). The other sweep
+// keys (workloads, cores, ...) are cases the setting must satisfy together.
 //
 // The search: for each configuration (everything but the threshold) the best threshold is the
 // largest one that meets the bound when RT slowdown grows and nRT slowdown falls with the
 // threshold, so it is bisected over the ladder, every configuration's next probe in one batch
 // (one `rosguard run` of a generated scenario, --jobs workers). Every probe is checked against
 // that monotonicity; a configuration whose probes contradict it is scanned instead (a note says
-// so). The unregulated co-run (policy none) is simulated once per case.
+// so). The unregulated co-run (policy none, the other regulation settings at their defaults) is
+// a batch of its own, once per case.
 //
-// Results folder (default results/<scenario name>/tune): probes/step-NN{.json,/} (each batch's
-// scenario and its results folder), points.csv / samples.csv / manifest.json of every simulated
-// point (standard columns: `rosguard plot DIR` draws them), tune.json, and with --confirm hw
-// confirm-hw/ (the winner and the unregulated co-run measured on this machine).
+// Results folder (default results/<scenario name>/tune): probes/unregulated{.json,/} and
+// probes/step-NN{.json,/} (each batch's scenario and its results folder), points.csv / samples.csv
+// / manifest.json of every simulated point (standard columns: `rosguard plot DIR` draws them),
+// tune.json, and with --confirm hw confirm-hw/ and confirm-hw-unregulated/ (the winner and the
+// unregulated co-run measured on this machine).
 #pragma once
 
 #include <filesystem>

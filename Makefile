@@ -19,7 +19,7 @@ PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
 .PHONY: all deps configure build test test-nosim run install reproduce sensitivity validate \
-        validate-readme bench-parallel bench-soak bench-middleware bench format clean fit-table1
+        validate-readme bench-parallel bench-large bench-soak bench-middleware bench format clean fit-table1
 
 all: build
 
@@ -86,6 +86,12 @@ bench: build
 # when other processes took more than 2 % of a run's CPU time).
 bench-parallel: build
 	tests/bench/parallel_efficiency.sh $(BUILD) 5 $(JOBS)
+
+# A 100,000-point sweep (scenarios/bench/sweep-100k.json): time, the runner's peak memory per
+# point, and `rosguard status` on the result (long: some 10 minutes on 2 CPUs; 1.6 GB of
+# samples in a temporary folder).
+bench-large: build
+	tests/bench/large_sweep.sh $(BUILD) $(JOBS)
 
 # The paper's experiments 1-3 on hw, transport inproc vs dds (scenarios/bench/hw-middleware.json),
 # and the README's middleware table from them.

@@ -4,7 +4,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -16,10 +15,10 @@
 #include <mutex>
 #include <set>
 #include <sstream>
-#include <thread>
 #include <tuple>
 
 #include "core/error.h"
+#include "parallel.h"
 #include "policy/rules.h"
 
 #if !defined(ROSGUARD_SOURCE_DIR) || !defined(ROSGUARD_DATA_FROM_BIN)
@@ -698,45 +697,11 @@ LoadedPoint Loader::point(const LoadedScenario& loaded, std::uint64_t index, boo
 
 void Loader::load_points(LoadedScenario& out, PointSelection selection, unsigned threads) {
   // An error in one point names the sweep value that caused it (a problem inside a platform or
-  // workload file is reported as it is). With several threads, each takes the next chunk of
-  // points; the error reported is that of the first point (in sweep order) that has one, as
-  // without threads: a thread stops at a point after a failed one.
+  // workload file is reported as it is), on several threads the first point's that has one.
   const std::vector<std::uint64_t> indexes =
       selected_points(out.point_count, out.source->plan.sizes(), selection);
   std::vector<std::optional<LoadedPoint>> built(indexes.size());
-  constexpr std::size_t kChunk = 64;
-  std::atomic<std::size_t> next{0};
-  std::mutex failed_mutex;
-  std::size_t failed_at = indexes.size();  // the first failed position
-  std::exception_ptr failure;
-  const auto work = [&] {
-    for (std::size_t begin; (begin = next.fetch_add(kChunk)) < indexes.size();)
-      for (std::size_t i = begin; i < std::min(begin + kChunk, indexes.size()); ++i) {
-        {
-          const std::lock_guard<std::mutex> lock(failed_mutex);
-          if (i > failed_at) return;
-        }
-        try {
-          built[i] = point(out, indexes[i]);
-        } catch (...) {
-          const std::lock_guard<std::mutex> lock(failed_mutex);
-          if (i < failed_at) {
-            failed_at = i;
-            failure = std::current_exception();
-          }
-          return;
-        }
-      }
-  };
-  const std::size_t extra =
-      std::min<std::size_t>(std::max(threads, 1U) - 1, indexes.size() / kChunk);
-  std::vector<std::thread> pool;
-  for (std::size_t t = 0; t < extra; ++t)
-    pool.emplace_back(work);
-  work();
-  for (auto& t : pool)
-    t.join();
-  if (failure) std::rethrow_exception(failure);
+  parallel_for(indexes.size(), threads, [&](std::size_t i) { built[i] = point(out, indexes[i]); });
   out.points.reserve(indexes.size());
   for (auto& p : built)
     out.points.push_back(std::move(*p));

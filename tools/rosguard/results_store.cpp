@@ -321,6 +321,9 @@ json ResultsStore::read_manifest() const {
 // holds the lock, so no writer is between its two appends.
 std::set<RunKey> ResultsStore::tidy_csv_files(const RowRefresher& refresh,
                                               const PointRefresher& point_refresh) const {
+  // Both files as this store left them (see append_runs), nothing to refresh: tidy already, and
+  // not read again (a 10,000-point sweep writes some 150 MB of samples).
+  if (tidy_ && !refresh && !point_refresh && sizes() == tidy_sizes_) return done_;
   const CsvFile points = read_csv(points_path(), order_);
   if (!points.header.empty() && points.header != header_line_)
     throw InputError("", "",
@@ -350,20 +353,27 @@ std::set<RunKey> ResultsStore::tidy_csv_files(const RowRefresher& refresh,
   flush();
   write_file_atomic(points_path(), text);
 
-  const fs::path samples = dir_ / "samples.csv";
-  std::error_code ec;
-  const auto size = fs::file_size(samples, ec);
-  // samples.csv as this store left it (see append_runs): tidy, and not read again (a
-  // 10,000-point sweep writes some 150 MB of it).
-  if (!(samples_tidy_ && !ec && size == samples_size_)) tidy_samples(samples, order_, done);
-  samples_tidy_ = true;
-  samples_size_ = fs::file_size(samples);
+  // samples.csv as this store left it needs no tidying: only points.csv had to be refreshed.
+  if (!(tidy_ && sizes().second == tidy_sizes_.second))
+    tidy_samples(dir_ / "samples.csv", order_, done);
+  tidy_ = true;
+  tidy_sizes_ = sizes();
+  done_ = done;
   last_run_ = {0, -1};
   for (const auto& [id, rep] : done) {
     const auto it = order_.find(id);
     last_run_ = std::max(last_run_, {it == order_.end() ? order_.size() : it->second, rep});
   }
   return done;
+}
+
+std::pair<std::uintmax_t, std::uintmax_t> ResultsStore::sizes() const {
+  std::error_code ec;
+  const auto size = [&](const fs::path& p) {
+    const auto n = fs::file_size(p, ec);
+    return ec ? static_cast<std::uintmax_t>(-1) : n;
+  };
+  return {size(points_path()), size(dir_ / "samples.csv")};
 }
 
 ResultsStore::Opened ResultsStore::open(const json& description, const std::string& shard) {
@@ -401,13 +411,10 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
 
 void ResultsStore::append_runs(const std::string& samples, const std::string& rows) const {
   FileLock lock(dir_ / ".lock");
-  const fs::path samples_path = dir_ / "samples.csv";
-  // samples.csv stays tidy (tidy_samples would not change it) while only this store appends,
+  // The files stay tidy (tidy_csv_files would not change them) while only this store appends,
   // each run after the last one in sweep order.
-  std::error_code ec;
-  if (samples_tidy_ && (fs::file_size(samples_path, ec) != samples_size_ || ec))
-    samples_tidy_ = false;  // another shard wrote
-  for (std::size_t pos = 0; samples_tidy_ && pos < rows.size();) {
+  if (tidy_ && sizes() != tidy_sizes_) tidy_ = false;  // another shard wrote
+  for (std::size_t pos = 0; tidy_ && pos < rows.size();) {
     std::size_t end = rows.find('\n', pos);
     end = end == std::string::npos ? rows.size() : end;
     const std::string_view line(rows.data() + pos, end - pos);
@@ -419,20 +426,23 @@ void ResultsStore::append_runs(const std::string& samples, const std::string& ro
       std::from_chars(line.data() + c0 + 1, line.data() + line.size(), rep);
     const std::pair<std::size_t, int> run{it == order_.end() ? order_.size() : it->second, rep};
     if (line.find('"') != std::string_view::npos || it == order_.end() || run <= last_run_)
-      samples_tidy_ = false;
+      tidy_ = false;
+    else
+      done_.emplace(std::string(id), rep);
     last_run_ = run;
     pos = end + 1;
   }
-  AppendFile samples_file(samples_path);
+  AppendFile samples_file(dir_ / "samples.csv");
   samples_file.append(samples);
   try {
     append_under_lock(points_path(), rows);
   } catch (const RunError&) {
     samples_file.undo();  // no samples without their rows, and their space free again
-    samples_tidy_ = false;
+    tidy_ = false;
     throw;
   }
-  samples_size_ += samples.size();
+  tidy_sizes_.first += rows.size();
+  tidy_sizes_.second += samples.size();
 }
 
 void ResultsStore::save_baselines(const Baselines& baselines) const {

@@ -165,10 +165,13 @@ class ResultsStore {
   bool adaptive_;
   std::string shard_;
   std::unique_ptr<FileLock> shard_lock_;  // claim_shard's
-  // Whether samples.csv is as tidy_csv_files left it plus this store's appends, each of a run
-  // after the last (sweep index, rep): its size then, and that run.
-  mutable bool samples_tidy_ = false;
-  mutable std::uintmax_t samples_size_ = 0;
+  // The sizes of points.csv and samples.csv (-1 for one that is missing).
+  std::pair<std::uintmax_t, std::uintmax_t> sizes() const;
+  // Whether both files are as tidy_csv_files left them plus this store's appends, each of a run
+  // after the last (sweep index, rep): their sizes then, the runs they hold, and the last one.
+  mutable bool tidy_ = false;
+  mutable std::pair<std::uintmax_t, std::uintmax_t> tidy_sizes_;
+  mutable std::set<std::pair<std::string, int>> done_;
   mutable std::pair<std::size_t, int> last_run_{0, -1};
 };
 

@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "files.h"
+#include "parallel.h"
 #include "progress.h"
 #include "results/precision.h"
 #include "results/results.h"
@@ -29,6 +30,18 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 namespace {
+
+// --jobs, or the CPUs online when it is 0.
+int requested_jobs(const RunOptions& opt) {
+  return opt.jobs > 0 ? opt.jobs : static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN));
+}
+
+// Threads for the work on every point before and between the tasks (parallel.h): --jobs, no
+// more than the CPUs online.
+unsigned worker_threads(const RunOptions& opt) {
+  const auto cpus = static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN));
+  return static_cast<unsigned>(std::max(1, std::min(requested_jobs(opt), cpus)));
+}
 
 std::unique_ptr<Backend> make_backend(const LoadedScenario& loaded,
                                       const BackendRegistry& backends) {
@@ -89,13 +102,19 @@ CorunPlan add_corun_points(LoadedScenario& loaded, const RunOptions& opt,
   if (!opt.unregulated) return plan;
   std::map<std::string, std::size_t> index;  // key -> its co-run point
   std::vector<LoadedPoint> added;
+  // Each point's co-run key ("" for none), on --jobs threads.
+  std::vector<std::string> keys(plan.first);
+  parallel_for(plan.first, worker_threads(opt), [&](std::size_t i) {
+    const LoadedPoint& p = loaded.points[i];
+    if (p.sweep.index % static_cast<std::size_t>(opt.shard_count) ==
+            static_cast<std::size_t>(opt.shard_index) &&
+        UnregulatedCoruns::needed(p.scenario))
+      keys[i] = UnregulatedCoruns::key(p.scenario);
+  });
   for (std::size_t i = 0; i < plan.first; ++i) {
     const LoadedPoint& p = loaded.points[i];
-    if (p.sweep.index % static_cast<std::size_t>(opt.shard_count) !=
-            static_cast<std::size_t>(opt.shard_index) ||
-        !UnregulatedCoruns::needed(p.scenario))
-      continue;
-    const std::string& key = plan.key_of[p.sweep.id] = UnregulatedCoruns::key(p.scenario);
+    if (keys[i].empty()) continue;
+    const std::string& key = plan.key_of[p.sweep.id] = keys[i];
     const int measurements = measurements_of(p.scenario);
     auto [it, fresh] = index.try_emplace(key, added.size());
     if (fresh) {
@@ -145,6 +164,15 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
   std::map<std::string, Need> needs;  // by baseline key, in first-use order below
   std::vector<std::string> key_order;
   bool interleave = false;
+  // Each point's baseline keys (RT nodes, then nRT nodes), on --jobs threads.
+  std::vector<std::vector<std::string>> keys(corun_plan.first);
+  parallel_for(corun_plan.first, worker_threads(opt), [&](std::size_t i) {
+    const Scenario& s = loaded.points[i].scenario;
+    for (const auto& n : s.nodes.rt)
+      keys[i].push_back(Baselines::key(s, n.workload, n.core));
+    for (const auto& n : s.nodes.nrt)
+      keys[i].push_back(Baselines::key(s, n.workload, n.core));
+  });
   for (std::size_t i = 0; i < corun_plan.first; ++i) {
     const LoadedPoint& p = loaded.points[i];
     if (p.sweep.index % static_cast<std::size_t>(opt.shard_count) !=
@@ -160,8 +188,9 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
     }
     const int measurements = backend.baseline_repetitions(p.scenario);
     interleave = interleave || measurements > 1;
+    std::size_t k = 0;
     const auto need = [&](const WorkloadInfo& w, int core) {
-      const std::string key = Baselines::key(p.scenario, w, core);
+      const std::string& key = keys[i][k++];
       auto [it, added] = needs.try_emplace(key, Need{p.sweep.index, &w, core, 1});
       if (added) key_order.push_back(key);
       it->second.measurements = std::max(it->second.measurements, measurements);
@@ -219,11 +248,6 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
     add(std::move(point_rounds[r]));
   }
   return plan;
-}
-
-// --jobs, or the CPUs online when it is 0.
-int requested_jobs(const RunOptions& opt) {
-  return opt.jobs > 0 ? opt.jobs : static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN));
 }
 
 int worker_count(const RunOptions& opt, const Backend& backend) {
@@ -789,11 +813,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   LoadedScenario loaded = loader.load_base(opt.scenario_file, opt.backend);
   const std::vector<std::unique_ptr<TaskHost>> hosts =
       start_task_hosts(loader, loaded, backends, opt.trace, requested_jobs(opt));
-  // Built on --jobs threads (no more than the CPUs online): at 16 workers, building a
-  // 10,000-point sweep on one thread was a quarter of the wall time.
-  const auto cpus = static_cast<int>(::sysconf(_SC_NPROCESSORS_ONLN));
-  loader.load_points(loaded, PointSelection::All,
-                     static_cast<unsigned>(std::max(1, std::min(requested_jobs(opt), cpus))));
+  loader.load_points(loaded, PointSelection::All, worker_threads(opt));
   std::unique_ptr<Backend> backend = make_backend(loaded, backends);
   const Scenario& first = loaded.points.front().scenario;
   std::map<std::string, std::size_t> order;

@@ -14,6 +14,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/error.h"
@@ -90,13 +91,22 @@ Folder read_folder(const fs::path& dir) {
   if (fs::exists(dir / "points.csv", ec)) text = read_file(dir / "points.csv");
   text.erase(text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1);
   std::set<std::pair<std::size_t, int>> seen;
-  const auto lines = split_lines(text);
-  for (std::size_t i = 1; i < lines.size(); ++i) {
-    const auto cells = csv_split(lines[i]);
-    if (cells.size() < 2) continue;
-    const auto it = f.index_of.find(cells[0]);
+  // Only the first two cells (point, rep) of each row are read: a point id has no quote or
+  // comma, so a row that starts with a quote is no run's.
+  std::size_t pos = text.find('\n');
+  pos = pos == std::string::npos ? text.size() : pos + 1;
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    end = end == std::string::npos ? text.size() : end;
+    const std::string_view line(text.data() + pos, end - pos);
+    pos = end + 1;
+    const std::size_t c0 = line.find(',');
+    if (c0 == std::string_view::npos) continue;
+    const std::size_t c1 = std::min(line.find(',', c0 + 1), line.size());
+    const auto it = f.index_of.find(std::string(line.substr(0, c0)));
     int rep = -1;
-    std::from_chars(cells[1].data(), cells[1].data() + cells[1].size(), rep);
+    const auto [ptr, ec_rep] = std::from_chars(line.data() + c0 + 1, line.data() + c1, rep);
+    if (ec_rep != std::errc() || ptr != line.data() + c1) continue;
     if (it == f.index_of.end() || rep < 0 || rep >= f.repetitions) continue;
     if (seen.insert({it->second, rep}).second) ++f.runs_of[it->second];
   }

@@ -89,6 +89,7 @@ def _draw(results, points, conf_cols, conf_keys, fixed):
     cells = group_by(points, WORKLOADS)
     nodes = nodes_of(results)
     clusters = [(n.tag, n.metric) for n in nodes]
+    first_nrt = next((n.tag for n in nodes if n.role == "nrt"), "nRT")
     extremes = [1.0]
     for r, rt in enumerate(rts):
         for c, nrt in enumerate(nrts):
@@ -102,7 +103,7 @@ def _draw(results, points, conf_cols, conf_keys, fixed):
                         va="center", fontsize=8, color="0.5")
                 ax.set_xticks([])
             if r == 0:
-                ax.set_title(f"nRT {nrt}", fontsize=9)
+                ax.set_title(f"{first_nrt} {nrt}", fontsize=9)
             if c == 0:
                 ax.set_ylabel(f"RT {rt}\nslowdown (×)", fontsize=9)
     lo, hi = min(extremes), max(extremes)
@@ -123,7 +124,7 @@ def _draw(results, points, conf_cols, conf_keys, fixed):
             f"{results.repetitions} repetitions, drawn from isolation (1.0); "
             "error bars: min–max over repetitions; rows: RT workload, columns: nRT workload")
     if any(n.several for n in nodes):
-        note += "; clusters: " + ", ".join(n.label for n in nodes)
+        note += (f" (of {first_nrt}); clusters: " + ", ".join(n.label for n in nodes))
     refs = reference.note(points, results)
     note += f"; {refs}" if refs else ""
     style.finish(fig, title("RT x nRT slowdowns", fixed, results), note, right=right)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 import math
 
@@ -39,10 +40,11 @@ def slowdown(key: str, threshold: int, policy: str, rep: int, scale: dict) -> fl
     return (base + 0.3 * i + 0.01 * rep) * scale.get(key, 1.0)
 
 
-def write_folder(folder, *, scale=None, names=True):
-    """A results folder of 4 points x 2 repetitions; ``scale``: {prefix: factor} on a node's
-    slowdowns (a second side for compare); ``names=False``: the layout of an older rosguard
-    (no name / core columns, the first node's throttling only as throttle_count)."""
+def write_folder(folder, *, scale=None, names=True, first_nrt=("bandwidth_read",)):
+    """A results folder of 4 points x 2 repetitions per workload of the first nRT node
+    (``first_nrt``); ``scale``: {prefix: factor} on a node's slowdowns (a second side for
+    compare); ``names=False``: the layout of an older rosguard (no name / core columns, the
+    first node's throttling only as throttle_count)."""
     scale = scale or {}
     folder.mkdir(parents=True)
     header = (resultgen.FIXED_COLUMNS + resultgen.EXTRA_COLUMNS
@@ -53,29 +55,29 @@ def write_folder(folder, *, scale=None, names=True):
     with (folder / "points.csv").open("w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
         w.writerow(header)
-        for t in THRESHOLDS:
-            for policy in POLICIES:
-                pid = f"p{t:02d}{policy[:4]}"
-                for rep in range(REPS):
-                    cells = {"point": pid, "rep": rep, "backend": "sim", "policy": policy,
-                             "sampling": "self", "scope": "core", "threshold_pct": t,
-                             "sampling_period_us": 1000, "regulation_period_us": 5000,
-                             "platform": "orin-agx", "nrt_mode": "loop",
-                             "param:regulation.threshold_pct": t,
-                             "param:regulation.policy": policy}
-                    for key, name, core, workload in NODES:
-                        s = slowdown(key, t, policy, rep, scale)
-                        cells.update({f"{key}_workload": workload, f"{key}_name": name,
-                                      f"{key}_core": core, f"{key}_isolation_us": 1000.0,
-                                      f"{key}_time_us": 1000.0 * s, f"{key}_slowdown": s})
-                        if key != "rt":
-                            throttles = 100 - t + int(key[3:] or 0)
-                            cells.update({f"{key}_bandwidth_mbps": 500.0 * t,
-                                          f"{key}_throttle_count": throttles,
-                                          f"{key}_throttled_us": 10.0 * throttles})
-                    cells["throttle_count"] = cells["nrt_throttle_count"]
-                    cells["throttled_us"] = cells["nrt_throttled_us"]
-                    w.writerow([cells.get(c, "") for c in header])
+        for first, t, policy in itertools.product(first_nrt, THRESHOLDS, POLICIES):
+            pid = f"p{t:02d}{policy[:4]}{first_nrt.index(first)}"
+            for rep in range(REPS):
+                cells = {"point": pid, "rep": rep, "backend": "sim", "policy": policy,
+                         "sampling": "self", "scope": "core", "threshold_pct": t,
+                         "sampling_period_us": 1000, "regulation_period_us": 5000,
+                         "platform": "orin-agx", "nrt_mode": "loop",
+                         "param:regulation.threshold_pct": t,
+                         "param:regulation.policy": policy}
+                for key, name, core, workload in NODES:
+                    workload = first if key == "nrt" else workload
+                    s = slowdown(key, t, policy, rep, scale)
+                    cells.update({f"{key}_workload": workload, f"{key}_name": name,
+                                  f"{key}_core": core, f"{key}_isolation_us": 1000.0,
+                                  f"{key}_time_us": 1000.0 * s, f"{key}_slowdown": s})
+                    if key != "rt":
+                        throttles = 100 - t + int(key[3:] or 0)
+                        cells.update({f"{key}_bandwidth_mbps": 500.0 * t,
+                                      f"{key}_throttle_count": throttles,
+                                      f"{key}_throttled_us": 10.0 * throttles})
+                cells["throttle_count"] = cells["nrt_throttle_count"]
+                cells["throttled_us"] = cells["nrt_throttled_us"]
+                w.writerow([cells.get(c, "") for c in header])
     (folder / "manifest.json").write_text(json.dumps(
         {"schema_version": 1, "backend": "sim", "status": "complete"}))
     return folder
@@ -206,3 +208,17 @@ def test_an_older_folder_without_names_labels_nodes_by_index(tmp_path):
     assert all(r["throttle_count"] == 100 - r["threshold_pct"] for r in first)
     assert all(r["name"] == "" and r["core"] is None for r in first)
     assert not math.isnan(first[0]["slowdown"])
+
+
+def test_the_rt_x_nrt_grid_has_a_cluster_per_node(tmp_path):
+    results = load_results(write_folder(tmp_path / "grid", first_nrt=("bandwidth_read", "sift")))
+    plans, _ = plan_figures(results)
+    grid = [p for p in plans if p.stem.startswith("rt_nrt_grid")]
+    assert grid
+    fig = grid[0].draw()
+    cells = [ax for ax in fig.axes if ax.get_visible() and ax.get_xticklabels()]
+    assert [t.get_text() for t in cells[0].get_xticklabels()] == ["RT", "nRT0", "nRT1", "nRT2"]
+    notes = " ".join(t.get_text() for t in fig.texts)
+    assert "clusters: RT detector, nRT0 reader, nRT1 stereo, nRT2 tracker" in notes
+    assert [ax.get_title() for ax in cells] == ["nRT0 bandwidth_read", "nRT0 sift"]
+    plt.close(fig)

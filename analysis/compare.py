@@ -359,28 +359,34 @@ def print_summary(comp: Comparison, stream, band: Band | None = None) -> None:
                   file=stream)
     print(f"common points: {len(comp.common)}; only in A: {_ids(comp.only_a)}; "
           f"only in B: {_ids(comp.only_b)}", file=stream)
-    rows = [(n.label, comp.errors[n.key]) for n in comp.nodes]
+    # A row per node ("nRT1", its name last), then with several nodes of a role one over all
+    # of them under the role's name ("nRT"); tools/validate.sh reads the "RT" / "nRT" rows.
+    rows = [(n.tag, n.name, comp.errors[n.key]) for n in comp.nodes]
     for role, name in ROLES:
-        if sum(1 for n in comp.nodes if n.role == role) > 1:
-            rows.append((f"{name} overall", comp.overall[role]))
-    width = max([5, *(len(label) + 1 for label, _ in rows)])
+        several = sum(1 for n in comp.nodes if n.role == role)
+        if several > 1:
+            rows.append((name, f"overall: all {several} {name} nodes", comp.overall[role]))
+    width = max([5, *(len(tag) + 1 for tag, _, _ in rows)])
     print(f"{'':{width}}{'pairs':>6}{'MAPE':>10}{'max |B-A|':>11}  {'at point':<13}"
-          f"{'bias B-A':>9}{'Spearman':>10}", file=stream)
-    for label, e in rows:
+          f"{'bias B-A':>9}{'Spearman':>10}  node", file=stream)
+    for tag, name, e in rows:
         if not e.pairs:
-            print(f"{label:<{width}}{0:>6}  (no slowdowns on both sides)", file=stream)
+            print(f"{tag:<{width}}{0:>6}  (no slowdowns on both sides)  {name}".rstrip(),
+                  file=stream)
             continue
-        print(f"{label:<{width}}{e.pairs:>6}{_fmt(e.mape_pct, ' %'):>10}"
+        print(f"{tag:<{width}}{e.pairs:>6}{_fmt(e.mape_pct, ' %'):>10}"
               f"{_fmt(e.max_abs_error):>11}  {e.max_abs_error_point:<13}"
-              f"{_fmt(e.mean_error, signed=True):>9}{_fmt(e.spearman):>10}", file=stream)
+              f"{_fmt(e.mean_error, signed=True):>9}{_fmt(e.spearman):>10}  {name}".rstrip(),
+              file=stream)
     if band is not None:
         print(f"prediction band of B from {len(band.folders)} band run(s) (min..max over B and "
               "them, one prior-dominated parameter at a time):", file=stream)
         summary = band_summary(comp, band)
         for n in comp.nodes:
             c = summary[n.key]
-            print(f"{n.label:<{width}}B's band covers A at {c['covered']} of {c['points']} "
-                  f"points, median width {_fmt(c['median_width'])}", file=stream)
+            print(f"{n.tag:<{width}}B's band covers A at {c['covered']} of {c['points']} "
+                  f"points, median width {_fmt(c['median_width'])}  {n.name}".rstrip(),
+                  file=stream)
 
 
 def _ids(points) -> str:

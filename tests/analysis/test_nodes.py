@@ -191,7 +191,12 @@ def test_compare_gives_errors_per_node_and_over_all_nrt_nodes(folder, tmp_path):
     assert doc["overall"]["nrt"]["mape_pct"] == pytest.approx(10.0)
     assert doc["overall"]["rt"]["pairs"] == 4
     printed = stream.getvalue()
-    assert "nRT1 stereo" in printed and "nRT overall" in printed
+    lines = printed.splitlines()
+    # A row per node, tagged and named; the nRT row is over all three nRT nodes.
+    assert any(line.startswith("nRT1 ") and line.endswith("  stereo") for line in lines)
+    overall = [line for line in lines if line.startswith("nRT ")]
+    assert len(overall) == 1 and overall[0].endswith("overall: all 3 nRT nodes")
+    assert overall[0].split()[1:3] == ["12", "10.000"]
     with (tmp_path / "cmp" / "compare.csv").open(newline="") as f:
         row = next(csv.DictReader(f))
     assert row["nrt2_name"] == "tracker"

@@ -118,8 +118,12 @@ def main():
     header = table(os.path.join(out, "compare.csv"))[0].keys()
     check({"nrt2_name", "nrt2_slowdown_a", "nrt2_error_pct"} <= set(header),
           f"compare.csv lacks nrt2 columns: {list(header)}")
-    for label in ("nRT0 reader", "nRT1 stereo", "nRT2 tracker", "nRT overall"):
-        check(label in printed, f"rosguard compare does not print '{label}':\n{printed}")
+    lines = printed.splitlines()
+    for tag, name in (("RT", "detector"), ("nRT0", "reader"), ("nRT1", "stereo"),
+                      ("nRT2", "tracker"), ("nRT", "overall: all 3 nRT nodes")):
+        check(any(line.split()[:2] == [tag, "4" if tag != "nRT" else "12"]
+                  and line.endswith("  " + name) for line in lines),
+              f"rosguard compare prints no row '{tag} ... {name}':\n{printed}")
     print("PASS")
 
 

@@ -12,6 +12,9 @@ Entry points:
 
 * ``from analysis import load``: ``points, samples = load(DIR)``, pandas DataFrames with each
   column's unit and meaning in ``attrs`` (``analysis.frame``).
+* ``analysis.nodes``: the RT and nRT nodes of a folder by name (``nodes_of``) and the tidy
+  per-node table (``node_rows``: one row per point, repetition and node; ``rosguard plot``
+  writes it as ``nodes.csv``).
 
 Only the standard library and Debian's numpy, scipy, pandas and matplotlib are used.
 """

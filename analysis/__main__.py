@@ -23,7 +23,8 @@ manifest.json, points.csv, samples.csv). `rosguard plot` and `rosguard compare` 
 EPILOG = """\
 examples:
   python3 -m analysis plot results/quickstart
-      figures (PNG + PDF), summary.csv and distributions.csv in results/quickstart/figures
+      figures (PNG + PDF), summary.csv, nodes.csv and distributions.csv in
+      results/quickstart/figures
   python3 -m analysis compare results/exp4-hw results/exp4-sim
       compare.csv, summary.json and compare_scatter.png/pdf in results/exp4-sim/compare
   python3 -m analysis compare results/v/hw/s results/v/sim/s --band results/v/sim-band/X/s ...
@@ -46,16 +47,20 @@ box per series at a single sampling period); sampling overhead vs sampling perio
 nRT trade-off (one marker per regulation setting, the Pareto front, tune.json's best and
 runner-up); the mechanism comparison (bars per policy and sampling mode, per nRT workload and
 threshold). Slowdown figures draw the unregulated co-run (rt_/nrt_unregulated_slowdown) and,
-with --rt-slowdown-max or a tune.json, the RT target. Figures the data do not support are skipped with a
-reason. Also writes summary.csv (per point: mean / min / max / std over repetitions) and
-distributions.csv (sample statistics per sampling mode and period).
+with --rt-slowdown-max or a tune.json, the RT target. Figures of nRT results have a panel per
+nRT node, titled with its name. Figures the data do not support are skipped with a reason.
+Also writes summary.csv (per point: every node's name and mean / min / max / std over
+repetitions), nodes.csv (one row per point, repetition and node: its name, core, workload,
+slowdown, bandwidth, throttling) and distributions.csv (sample statistics per sampling mode
+and period).
 """
 
 COMPARE_HELP = """\
 Match the points of two results folders by id (same scenario, e.g. measured on hw vs
-simulated) and report per-point RT / nRT slowdown differences (B - A), the mean absolute
-percentage error, the max error, the Spearman rank agreement of the configurations, and the
-points found on one side only. Writes compare.csv, summary.json and compare_scatter.png/pdf.
+simulated) and report per-point slowdown differences (B - A) of every RT and nRT node, and
+per node (by name) and over all nodes of a role the mean absolute percentage error, the max
+error, the Spearman rank agreement of the configurations; and the points found on one side
+only. Writes compare.csv, summary.json and compare_scatter.png/pdf (a panel per node).
 
 --band DIR (repeatable): a run of B's scenario on one of the uncertainty-band platforms of B's
 model (`rosguard calibrate` writes them into band/: one prior-dominated parameter one standard

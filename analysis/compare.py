@@ -1,21 +1,25 @@
 """``compare A B [--out DIR]``: two results folders point by point (e.g. hw vs sim).
 
 Points are matched by their stable id (it depends only on the sweep parameters, so a sim
-run and a hw run of the same scenario share ids). Each point's RT and nRT slowdowns are
-averaged over its repetitions first. A is the reference (e.g. measured), B the folder
+run and a hw run of the same scenario share ids). Each point's slowdown of every RT and nRT
+node is averaged over its repetitions first. A is the reference (e.g. measured), B the folder
 compared with it (e.g. simulated); errors are B - A.
+
+Nodes are named by their points.csv prefix without the underscore (``rt``, ``nrt`` the first
+nRT node, ``nrt1`` the second, ...; ``analysis.nodes``) and their scenario name.
 
 Writes into the output folder (default ``B/compare``):
 
 * ``compare.csv``: one row per point (common, only in A, only in B) with the settings, the
-  repetitions on each side, RT / nRT slowdown in A and B, difference (B - A) and error in %
-  of A;
-* ``summary.json``: per node (RT, nRT) the number of pairs, mean absolute percentage error,
-  max absolute error (and where), mean error (bias), Spearman rank correlation of the
-  configurations' slowdowns; the points only in A / only in B; settings that differ between
-  matched points;
-* ``compare_scatter.png`` / ``.pdf``: B vs A slowdown per point, RT and nRT in different
-  markers, with the identity line.
+  repetitions on each side, and per node its name, slowdown in A and B, difference (B - A)
+  and error in % of A (``nrt1_name``, ``nrt1_slowdown_a``, ...);
+* ``summary.json``: per node (``"rt"``, ``"nrt"``, ``"nrt1"``, ...: its role, index and name)
+  the number of pairs, mean absolute percentage error, max absolute error (and where), mean
+  error (bias), Spearman rank correlation of the configurations' slowdowns; the same over all
+  nodes of a role (``"overall": {"rt": ..., "nrt": ...}``: every node's pairs together); the
+  points only in A / only in B; settings that differ between matched points;
+* ``compare_scatter.png`` / ``.pdf``: B vs A slowdown per point, a panel per node (titled with
+  its name and errors), with the identity line.
 
 With ``--band DIR`` (repeatable): DIR holds a run of B's scenario on one of the uncertainty-band
 platforms of B's model (``rosguard calibrate`` writes them: one prior-dominated parameter one
@@ -42,14 +46,14 @@ import scipy.stats
 
 from analysis import style
 from analysis.figures.validation import bar_lengths
+from analysis.nodes import ROLES, nodes_of
 from analysis.results import InvalidInput, load_results
 from analysis.tables import write_csv
 
-NODES = (("rt", "RT"), ("nrt", "nRT"))
 SETTINGS = ("rt_workload", "nrt_workload", "policy", "sampling", "scope", "threshold_pct",
             "sampling_period_us", "regulation_period_us")
 NODE_STYLE = {"rt": {"marker": "o", "color": "tab:blue"},
-              "nrt": {"marker": "^", "color": "tab:orange"}}
+              "nrt": {"marker": "^", "color": "tab:orange"}}   # per role
 LISTED_IDS = 8   # ids printed per "only in" list; summary.json has them all
 BAND_DEFINITION = (
     "per point and node, min..max of the mean slowdown over the nominal run and every band run "
@@ -81,7 +85,9 @@ class Comparison:
     only_a: list          # [Point]
     only_b: list          # [Point]
     mismatches: list      # [(point id, {column: (value in A, value in B)})]
-    errors: dict          # {"rt" | "nrt": ErrorSummary}
+    nodes: list           # [analysis.nodes.Node] of A and B (B's where both have it)
+    errors: dict          # {node key ("rt", "nrt", "nrt1", ...): ErrorSummary}
+    overall: dict         # {"rt" | "nrt": ErrorSummary over every node of the role}
 
 
 @dataclass
@@ -90,7 +96,7 @@ class Band:
     scenario on the band platforms of its model."""
 
     folders: list         # [Path] the band runs, in the order given
-    bounds: dict          # point id of the nominal run -> {"rt" | "nrt": (low, high)}
+    bounds: dict          # point id of the nominal run -> {node key: (low, high)}
     missing: dict         # str(folder) -> [ids of the nominal run's points not in it]
     mismatches: dict      # str(folder) -> number of matched points with other settings
 
@@ -105,16 +111,16 @@ def prediction_band(nominal, runs) -> Band:
     the nominal run and of every run that has the point. A point no run has gets no band
     (NaN, NaN): the nominal value alone is no envelope. InvalidInput when a run shares no point
     with the nominal one (another scenario)."""
-    values = {p.id: {node: [p.mean(f"{node}_slowdown")] for node, _ in NODES}
-              for p in nominal.points}
+    nodes = nodes_of(nominal)
+    values = {p.id: {n.key: [p.mean(n.metric)] for n in nodes} for p in nominal.points}
     seen = {p.id: 0 for p in nominal.points}
     missing, mismatches = {}, {}
     for run in runs:
         comp = compare_results(nominal, run)         # InvalidInput: no common point
         for pn, pr in comp.common:
             seen[pn.id] += 1
-            for node, _ in NODES:
-                values[pn.id][node].append(pr.mean(f"{node}_slowdown"))
+            for n in nodes:
+                values[pn.id][n.key].append(pr.mean(n.metric))
         if comp.only_a:
             missing[str(run.folder)] = [p.id for p in comp.only_a]
         if comp.mismatches:
@@ -202,13 +208,17 @@ def compare_results(a, b) -> Comparison:
                 if pa.config.get(c) != pb.config.get(c)}
         if diff:
             mismatches.append((pa.id, diff))
-    errors = {}
-    for node, _ in NODES:
-        metric = f"{node}_slowdown"
-        pairs = [(pa.id, pa.mean(metric), pb.mean(metric)) for pa, pb in common]
-        errors[node] = error_summary([t for t in pairs
-                                      if math.isfinite(t[1]) and math.isfinite(t[2])])
-    return Comparison(a, b, common, only_a, only_b, mismatches, errors)
+    nodes = {n.key: n for n in nodes_of(a)}
+    nodes.update({n.key: n for n in nodes_of(b)})
+    nodes = sorted(nodes.values(), key=lambda n: (n.role != "rt", n.index))
+    errors, by_role = {}, {}
+    for n in nodes:
+        pairs = [(pa.id, pa.mean(n.metric), pb.mean(n.metric)) for pa, pb in common]
+        pairs = [t for t in pairs if math.isfinite(t[1]) and math.isfinite(t[2])]
+        errors[n.key] = error_summary(pairs)
+        by_role.setdefault(n.role, []).extend((f"{pid} {n.key}", va, vb) for pid, va, vb in pairs)
+    overall = {role: error_summary(by_role.get(role, [])) for role, _ in ROLES}
+    return Comparison(a, b, common, only_a, only_b, mismatches, nodes, errors, overall)
 
 
 def run(folder_a, folder_b, out=None, stream=sys.stdout, err=sys.stderr, bands=()) -> int:
@@ -237,33 +247,32 @@ def run(folder_a, folder_b, out=None, stream=sys.stdout, err=sys.stderr, bands=(
 
 
 def write_table(comp: Comparison, path: Path, band: Band | None = None) -> Path:
-    """compare.csv: one row per point, common ones first (in A's order); with a band, each
-    node's band of B after its columns."""
+    """compare.csv: one row per point, common ones first (in A's order); per node its name
+    and slowdowns; with a band, each node's band of B after its columns."""
     header = ["point", "status", *SETTINGS, "reps_a", "reps_b"]
-    for node, _ in NODES:
-        header += [f"{node}_slowdown_a", f"{node}_slowdown_b", f"{node}_diff",
-                   f"{node}_error_pct"]
+    for n in comp.nodes:
+        header += [f"{n.key}_name", f"{n.key}_slowdown_a", f"{n.key}_slowdown_b",
+                   f"{n.key}_diff", f"{n.key}_error_pct"]
         if band is not None:
-            header += [f"{node}_band_low_b", f"{node}_band_high_b"]
-    rows = [_row(pa.id, "both", pa, pb, band) for pa, pb in comp.common]
-    rows += [_row(p.id, "only_a", p, None, band) for p in comp.only_a]
-    rows += [_row(p.id, "only_b", None, p, band) for p in comp.only_b]
+            header += [f"{n.key}_band_low_b", f"{n.key}_band_high_b"]
+    rows = [_row(comp.nodes, pa.id, "both", pa, pb, band) for pa, pb in comp.common]
+    rows += [_row(comp.nodes, p.id, "only_a", p, None, band) for p in comp.only_a]
+    rows += [_row(comp.nodes, p.id, "only_b", None, p, band) for p in comp.only_b]
     return write_csv(path, header, rows)
 
 
-def _row(pid, status, pa, pb, band=None) -> list:
+def _row(nodes, pid, status, pa, pb, band=None) -> list:
     ref = pa or pb
     row = [pid, status, *(ref.config.get(c) for c in SETTINGS),
            pa.reps if pa else None, pb.reps if pb else None]
-    for node, _ in NODES:
-        metric = f"{node}_slowdown"
-        va = pa.mean(metric) if pa else math.nan
-        vb = pb.mean(metric) if pb else math.nan
+    for n in nodes:
+        va = pa.mean(n.metric) if pa else math.nan
+        vb = pb.mean(n.metric) if pb else math.nan
         diff = vb - va
         pct = 100.0 * diff / va if va else math.nan
-        row += [va, vb, diff, pct]
+        row += [n.name, va, vb, diff, pct]
         if band is not None:
-            row += list(band.of(pid, node) if pb else (math.nan, math.nan))
+            row += list(band.of(pid, n.key) if pb else (math.nan, math.nan))
     return row
 
 
@@ -291,13 +300,13 @@ def _band(q: dict) -> str:
 
 
 def band_summary(comp: Comparison, band: Band) -> dict:
-    """summary.json's "band": the folders, the definition, and per node A's coverage by B's
-    band over the common points (band_coverage)."""
+    """summary.json's "band": the folders, the definition, and per node (key) A's coverage by
+    B's band over the common points (band_coverage)."""
     doc = {"folders": [str(f) for f in band.folders], "definition": BAND_DEFINITION,
            "missing": band.missing, "settings_mismatch": band.mismatches}
-    for node, _ in NODES:
-        doc[node] = band_coverage([(pa.mean(f"{node}_slowdown"), *band.of(pb.id, node))
-                                   for pa, pb in comp.common])
+    for n in comp.nodes:
+        doc[n.key] = band_coverage([(pa.mean(n.metric), *band.of(pb.id, n.key))
+                                    for pa, pb in comp.common])
     return doc
 
 
@@ -318,14 +327,21 @@ def write_summary(comp: Comparison, path: Path, band: Band | None = None) -> Pat
             "max_abs_error": "largest |B - A| (max_abs_error_point says where)",
             "mean_error": "mean of B - A (positive: B predicts more slowdown)",
             "spearman": "Spearman rank correlation of the points' slowdowns in A and B",
+            "nodes": "rt, nrt: the first RT / nRT node; rt1, nrt1, ...: the second, ... (their "
+                     "points.csv prefixes); name: the node's name in the scenario",
+            "overall": "per role, the same figures over the pairs of every node of that role "
+                       "(max_abs_error_point: '<point> <node>')",
         },
     }
-    for node, _ in NODES:
-        doc[node] = {k: _json_number(v) for k, v in asdict(comp.errors[node]).items()}
+    for n in comp.nodes:
+        doc[n.key] = {"role": n.role, "index": n.index, "name": n.name,
+                      **{k: _json_number(v) for k, v in asdict(comp.errors[n.key]).items()}}
+    doc["overall"] = {role: {k: _json_number(v) for k, v in asdict(e).items()}
+                      for role, e in comp.overall.items()}
     if band is not None:
         summary = band_summary(comp, band)
-        for node, _ in NODES:
-            summary[node] = {k: _json_number(v) for k, v in summary[node].items()}
+        for n in comp.nodes:
+            summary[n.key] = {k: _json_number(v) for k, v in summary[n.key].items()}
         doc["band"] = summary
     path.write_text(json.dumps(doc, indent=2, default=str) + "\n", encoding="utf-8")
     return path
@@ -343,24 +359,34 @@ def print_summary(comp: Comparison, stream, band: Band | None = None) -> None:
                   file=stream)
     print(f"common points: {len(comp.common)}; only in A: {_ids(comp.only_a)}; "
           f"only in B: {_ids(comp.only_b)}", file=stream)
-    print(f"{'':5}{'pairs':>6}{'MAPE':>10}{'max |B-A|':>11}  {'at point':<13}"
-          f"{'bias B-A':>9}{'Spearman':>10}", file=stream)
-    for node, name in NODES:
-        e = comp.errors[node]
+    # A row per node ("nRT1", its name last), then with several nodes of a role one over all
+    # of them under the role's name ("nRT"); tools/validate.sh reads the "RT" / "nRT" rows.
+    rows = [(n.tag, n.name, comp.errors[n.key]) for n in comp.nodes]
+    for role, name in ROLES:
+        several = sum(1 for n in comp.nodes if n.role == role)
+        if several > 1:
+            rows.append((name, f"overall: all {several} {name} nodes", comp.overall[role]))
+    width = max([5, *(len(tag) + 1 for tag, _, _ in rows)])
+    print(f"{'':{width}}{'pairs':>6}{'MAPE':>10}{'max |B-A|':>11}  {'at point':<13}"
+          f"{'bias B-A':>9}{'Spearman':>10}  node", file=stream)
+    for tag, name, e in rows:
         if not e.pairs:
-            print(f"{name:<5}{0:>6}  (no {name} slowdowns on both sides)", file=stream)
+            print(f"{tag:<{width}}{0:>6}  (no slowdowns on both sides)  {name}".rstrip(),
+                  file=stream)
             continue
-        print(f"{name:<5}{e.pairs:>6}{_fmt(e.mape_pct, ' %'):>10}{_fmt(e.max_abs_error):>11}"
-              f"  {e.max_abs_error_point:<13}{_fmt(e.mean_error, signed=True):>9}"
-              f"{_fmt(e.spearman):>10}", file=stream)
+        print(f"{tag:<{width}}{e.pairs:>6}{_fmt(e.mape_pct, ' %'):>10}"
+              f"{_fmt(e.max_abs_error):>11}  {e.max_abs_error_point:<13}"
+              f"{_fmt(e.mean_error, signed=True):>9}{_fmt(e.spearman):>10}  {name}".rstrip(),
+              file=stream)
     if band is not None:
         print(f"prediction band of B from {len(band.folders)} band run(s) (min..max over B and "
               "them, one prior-dominated parameter at a time):", file=stream)
         summary = band_summary(comp, band)
-        for node, name in NODES:
-            c = summary[node]
-            print(f"{name:<5}B's band covers A at {c['covered']} of {c['points']} points, "
-                  f"median width {_fmt(c['median_width'])}", file=stream)
+        for n in comp.nodes:
+            c = summary[n.key]
+            print(f"{n.tag:<{width}}B's band covers A at {c['covered']} of {c['points']} "
+                  f"points, median width {_fmt(c['median_width'])}  {n.name}".rstrip(),
+                  file=stream)
 
 
 def _ids(points) -> str:
@@ -379,18 +405,20 @@ def _fmt(value, unit: str = "", signed: bool = False) -> str:
 
 
 def scatter(comp: Comparison, band: Band | None = None):
-    """B vs A mean slowdown per common point: one panel per node (RT, nRT), each with its
-    own limits (RT slowdowns sit near 1.0, nRT ones spread far wider) and the identity line;
-    with a band, B's band as a vertical bar on each of B's points."""
-    nodes = [(node, name, _pairs(comp, f"{node}_slowdown")) for node, name in NODES]
-    nodes = [n for n in nodes if n[2]] or [("rt", "RT", [])]
+    """B vs A mean slowdown per common point: one panel per node (RT, nRT, every further
+    node, each titled with its name), each with its own limits (RT slowdowns sit near 1.0, nRT
+    ones spread far wider) and the identity line; with a band, B's band as a vertical bar on
+    each of B's points."""
+    nodes = [(n, _pairs(comp, n.metric)) for n in comp.nodes]
+    nodes = [t for t in nodes if t[1]] or [(None, [])]
     fig, axes = style.new_figure(1, len(nodes), width=5.0 * len(nodes), row_height=4.8)
-    for ax, (node, name, pairs) in zip(axes[0], nodes):
+    for ax, (n, pairs) in zip(axes[0], nodes):
         bands = None
-        if band is not None:
-            bands = [band.of(pb.id, node) for pa, pb in comp.common
-                     if pa.stat(f"{node}_slowdown") and pb.stat(f"{node}_slowdown")]
-        _scatter_panel(ax, node, name, pairs, comp.errors[node], bands)
+        if band is not None and n is not None:
+            bands = [band.of(pb.id, n.key) for pa, pb in comp.common
+                     if pa.stat(n.metric) and pb.stat(n.metric)]
+        errors = comp.errors[n.key] if n else error_summary([])
+        _scatter_panel(ax, n.role if n else "rt", n.label if n else "RT", pairs, errors, bands)
         ax.set_xlabel(f"A: {_name(comp.a)}\n{style.SLOWDOWN_LABEL}")
         ax.set_ylabel(f"B: {_name(comp.b)}\n{style.SLOWDOWN_LABEL}")
     head = (f"Slowdown per point, B vs A ({len(comp.common)} common points, "
@@ -431,10 +459,11 @@ def _draw_band(ax, x, centre, bands, **style_kw) -> int:
     return len(xs)
 
 
-def _scatter_panel(ax, node: str, name: str, pairs, errors: ErrorSummary,
+def _scatter_panel(ax, role: str, name: str, pairs, errors: ErrorSummary,
                    bands=None) -> None:
-    """One node's points with min-max error bars, identity line and square limits; ``bands``
-    ([(low, high)] per pair, or None): B's prediction band as a wide pale bar on each point."""
+    """One node's points (``role`` picks the style, ``name`` is its label) with min-max error
+    bars, identity line and square limits; ``bands`` ([(low, high)] per pair, or None): B's
+    prediction band as a wide pale bar on each point."""
     lo, hi = 1.0, 1.0
     if pairs:
         sa = [p for p, _ in pairs]
@@ -446,11 +475,11 @@ def _scatter_panel(ax, node: str, name: str, pairs, errors: ErrorSummary,
         yerr = np.array([bar_lengths(s.mean, s.min, s.max) for s in sb]).T
         ax.errorbar(xa, yb, xerr=xerr, yerr=yerr,
                     linestyle="none", markersize=6, markerfacecolor="none", elinewidth=0.7,
-                    capsize=2, label=f"{name} node ({len(pairs)} points)", **NODE_STYLE[node])
+                    capsize=2, label=f"{name} ({len(pairs)} points)", **NODE_STYLE[role])
         lo = min(min(s.min for s in sa), min(s.min for s in sb))
         hi = max(max(s.max for s in sa), max(s.max for s in sb))
         if bands is not None:
-            drawn = _draw_band(ax, xa, yb, bands, color=NODE_STYLE[node]["color"],
+            drawn = _draw_band(ax, xa, yb, bands, color=NODE_STYLE[role]["color"],
                                label=f"B's prediction band ({name})")
             ends = [v for lo_hi in bands for v in lo_hi if math.isfinite(v)]
             if drawn and ends:
@@ -466,7 +495,7 @@ def _scatter_panel(ax, node: str, name: str, pairs, errors: ErrorSummary,
     ax.set_aspect("equal", adjustable="box")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper left", fontsize=8)
-    ax.set_title(f"{name} node: MAPE {_fmt(errors.mape_pct, ' %')}, "
+    ax.set_title(f"{name}: MAPE {_fmt(errors.mape_pct, ' %')}, "
                  f"Spearman {_fmt(errors.spearman)}", fontsize=9)
 
 

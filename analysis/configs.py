@@ -9,6 +9,8 @@ title). These helpers do the splitting and write the words a reader of the paper
 from __future__ import annotations
 
 import math
+import re
+
 from analysis.style import number, period
 
 POLICY_WORDS = {
@@ -18,6 +20,7 @@ POLICY_WORDS = {
     "none": "no regulation",
 }
 _WORKLOADS = ("rt_workload", "nrt_workload")
+_FURTHER_NODE = re.compile(r"^(n?rt)\d+_workload$")
 _SAMPLING = ("sampling", "sampling_period_us")
 COLUMN_WORDS = {
     "policy": "policy",
@@ -111,18 +114,23 @@ def describe(config: dict, short: bool = False) -> str:
 
 
 def _workloads(config: dict) -> str:
+    """'RT mser / nRT bandwidth_read'; the first node of a role is 'RT0' / 'nRT0' when the
+    config also names a further one ('nrt1_workload'), as that one is 'nRT1'."""
+    further = [m.group(1) for m in map(_FURTHER_NODE.match, config) if m]
+    rt_word = "RT0" if "rt" in further else "RT"
+    nrt_word = "nRT0" if "nrt" in further else "nRT"
     rt, nrt = config.get("rt_workload"), config.get("nrt_workload")
     if "rt_workload" in config and "nrt_workload" in config:
         if rt is None and nrt is None:
             return "no nodes"
         if rt is None:
-            return f"nRT {nrt} alone"
+            return f"{nrt_word} {nrt} alone"
         if nrt is None:
-            return f"RT {rt} alone"
-        return f"RT {rt} / nRT {nrt}"
+            return f"{rt_word} {rt} alone"
+        return f"{rt_word} {rt} / {nrt_word} {nrt}"
     if "rt_workload" in config:
-        return f"RT {rt}" if rt else "no RT node"
-    return f"nRT {nrt}" if nrt else "no nRT node"
+        return f"{rt_word} {rt}" if rt else "no RT node"
+    return f"{nrt_word} {nrt}" if nrt else "no nRT node"
 
 
 def _sampling(config: dict, short: bool) -> str:

@@ -3,9 +3,14 @@
 Writes into the output folder (default ``DIR/figures``):
 
 * one PNG (150 dpi) and one PDF per figure the registry plans (``analysis.figures``);
-* ``summary.csv``: per point, its configuration and the mean / min / max / std over
-  repetitions of the slowdowns, times, bandwidth, throttling, per-point delay columns, RT
-  response times (p99, max, deadline misses) and the isolation baselines' spread;
+* ``summary.csv``: per point, its configuration, each node's name (``rt_name``, ``nrt_name``,
+  ``nrt1_name``, ...) and the mean / min / max / std over repetitions of every node's slowdown,
+  time, bandwidth and throttling (nRT) or response times (RT: p99, max, deadline misses), the
+  per-point delay columns and the isolation baselines' spread; a node's columns carry its
+  points.csv prefix (``nrt_`` the first nRT node, ``nrt1_`` the second, ...);
+* ``nodes.csv``: the tidy per-node table (``analysis.nodes``): one row per point, repetition
+  and node with its role, index, name, core, workload, the regulation settings, and its time,
+  isolation time, slowdown, bandwidth and throttling;
 * ``distributions.csv``: per sample kind, sampling mode and sampling period, the count,
   min / median / max / mean of the samples (what the ▽ × △ figures show; ``rt_job``: each
   RT job's response time).
@@ -24,15 +29,21 @@ import numpy as np
 from analysis import style
 from analysis.configs import column_words, describe, group_by, varying
 from analysis.figures import plan_figures
+from analysis.nodes import cell_column, nodes_of, write_nodes
 from analysis.results import InvalidInput, load_results
 from analysis.tables import write_csv
 
-SUMMARY_METRICS = (
-    "rt_slowdown", "nrt_slowdown", "rt_time_us", "nrt_time_us", "nrt_bandwidth_mbps",
-    "throttle_count", "throttled_us", "activation_delay_p50_us", "activation_delay_max_us",
-    "pmc_callback_p50_us", "pmc_callback_max_us", "sampling_overhead_p50_us",
-    "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses", "rt_isolation_cv",
-    "nrt_isolation_cv", "rt_unregulated_slowdown", "nrt_unregulated_slowdown",
+# Per node (its points.csv prefix + these), then per point.
+NODE_METRICS = {
+    "rt": ("slowdown", "time_us", "response_p99_us", "response_max_us", "deadline_misses",
+           "isolation_cv"),
+    "nrt": ("slowdown", "time_us", "bandwidth_mbps", "throttle_count", "throttled_us",
+            "isolation_cv"),
+}
+POINT_METRICS = (
+    "activation_delay_p50_us", "activation_delay_max_us", "pmc_callback_p50_us",
+    "pmc_callback_max_us", "sampling_overhead_p50_us", "rt_unregulated_slowdown",
+    "nrt_unregulated_slowdown",
 )
 SAMPLE_KINDS = ("activation_delay", "pmc_callback", "sampling_overhead", "rt_job")
 STATS = ("mean", "min", "max", "std")
@@ -67,7 +78,8 @@ def run(folder, out=None, stream=sys.stdout, rt_slowdown_max=None) -> int:
     for s in skipped:
         print(f"  skipped {s.kind}: {s.reason}", file=stream)
 
-    tables = [write_summary(results, out / "summary.csv")]
+    tables = [write_summary(results, out / "summary.csv"),
+              write_nodes(results, out / "nodes.csv")]
     if any(kind in results.sample_kinds() for kind in SAMPLE_KINDS):
         tables.append(write_distributions(results, out / "distributions.csv"))
     print("tables: " + ", ".join(str(t) for t in tables), file=stream)
@@ -80,15 +92,15 @@ DIGEST_ROWS = 24
 
 def print_digest(results, stream) -> None:
     """A short table of what the figures show: per point, the settings that vary and the mean
-    RT / nRT slowdown (the full table is summary.csv)."""
-    metrics = [m for m in ("rt_slowdown", "nrt_slowdown")
-               if any(p.stat(m) for p in results.points)]
-    if not metrics:
+    slowdown of every node, by name (the full table is summary.csv)."""
+    nodes = [n for n in nodes_of(results) if any(p.stat(n.metric) for p in results.points)]
+    if not nodes:
         return
+    metrics = [n.metric for n in nodes]
     settings = varying(results.points, results.config_columns)
     unit = {"_pct": " (%)", "_us": " (us)", "_mbps": " (MB/s)"}
     header = [column_words(c) + next((u for k, u in unit.items() if c.endswith(k)), "")
-              for c in settings] + [m.replace("_", " ") for m in metrics]
+              for c in settings] + [f"{n.label} slowdown" for n in nodes]
     rows = []
     for p in results.points:
         cells = [style.number(p.config[c]) if isinstance(p.config[c], float) else
@@ -106,8 +118,8 @@ def print_digest(results, stream) -> None:
 
 
 def print_unregulated(results, stream) -> None:
-    """What the unregulated co-run (policy none) costs, per workload pair: the reference every
-    slowdown figure draws."""
+    """What the unregulated co-run (policy none) costs the first RT and nRT node, per workload
+    pair: the reference every slowdown figure draws."""
     pairs: dict = {}
     for p in results.points:
         rt, nrt = p.stat("rt_unregulated_slowdown"), p.stat("nrt_unregulated_slowdown")
@@ -119,22 +131,45 @@ def print_unregulated(results, stream) -> None:
         return
     print("unregulated co-run (the same nodes with policy none; slowdown = time / isolation "
           "time):", file=stream)
+    first = {n.role: n.label if n.several else n.tag for n in nodes_of(results) if n.index == 0}
     for words, (rt, nrt) in list(pairs.items())[:DIGEST_ROWS]:
-        cells = [f"{node} {v:.3f}" for node, v in (("RT", rt), ("nRT", nrt)) if v is not None]
+        cells = [f"{first.get(role, role)} {v:.3f}"
+                 for role, v in (("rt", rt), ("nrt", nrt)) if v is not None]
         print(f"  {words}: {', '.join(cells)}", file=stream)
     if len(pairs) > DIGEST_ROWS:
         print(f"  ... {len(pairs) - DIGEST_ROWS} more pairs", file=stream)
 
 
+def summary_metrics(results) -> list:
+    """summary.csv's metrics: [(its column name, the points.csv column)], every node's
+    (prefixed as in points.csv: nrt_throttle_count is the first nRT node's, also in folders
+    that have it only as throttle_count), then the per-point ones."""
+    metrics = []
+    for n in nodes_of(results):
+        for what in NODE_METRICS[n.role]:
+            column = cell_column(results, n, what)
+            if column:
+                metrics.append((n.column(what), column))
+    return metrics + [(m, m) for m in POINT_METRICS if m in results.columns]
+
+
 def write_summary(results, path: Path) -> Path:
-    """Per point: configuration, repetitions, and mean/min/max/std of each metric."""
-    metrics = [m for m in SUMMARY_METRICS if m in results.columns]
-    header = (["point", *results.config_columns, "reps"]
-              + [f"{m}_{s}" for m in metrics for s in STATS])
+    """Per point: configuration, node names, repetitions, and mean/min/max/std of each
+    metric."""
+    nodes = nodes_of(results)
+    names = [(n.column("name"), cell_column(results, n, "name")) for n in nodes]
+    metrics = summary_metrics(results)
+    header = (["point", *results.config_columns, *(c for c, _ in names), "reps"]
+              + [f"{m}_{s}" for m, _ in metrics for s in STATS])
+    first_row = {}
+    for r in results.rows:
+        first_row.setdefault(r["point"], r)
     rows = []
     for p in results.points:
-        row = [p.id, *(p.config[c] for c in results.config_columns), p.reps]
-        for m in metrics:
+        row = [p.id, *(p.config[c] for c in results.config_columns)]
+        row += [first_row[p.id].get(src) if src else n.name for (_, src), n in zip(names, nodes)]
+        row.append(p.reps)
+        for _, m in metrics:
             st = p.stat(m)
             row += [getattr(st, s) if st else None for s in STATS]
         rows.append(row)

@@ -39,6 +39,7 @@ SAMPLES_COLUMNS = ("point", "rep", "kind", "value_us")
 _TEXT_COLUMNS = {"point", "backend", "rt_workload", "nrt_workload", "policy", "sampling",
                  "scope", "platform", "nrt_mode"}
 _NODE_WORKLOAD = re.compile(r"^n?rt\d+_workload$")
+_NODE_NAME = re.compile(r"^n?rt\d*_name$")
 PARAM_PREFIX = "param:"
 
 # Columns that describe a point's configuration (as opposed to what was measured), in the
@@ -233,7 +234,8 @@ def _read_csv(path: Path) -> list:
 
 
 def _is_text_column(name: str) -> bool:
-    return name in _TEXT_COLUMNS or bool(_NODE_WORKLOAD.match(name))
+    return (name in _TEXT_COLUMNS or bool(_NODE_WORKLOAD.match(name))
+            or bool(_NODE_NAME.match(name)))
 
 
 def _parse_float(cell: str) -> float | None:

@@ -3,7 +3,8 @@
 HW_ROOT and SIM_ROOT hold one results folder per validation scenario, by the scenario's name
 (``tools/validate.sh`` runs ``scenarios/validation/*.json`` into them). Each scenario's folders
 are matched point by point as ``compare`` does (``compare.compare_results``: means over
-repetitions), and for the RT and nRT node of every common point the report computes:
+repetitions), and for every RT and nRT node of every common point (a scenario with several
+nRT nodes gives one nRT pair per node, all counted under nRT) the report computes:
 
 * slowdown error: ``|s_sim - s_hw| / s_hw`` (MAPE: its mean over points, in %);
 * excess-slowdown error, where the measured excess ``s_hw - 1`` is at least ``EXCESS_MIN``:
@@ -133,11 +134,11 @@ def scenario_pairs(name: str, hw, sim, band=None) -> tuple:
     comp = compare.compare_results(hw, sim)
     pairs = []
     for pa, pb in comp.common:
-        for node in ("rt", "nrt"):
-            a, b = pa.stat(f"{node}_slowdown"), pb.stat(f"{node}_slowdown")
+        for n in comp.nodes:   # every node, under its role: nRT errors are over all nRT nodes
+            a, b = pa.stat(n.metric), pb.stat(n.metric)
             if a and b and a.mean != 0:
-                low, high = band.of(pb.id, node) if band is not None else (math.nan, math.nan)
-                pairs.append(Pair(name, pa.id, node, a, b, low, high))
+                low, high = band.of(pb.id, n.key) if band is not None else (math.nan, math.nan)
+                pairs.append(Pair(name, pa.id, n.role, a, b, low, high))
     return pairs, comp
 
 

@@ -1,8 +1,9 @@
 """RT x nRT grid (paper experiments 7 and 8).
 
 One file per threshold (and per value of any other parameter that is neither a workload nor
-part of the regulation configuration). Rows are RT workloads, columns nRT workloads; each
-cell holds two clusters of bars, RT slowdown and nRT slowdown, with one bar per
+part of the regulation configuration). Rows are RT workloads, columns the first nRT node's
+workloads; each cell holds a cluster of bars per node, RT slowdown and nRT slowdown (with
+several nRT nodes one cluster per nRT node, "nRT0", "nRT1", ..., named in the note), one bar per
 configuration (policy, sampling mode, sampling / regulation period, e.g. "self 1 ms /
 reg. 5 ms"). Bars rise from isolation (slowdown 1.0, dashed) to the mean over repetitions;
 error bars span min-max over repetitions. All cells share the y axis. Over each cluster a red
@@ -26,6 +27,7 @@ from analysis.configs import (as_config, backend_words, describe, distinct, grou
                               held_fixed, keys_in_order, slug, title, varying)
 from analysis.figures import reference
 from analysis.figures.base import FigurePlan, slowdown_bar
+from analysis.nodes import nodes_of
 
 KIND = "RT x nRT grid"
 STEM = "rt_nrt_grid"
@@ -80,24 +82,28 @@ def _conf_label(conf_cols, key, backend) -> str:
 def _draw(results, points, conf_cols, conf_keys, fixed):
     rts = distinct(points, "rt_workload")
     nrts = distinct(points, "nrt_workload")
-    width = CELL_WIDTH_IN * len(nrts) + 1.0 + LEGEND_WIDTH_IN
+    width = CELL_WIDTH_IN * len(nrts) * max(1.0, len(nodes_of(results)) / 2) + 1.0 \
+        + LEGEND_WIDTH_IN
     fig, axes = style.new_figure(len(rts), len(nrts), width=width, row_height=CELL_HEIGHT_IN,
                                  sharey=True)
     cells = group_by(points, WORKLOADS)
+    nodes = nodes_of(results)
+    clusters = [(n.tag, n.metric) for n in nodes]
+    first_nrt = next((n.tag for n in nodes if n.role == "nrt"), "nRT")
     extremes = [1.0]
     for r, rt in enumerate(rts):
         for c, nrt in enumerate(nrts):
             ax = axes[r][c]
             cell = cells.get((rt, nrt))
             if cell:
-                extremes += _draw_cell(ax, cell, conf_cols, conf_keys,
+                extremes += _draw_cell(ax, cell, conf_cols, conf_keys, clusters,
                                        reference.target(results, "rt_slowdown"))
             else:
                 ax.text(0.5, 0.5, "no data", transform=ax.transAxes, ha="center",
                         va="center", fontsize=8, color="0.5")
                 ax.set_xticks([])
             if r == 0:
-                ax.set_title(f"nRT {nrt}", fontsize=9)
+                ax.set_title(f"{first_nrt} {nrt}", fontsize=9)
             if c == 0:
                 ax.set_ylabel(f"RT {rt}\nslowdown (×)", fontsize=9)
     lo, hi = min(extremes), max(extremes)
@@ -117,14 +123,17 @@ def _draw(results, points, conf_cols, conf_keys, fixed):
     note = ("bars (value on top): mean slowdown over "
             f"{results.repetitions} repetitions, drawn from isolation (1.0); "
             "error bars: min–max over repetitions; rows: RT workload, columns: nRT workload")
+    if any(n.several for n in nodes):
+        note += (f" (of {first_nrt}); clusters: " + ", ".join(n.label for n in nodes))
     refs = reference.note(points, results)
     note += f"; {refs}" if refs else ""
     style.finish(fig, title("RT x nRT slowdowns", fixed, results), note, right=right)
     return fig
 
 
-def _draw_cell(ax, cell, conf_cols, conf_keys, target=None) -> list:
-    """Two clusters (RT, nRT) of bars, one bar per configuration, each labelled with its
+def _draw_cell(ax, cell, conf_cols, conf_keys, clusters, target=None) -> list:
+    """A cluster of bars per node (``clusters``: [(tick label, slowdown column)]), one bar per
+    configuration, each labelled with its
     value (the y axis is shared, so small RT slowdowns stay readable), the unregulated
     co-run over each cluster and the RT target over the RT one; returns the min and max
     slowdowns drawn."""
@@ -132,7 +141,7 @@ def _draw_cell(ax, cell, conf_cols, conf_keys, target=None) -> list:
     n = len(conf_keys)
     width = 0.8 / n
     extremes = []
-    for node, metric in enumerate(("rt_slowdown", "nrt_slowdown")):
+    for node, (_, metric) in enumerate(clusters):
         for i, key in enumerate(conf_keys):
             stats = [p.stat(metric) for p in by_conf.get(key, []) if p.stat(metric)]
             if not stats:
@@ -147,13 +156,14 @@ def _draw_cell(ax, cell, conf_cols, conf_keys, target=None) -> list:
         for value in reference.unregulated(cell, metric):
             reference.unregulated_segment(ax, node - 0.45, node + 0.45, value)
             extremes.append(value)
-    if target is not None:
-        ax.hlines(target, -0.45, 0.45, label=style.target_label(target), **style.TARGET_STYLE)
-        extremes.append(target)
+        if target is not None and reference.target_applies(metric):
+            ax.hlines(target, node - 0.45, node + 0.45, label=style.target_label(target),
+                      **style.TARGET_STYLE)
+            extremes.append(target)
     ax.axhline(1.0, **style.ISOLATION_STYLE)
-    ax.set_xticks([0, 1])
-    ax.set_xticklabels(["RT", "nRT"], fontsize=8)
-    ax.set_xlim(-0.55, 1.55)
+    ax.set_xticks(range(len(clusters)))
+    ax.set_xticklabels([label for label, _ in clusters], fontsize=8)
+    ax.set_xlim(-0.55, len(clusters) - 0.45)
     ax.tick_params(axis="y", labelsize=8)
     ax.grid(True, axis="y", alpha=0.3)
     return extremes

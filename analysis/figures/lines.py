@@ -11,6 +11,9 @@ A kind applies when, with everything else fixed, its x parameter takes at least 
 
 Kinds (paper experiment in brackets):
 
+Slowdown figures have a panel per node (``analysis.nodes``): the RT node(s), then every nRT
+node, each titled with its name ("nRT1 disparity" where there are several).
+
 * slowdown vs threshold [4, 5, 8]: RT and nRT slowdown vs threshold_pct; lines per policy
   (interval vs monolithic), sampling mode and periods when they vary.
 * slowdown vs sampling period [5]: RT and nRT slowdown vs sampling_period_us (log axis);
@@ -37,6 +40,7 @@ from analysis.configs import (as_config, column_words, describe, distinct, finit
 from analysis.figures import reference
 from analysis.figures.base import FigurePlan
 from analysis.figures.grid import grid_applies
+from analysis.nodes import nodes_of
 from analysis.style import number
 
 MAX_GROUPS_WITH_GRID = 6   # more rows than this on grid data: the RT x nRT grid shows them
@@ -47,8 +51,8 @@ LEGEND_WIDTH_IN = 2.3
 class SlowdownPanel:
     """Mean slowdown of one node with min-max error bars, one line per series."""
 
-    node: str            # "RT" or "nRT"
-    metric: str          # "rt_slowdown" or "nrt_slowdown"
+    node: str            # the node's label: "RT mser", "nRT1 disparity"
+    metric: str          # its slowdown column: "rt_slowdown", "nrt1_slowdown"
     heading: str
 
     def available(self, points, results) -> bool:
@@ -121,7 +125,7 @@ class LineKind:
     x: str
     series_candidates: tuple
     select: Callable
-    panels: tuple
+    panels: Callable     # Results -> the panels it could draw
     no_points_reason: str
     no_sweep_reason: str
     tied_candidates: tuple = ()
@@ -132,7 +136,7 @@ class LineKind:
         points = [p for p in results.points if self.select(p)]
         if not points:
             return self.no_points_reason
-        panels = [pl for pl in self.panels if pl.available(points, results)]
+        panels = [pl for pl in self.panels(results) if pl.available(points, results)]
         if not panels or self.x not in results.config_columns:
             return self.no_points_reason
         lay, groups = self._layout(results, points, panels)
@@ -251,8 +255,11 @@ def _tied_words(column: str, x: str, points) -> str:
     return f"{column_words(column)} moves with {column_words(x)}: {listed}"
 
 
-_RT_NRT = (SlowdownPanel("RT", "rt_slowdown", "RT node"),
-           SlowdownPanel("nRT", "nrt_slowdown", "nRT node"))
+def node_panels(results, role: str | None = None, heading: str = "{}") -> list:
+    """A slowdown panel per node of the folder (of one role), headed with its label."""
+    return [SlowdownPanel(n.label, n.metric, heading.format(n.label))
+            for n in nodes_of(results, role)]
+
 
 SLOWDOWN_VS_THRESHOLD = LineKind(
     name="slowdown vs threshold",
@@ -261,7 +268,7 @@ SLOWDOWN_VS_THRESHOLD = LineKind(
     x="threshold_pct",
     series_candidates=("policy", "sampling", "sampling_period_us", "regulation_period_us"),
     select=lambda p: p.has_rt,
-    panels=_RT_NRT,
+    panels=node_panels,
     no_points_reason="no points with an RT node and slowdowns",
     no_sweep_reason="no threshold sweep (threshold_pct never varies with the rest fixed)",
 )
@@ -274,7 +281,7 @@ SLOWDOWN_VS_SAMPLING = LineKind(
     series_candidates=("threshold_pct", "policy", "sampling", "regulation_period_us"),
     tied_candidates=("regulation_period_us",),
     select=lambda p: p.has_rt,
-    panels=_RT_NRT,
+    panels=node_panels,
     log_x=True,
     no_points_reason="no points with an RT node and slowdowns",
     no_sweep_reason="no sampling-period sweep with an RT node "
@@ -288,7 +295,7 @@ SLOWDOWN_VS_REGULATION = LineKind(
     x="regulation_period_us",
     series_candidates=("threshold_pct", "policy", "sampling", "sampling_period_us"),
     select=lambda p: p.has_rt,
-    panels=_RT_NRT,
+    panels=node_panels,
     no_points_reason="no points with an RT node and slowdowns",
     no_sweep_reason="no regulation-period sweep at a fixed sampling period",
 )
@@ -301,9 +308,10 @@ SAMPLING_OVERHEAD = LineKind(
     series_candidates=("sampling", "policy", "threshold_pct"),
     tied_candidates=("regulation_period_us",),
     select=lambda p: p.has_nrt and not p.has_rt,
-    panels=(SlowdownPanel("nRT", "nrt_slowdown", "nRT slowdown (cost of sampling)"),
-            SamplesPanel("sampling_overhead", "sampling overhead per sample (µs)",
-                         "sampling overhead per sample")),
+    panels=lambda results: [
+        *node_panels(results, "nrt", "{} slowdown (cost of sampling)"),
+        SamplesPanel("sampling_overhead", "sampling overhead per sample (µs)",
+                     "sampling overhead per sample")],
     log_x=True,
     no_points_reason="no nRT-alone points (nodes.rt empty) with an nRT slowdown",
     no_sweep_reason="no sampling-period sweep of the nRT node alone",

@@ -4,8 +4,9 @@ side at the same thresholds.
 A mechanism is a (policy, sampling) combination as the points name it (ROSGuard's interval
 policy with self- or external sampling, MemGuard, MemPol, ... whatever the policy and
 sampling columns hold). One file per RT workload (and per value of any other configuration
-column that is neither a workload nor a regulation setting); in it two rows of panels, RT and
-nRT slowdown, and a column per threshold (or budget: every varying regulation level). Each
+column that is neither a workload nor a regulation setting); in it a row of panels per node,
+RT and nRT slowdown (every nRT node of the folder, titled with its name: ``analysis.nodes``),
+and a column per threshold (or budget: every varying regulation level). Each
 panel groups bars by nRT workload, one bar per series (the mechanism, plus the periods where
 they vary), rising from isolation (1.0) to the mean over repetitions with min-max error bars.
 Over each group a red dashed segment marks the unregulated co-run of the pair, and RT panels
@@ -26,13 +27,13 @@ from analysis.configs import (as_config, column_words, describe, distinct, group
                               held_fixed, keys_in_order, slug, title, varying)
 from analysis.figures import reference
 from analysis.figures.base import FigurePlan, slowdown_bar
+from analysis.nodes import nodes_of
 
 KIND = "mechanism comparison"
 STEM = "mechanisms"
 MECHANISM = ("policy", "sampling")
 SERIES_COLUMNS = ("policy", "sampling", "sampling_period_us", "regulation_period_us", "scope")
 X = "nrt_workload"
-ROWS = (("RT", "rt_slowdown"), ("nRT", "nrt_slowdown"))
 LEGEND_WIDTH_IN = 2.5
 
 
@@ -84,17 +85,17 @@ def _draw(results, points, series_cols, series_keys, levels, fixed):
     nrts = distinct(points, X)
     panel_width = max(2.4, 0.32 * len(nrts) * len(series_keys) + 0.8)
     width = panel_width * len(level_keys) + 0.8 + LEGEND_WIDTH_IN
-    fig, axes = style.new_figure(len(ROWS), len(level_keys), width=width, row_height=2.9,
+    rows = [(n.label if n.several else n.tag, n.metric) for n in nodes_of(results)]
+    fig, axes = style.new_figure(len(rows), len(level_keys), width=width, row_height=2.9,
                                  sharey="row")
     by_level = group_by(points, levels) if levels else {(): points}
     target = reference.target(results, "rt_slowdown")
     for c, level in enumerate(level_keys):
         level_points = by_level.get(level, [])
-        for r, (node, metric) in enumerate(ROWS):
+        for r, (node, metric) in enumerate(rows):
             ax = axes[r][c]
             _draw_panel(ax, level_points, series_cols, series_keys, nrts, metric)
-            if metric == "rt_slowdown":
-                reference.draw_target(ax, target)
+            reference.draw_target(ax, reference.target(results, metric))
             if r == 0:
                 ax.set_title(describe(as_config(levels, level)) or "all points", fontsize=9)
             if c == 0:
@@ -102,7 +103,7 @@ def _draw(results, points, series_cols, series_keys, levels, fixed):
     handles = [Patch(color=style.colour(i), label=_label(series_cols, k))
                for i, k in enumerate(series_keys)]
     handles.append(Line2D([], [], label=style.ISOLATION_LABEL, **style.ISOLATION_STYLE))
-    if any(reference.unregulated(points, m) for _, m in ROWS):
+    if any(reference.unregulated(points, m) for _, m in rows):
         handles.append(Line2D([], [], label=style.UNREGULATED_LABEL,
                               **style.UNREGULATED_STYLE))
     if target is not None:
@@ -111,7 +112,8 @@ def _draw(results, points, series_cols, series_keys, levels, fixed):
     fig.legend(handles=handles, loc="center left", bbox_to_anchor=(right, 0.5), fontsize=8,
                frameon=False, title="mechanism", title_fontsize=8)
     note = (f"bars: mean slowdown over {results.repetitions} repetitions, drawn from "
-            "isolation (1.0); error bars: min–max over repetitions; groups: nRT workload")
+            "isolation (1.0); error bars: min–max over repetitions; groups: the first nRT "
+            "node's workload")
     refs = reference.note(points, results)
     note += f"; {refs}" if refs else ""
     style.finish(fig, title("Mechanism comparison: RT and nRT slowdowns", fixed, results),

@@ -5,14 +5,19 @@
   ``nrt_unregulated_slowdown``; a policy-none point carries its own slowdowns). Figures draw
   it as a dashed line (``style.UNREGULATED_STYLE``) labelled "unregulated co-run": what the RT
   node would suffer without regulation, and what the nRT node would get. Folders without the
-  columns (older runs, ``rosguard run --no-unregulated``) simply have no such line.
+  columns (older runs, ``rosguard run --no-unregulated``) simply have no such line; points.csv
+  has them for the first RT and nRT node only, so other nodes' panels have none either.
 * The target: an RT slowdown bound (``Results.rt_slowdown_max``: ``rosguard plot
   --rt-slowdown-max X`` or tune.json), drawn on every RT slowdown axis as a dotted line.
 """
 
 from __future__ import annotations
 
+import re
+
 from analysis import style
+
+_RT_SLOWDOWN = re.compile(r"^rt\d*_slowdown$")
 
 UNREGULATED_METRIC = {"rt_slowdown": "rt_unregulated_slowdown",
                       "nrt_slowdown": "nrt_unregulated_slowdown"}
@@ -54,8 +59,14 @@ def unregulated_segment(ax, x0: float, x1: float, value: float) -> None:
 
 
 def target(results, metric: str):
-    """The target bound of ``metric`` (RT slowdown only), or None."""
-    return results.rt_slowdown_max if metric == "rt_slowdown" else None
+    """The target bound of ``metric`` (an RT node's slowdown: the bound holds for every RT
+    node), or None."""
+    return results.rt_slowdown_max if target_applies(metric) else None
+
+
+def target_applies(metric: str) -> bool:
+    """True for an RT node's slowdown column (``rt_slowdown``, ``rt1_slowdown``, ...)."""
+    return bool(_RT_SLOWDOWN.match(metric))
 
 
 def draw_target(ax, value, vertical: bool = False) -> None:

@@ -1,7 +1,8 @@
 """RT vs nRT trade-off: which regulation setting protects the RT node at what price.
 
 One panel per workload pair (per value of every configuration column that is not a
-regulation setting); in it one marker per regulation setting (policy, sampling mode, sampling
+regulation setting) and nRT node (``analysis.nodes``: with several nRT nodes, a panel for each,
+titled with its name); in it one marker per regulation setting (policy, sampling mode, sampling
 and regulation periods, threshold or budget): x = the RT node's mean slowdown, y = the nRT
 node's. x is the RT side because that is what a user bounds ("keep the RT node within 5 %"):
 the target is a vertical line and every setting left of it meets the bound; lower is better on
@@ -19,7 +20,8 @@ and its best and runner-up settings are marked with a gold and a silver star. A 
 is matched against the points by, in this order: "point" (a point id); else its keys that are
 configuration columns of the folder ("policy", "threshold_pct", ...; a "regulation.X" key means
 the column X); else it is drawn where its "rt_slowdown" and "nrt_slowdown" say (only on a
-figure with a single panel). "unregulated" with rt_slowdown / nrt_slowdown is drawn as the star
+figure with a single panel and a single nRT node: tune's nrt_slowdown is the mean over the nRT
+nodes). "unregulated" with rt_slowdown / nrt_slowdown is drawn as the star
 when the folder has no unregulated columns.
 
 Applies when some workload pair has at least two regulation settings with both slowdowns.
@@ -35,6 +37,7 @@ from analysis.configs import (as_config, column_words, describe, finite, group_b
                               keys_in_order, title, varying)
 from analysis.figures import reference
 from analysis.figures.base import FigurePlan
+from analysis.nodes import nodes_of
 
 KIND = "RT vs nRT trade-off"
 STEM = "tradeoff"
@@ -57,42 +60,44 @@ def setting_columns(results) -> list:
     return [c for c in (*SETTING_COLUMNS, *extra) if c in results.config_columns]
 
 
-def _measured(p) -> bool:
-    return bool(p.stat("rt_slowdown") and p.stat("nrt_slowdown"))
-
-
-def pareto_front(points) -> list:
-    """The points no other point beats on both mean slowdowns (RT and nRT, lower is better),
-    by ascending RT slowdown."""
-    ordered = sorted(points, key=lambda p: (p.mean("rt_slowdown"), p.mean("nrt_slowdown")))
+def pareto_front(points, y: str = "nrt_slowdown") -> list:
+    """The points no other point beats on both mean slowdowns (RT and the nRT node's column
+    ``y``, lower is better), by ascending RT slowdown."""
+    ordered = sorted(points, key=lambda p: (p.mean("rt_slowdown"), p.mean(y)))
     front, best_nrt = [], math.inf
     for p in ordered:
-        if p.mean("nrt_slowdown") < best_nrt:
+        if p.mean(y) < best_nrt:
             front.append(p)
-            best_nrt = p.mean("nrt_slowdown")
+            best_nrt = p.mean(y)
     return front
 
 
 def plan(results):
-    """FigurePlans (a panel per workload pair, PANELS_PER_FILE per file), or a skip reason."""
-    points = [p for p in results.points if p.has_rt and p.has_nrt and _measured(p)]
+    """FigurePlans (a panel per workload pair and nRT node, PANELS_PER_FILE per file), or a
+    skip reason."""
+    points = [p for p in results.points if p.has_rt and p.has_nrt and p.stat("rt_slowdown")]
     settings_cols = setting_columns(results)
     group_cols = varying(points, [c for c in results.config_columns if c not in settings_cols])
-    groups = [(key, pts) for key, pts in group_by(points, group_cols).items()
-              if len(_settings(pts)) >= 2]
+    nodes = nodes_of(results, "nrt")
+    groups = [(key, node, measured) for key, pts in group_by(points, group_cols).items()
+              for node in nodes
+              for measured in [[p for p in pts if p.stat(node.metric)]]
+              if len(_settings(measured)) >= 2]
     if not groups:
         return ("no workload pair has two regulation settings with RT and nRT slowdowns: "
                 "no trade-off to draw")
     chunks = [groups[i:i + PANELS_PER_FILE] for i in range(0, len(groups), PANELS_PER_FILE)]
-    mechanisms = keys_in_order([p for _, pts in groups for p in _settings(pts)], MECHANISM)
+    mechanisms = keys_in_order([p for _, _, pts in groups for p in _settings(pts)], MECHANISM)
     plans = []
     for i, chunk in enumerate(chunks):
         stem = STEM if len(chunks) == 1 else f"{STEM}_{i + 1}"
-        count = sum(len(_settings(pts)) for _, pts in chunk)
+        count = sum(len(_settings(pts)) for _, _, pts in chunk)
         summary = (f"RT vs nRT slowdown, one marker per regulation setting ({count} in "
                    f"{len(chunk)} panel(s)), the Pareto front marked")
         if group_cols:
             summary += "; a panel per " + ", ".join(column_words(c) for c in group_cols)
+        if len(nodes) > 1:
+            summary += "; a panel per nRT node (" + ", ".join(n.label for n in nodes) + ")"
         if results.rt_slowdown_max is not None:
             summary += f"; target RT slowdown ≤ {results.rt_slowdown_max:g}"
         if results.tune:
@@ -101,7 +106,7 @@ def plan(results):
             summary += f" (part {i + 1} of {len(chunks)})"
         plans.append(FigurePlan(KIND, stem, summary,
                                 partial(_draw, results, chunk, group_cols, settings_cols,
-                                        mechanisms, len(groups) == 1)))
+                                        mechanisms, len(groups) == 1 and len(nodes) == 1)))
     return plans
 
 
@@ -116,13 +121,16 @@ def _draw(results, chunk, group_cols, settings_cols, mechanisms, single):
     width = 4.2 * ncols + LEGEND_WIDTH_IN
     fig, axes = style.new_figure(nrows, ncols, width=width, row_height=3.6)
     handles: dict = {}
-    all_points = [p for _, pts in chunk for p in pts]
+    all_points = [p for _, _, pts in chunk for p in pts]
     label_cols = varying(_settings(all_points),
                          [c for c in settings_cols if c not in MECHANISM])
-    for i, (key, points) in enumerate(chunk):
+    several = any(node.several for _, node, _ in chunk)
+    for i, (key, node, points) in enumerate(chunk):
         ax = axes[i // ncols][i % ncols]
-        _draw_panel(ax, results, points, mechanisms, label_cols, single)
+        _draw_panel(ax, results, points, mechanisms, label_cols, single, node)
         words = describe(as_config(group_cols, key))
+        if several:
+            words = f"{node.label}" + (f"\n{words}" if words else "")
         if words:
             ax.set_title(words, fontsize=9)
         for h, label in zip(*ax.get_legend_handles_labels()):
@@ -139,21 +147,23 @@ def _draw(results, chunk, group_cols, settings_cols, mechanisms, single):
     return fig
 
 
-def _draw_panel(ax, results, points, mechanisms, label_cols, single) -> None:
+def _draw_panel(ax, results, points, mechanisms, label_cols, single, node) -> None:
     settings = _settings(points)
+    y = node.metric
     for key, pts in group_by(settings, list(MECHANISM)).items():
         index = mechanisms.index(key)
-        ax.scatter([p.mean("rt_slowdown") for p in pts], [p.mean("nrt_slowdown") for p in pts],
+        ax.scatter([p.mean("rt_slowdown") for p in pts], [p.mean(y) for p in pts],
                    color=style.colour(index), marker=style.marker(index), s=36, zorder=3,
                    label=describe(as_config(MECHANISM, key), short=True))
-    front = pareto_front(settings)
-    ax.plot([p.mean("rt_slowdown") for p in front], [p.mean("nrt_slowdown") for p in front],
+    front = pareto_front(settings, y)
+    ax.plot([p.mean("rt_slowdown") for p in front], [p.mean(y) for p in front],
             label="Pareto front", **FRONT_STYLE)
-    ax.scatter([p.mean("rt_slowdown") for p in front], [p.mean("nrt_slowdown") for p in front],
+    ax.scatter([p.mean("rt_slowdown") for p in front], [p.mean(y) for p in front],
                s=110, facecolors="none", edgecolors="0.2", linewidths=1.0, zorder=2.5)
-    _draw_unregulated(ax, results, points, single)
-    _draw_tune(ax, results, points, single)
-    _label_front(ax, front, label_cols)
+    if node.index == 0:   # points.csv has the unregulated co-run of the first nRT node only
+        _draw_unregulated(ax, results, points, single)
+    _draw_tune(ax, results, points, single, y)
+    _label_front(ax, front, label_cols, y)
     reference.draw_target(ax, results.rt_slowdown_max, vertical=True)
     if results.rt_slowdown_max is not None:
         lo, hi = ax.get_xlim()
@@ -161,20 +171,20 @@ def _draw_panel(ax, results, points, mechanisms, label_cols, single) -> None:
             ax.axvspan(results.rt_slowdown_max, hi, color="0.5", alpha=0.08, zorder=0)
         ax.set_xlim(lo, hi)
     ax.set_xlabel(f"RT {style.SLOWDOWN_LABEL}")
-    ax.set_ylabel(f"nRT {style.SLOWDOWN_LABEL}")
+    ax.set_ylabel(f"{node.label if node.several else 'nRT'} {style.SLOWDOWN_LABEL}")
     ax.grid(True, alpha=0.3)
 
 
-def _label_front(ax, front, label_cols, min_dx=60, min_dy=11) -> None:
+def _label_front(ax, front, label_cols, y, min_dx=60, min_dy=11) -> None:
     """Labels the front's settings with their words where a label fits: settings at (nearly)
     the same place share one; a label closer than min_dx x min_dy pixels to one already
     written is left out."""
     ax.get_xlim(), ax.get_ylim()   # settle the autoscaled limits before using transData
     placed: list = []
-    for cluster in _clusters(front):
+    for cluster in _clusters(front, y):
         words = " / ".join(dict.fromkeys(w for w in (_setting_words(p, label_cols)
                                                      for p in cluster) if w))
-        xy = (cluster[0].mean("rt_slowdown"), cluster[0].mean("nrt_slowdown"))
+        xy = (cluster[0].mean("rt_slowdown"), cluster[0].mean(y))
         px, py = ax.transData.transform(xy)
         if not words or any(abs(px - qx) < min_dx and abs(py - qy) < min_dy
                             for qx, qy in placed):
@@ -184,13 +194,13 @@ def _label_front(ax, front, label_cols, min_dx=60, min_dy=11) -> None:
                     color="0.25")
 
 
-def _clusters(front, rel=2e-3) -> list:
+def _clusters(front, y, rel=2e-3) -> list:
     """Consecutive front points within ``rel`` of each other on both axes, grouped."""
     clusters: list = []
     for p in front:
         last = clusters[-1][0] if clusters else None
         if last is not None and all(math.isclose(p.mean(m), last.mean(m), rel_tol=rel)
-                                    for m in ("rt_slowdown", "nrt_slowdown")):
+                                    for m in ("rt_slowdown", y)):
             clusters[-1].append(p)
         else:
             clusters.append([p])
@@ -245,18 +255,18 @@ def matches(entry: dict, point, config_columns) -> bool:
     return matched
 
 
-def _draw_tune(ax, results, points, single) -> None:
+def _draw_tune(ax, results, points, single, y) -> None:
     for key, label, colour, size in TUNE_MARKS:
         entry = results.tune.get(key)
         if not entry:
             continue
         chosen = [p for p in points if matches(entry, p, results.config_columns)]
-        xy = [(p.mean("rt_slowdown"), p.mean("nrt_slowdown")) for p in chosen]
+        xy = [(p.mean("rt_slowdown"), p.mean(y)) for p in chosen]
         if not xy and single and all(finite(entry.get(k)) for k in ("rt_slowdown",
                                                                      "nrt_slowdown")):
             xy = [(float(entry["rt_slowdown"]), float(entry["nrt_slowdown"]))]
-        for x, y in xy:
-            ax.scatter([x], [y], marker="*", s=size, color=colour, edgecolors="black",
+        for mark_x, mark_y in xy:
+            ax.scatter([mark_x], [mark_y], marker="*", s=size, color=colour, edgecolors="black",
                        linewidths=0.7, zorder=5, label=label)
 
 

@@ -5,11 +5,14 @@
 namespace rosguard {
 namespace {
 
-// Per-node columns: the first RT / nRT node's have fixed names ("rt_time_us", "throttled_us"),
-// the others an index ("rt1_time_us", "nrt2_throttled_us"); their meanings are the same.
+// Per-node columns: the first RT / nRT node's have the prefix "rt_" / "nrt_" ("rt_time_us",
+// "nrt_throttled_us"), the others an index ("rt1_time_us", "nrt2_throttled_us"); their meanings
+// are the same.
 const std::vector<ColumnInfo>& rt_node_columns() {
   static const std::vector<ColumnInfo> c = {
       {"workload", "text", "the RT node's workload"},
+      {"name", "text", "the RT node's name (nodes.rt[i].name in the scenario)"},
+      {"core", "count", "the core the RT node runs on"},
       {"time_us", "us", "the RT node's job time in the co-run (median over its jobs)"},
       {"isolation_us", "us",
        "the same job alone on the same core, unregulated (median of the baseline measurements)"},
@@ -30,6 +33,8 @@ const std::vector<ColumnInfo>& rt_node_columns() {
 const std::vector<ColumnInfo>& nrt_node_columns() {
   static const std::vector<ColumnInfo> c = {
       {"workload", "text", "the nRT node's workload"},
+      {"name", "text", "the nRT node's name (nodes.nrt[i].name in the scenario)"},
+      {"core", "count", "the core the nRT node runs on"},
       {"time_us", "us", "time the nRT node took for the work it did in isolation_us alone"},
       {"isolation_us", "us", "one run of the nRT workload alone on the same core, unregulated"},
       {"slowdown", "ratio", "time_us / isolation_us over the same work (1.0 = as fast as alone)"},
@@ -76,9 +81,12 @@ std::vector<ColumnInfo> build_points() {
   };
   node("rt_", rt_node_columns(), "workload");
   node("nrt_", nrt_node_columns(), "workload");
-  // The first nRT node's throttle columns are named without the prefix.
-  for (auto& c : d)
-    if (c.name == "nrt_throttle_count" || c.name == "nrt_throttled_us") c.name.erase(0, 4);
+  // The fixed names of the first nRT node's throttle columns (DESIGN section 7).
+  d.push_back({"throttle_count", "count",
+               "times the first nRT node's core was throttled (the same as nrt_throttle_count)"});
+  d.push_back({"throttled_us", "us",
+               "total time the first nRT node's core spent throttled (the same as "
+               "nrt_throttled_us)"});
   const std::vector<ColumnInfo> rest = {
       {"activation_delay_p50_us", "us",
        "median delay from the sample that exhausted a budget to the throttle taking hold"},

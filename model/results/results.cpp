@@ -159,6 +159,12 @@ std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
         "nrt_isolation_cv", "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses",
         "signal_latency_p50_us", "signal_to_thr_p50_us"})
     h.emplace_back(c);
+  // Which nodes the first RT / nRT columns belong to, and the first nRT node's throttling under
+  // its node prefix (throttle_count / throttled_us above are the same values, by their fixed
+  // names).
+  for (const char* c :
+       {"rt_name", "rt_core", "nrt_name", "nrt_core", "nrt_throttle_count", "nrt_throttled_us"})
+    h.emplace_back(c);
   // The point's unregulated co-run (filled by the runner: tools/rosguard/unregulated.h).
   for (const char* c : {"rt_unregulated_time_us", "rt_unregulated_slowdown",
                         "nrt_unregulated_time_us", "nrt_unregulated_slowdown"})
@@ -167,14 +173,14 @@ std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
   for (const char* c : {"rt_slowdown_ci95_pct", "nrt_slowdown_ci95_pct"})
     h.emplace_back(c);
   for (std::size_t i = 1; i < max_rt; ++i)
-    for (const char* c :
-         {"workload", "time_us", "isolation_us", "slowdown", "isolation_n", "isolation_cv",
-          "response_p99_us", "response_max_us", "deadline_misses", "slowdown_ci95_pct"})
+    for (const char* c : {"workload", "name", "core", "time_us", "isolation_us", "slowdown",
+                          "isolation_n", "isolation_cv", "response_p99_us", "response_max_us",
+                          "deadline_misses", "slowdown_ci95_pct"})
       h.push_back("rt" + std::to_string(i) + "_" + c);
   for (std::size_t i = 1; i < max_nrt; ++i)
     for (const char* c :
-         {"workload", "time_us", "isolation_us", "slowdown", "isolation_n", "isolation_cv",
-          "bandwidth_mbps", "throttle_count", "throttled_us", "slowdown_ci95_pct"})
+         {"workload", "name", "core", "time_us", "isolation_us", "slowdown", "isolation_n",
+          "isolation_cv", "bandwidth_mbps", "throttle_count", "throttled_us", "slowdown_ci95_pct"})
       h.push_back("nrt" + std::to_string(i) + "_" + c);
   for (const auto& p : sweep_paths)
     h.push_back("param:" + p);
@@ -202,6 +208,8 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
     const RtOutcome* out = i < o.rt.size() ? &o.rt[i] : nullptr;
     const double t = out ? out->time_us : kNaN;
     cell[prefix + "workload"] = n.workload.name;
+    cell[prefix + "name"] = n.name;
+    cell[prefix + "core"] = std::to_string(n.core);
     cell[prefix + "time_us"] = us(t);
     isolation_cells(cell, prefix, first, b.runs(s, n.workload, n.core), t);
     if (out) {
@@ -217,6 +225,8 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
     const NrtOutcome* out = i < o.nrt.size() ? &o.nrt[i] : nullptr;
     const double t = out ? out->time_us : kNaN;
     cell[prefix + "workload"] = n.workload.name;
+    cell[prefix + "name"] = n.name;
+    cell[prefix + "core"] = std::to_string(n.core);
     cell[prefix + "time_us"] = us(t);
     isolation_cells(cell, prefix, first, b.runs(s, n.workload, n.core), t);
     cell[prefix + "bandwidth_mbps"] = out ? mbps(out->bandwidth_mbps) : "";
@@ -231,7 +241,7 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
     rt_cells(prefix_of("rt", i), i, i == 0);
   for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i)
     nrt_cells(prefix_of("nrt", i), i, i == 0);
-  // The fixed name of the first nRT node's throttle columns has no "nrt_" prefix.
+  // The fixed names of the first nRT node's throttle columns have no "nrt_" prefix.
   if (!s.nodes.nrt.empty()) {
     cell["throttle_count"] = cell["nrt_throttle_count"];
     cell["throttled_us"] = cell["nrt_throttled_us"];

@@ -301,8 +301,8 @@ def test_no_band_leaves_the_outputs_as_they_were(hand_pair, tmp_path):
     header = (tmp_path / "out" / "compare.csv").read_text().splitlines()[0]
     assert header == ("point,status,rt_workload,nrt_workload,policy,sampling,scope,"
                       "threshold_pct,sampling_period_us,regulation_period_us,reps_a,reps_b,"
-                      "rt_slowdown_a,rt_slowdown_b,rt_diff,rt_error_pct,nrt_slowdown_a,"
-                      "nrt_slowdown_b,nrt_diff,nrt_error_pct")
+                      "rt_name,rt_slowdown_a,rt_slowdown_b,rt_diff,rt_error_pct,nrt_name,"
+                      "nrt_slowdown_a,nrt_slowdown_b,nrt_diff,nrt_error_pct")
     assert "band" not in json.loads((tmp_path / "out" / "summary.json").read_text())
     assert "prediction band" not in stream.getvalue()
 

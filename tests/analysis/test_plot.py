@@ -110,7 +110,7 @@ def test_plot_prints_what_the_figures_show(results_dir, loaded, tmp_path):
     table = text[text.index("what the figures show"):text.index("unregulated co-run (")]
     table = table.splitlines()
     assert table[1].split("  ") and [c.strip() for c in table[1].split("  ") if c.strip()] == [
-        "RT workload", "nRT workload", "policy", "threshold (%)", "rt slowdown", "nrt slowdown"]
+        "RT workload", "nRT workload", "policy", "threshold (%)", "RT slowdown", "nRT slowdown"]
     first = loaded("threshold").points[0]
     row = table[2].split()
     assert row[-2:] == [f"{first.mean('rt_slowdown'):.3f}", f"{first.mean('nrt_slowdown'):.3f}"]

@@ -193,6 +193,39 @@ TEST_CASE("a row written with the first baseline is refreshed with the median of
   CHECK_FALSE(refresh_isolation_cells(header, row, s, Baselines{}).has_value());
 }
 
+TEST_CASE("every node's columns name it: name, core and throttling, the first nodes too",
+          "[baselines][results]") {
+  Scenario s = two_node_scenario();
+  s.nodes.nrt.push_back(
+      {"tracking", 3, {"track_work", "inline", {{"hw", {{"kernel", "c"}}}}}, NrtMode::Loop});
+  const auto header = points_header(1, 2, {});
+  PointOutcome o;
+  o.rt.push_back(
+      rt_outcome("rt0", std::vector<double>{100.0}, std::vector<double>{100.0}, std::nullopt));
+  o.nrt.push_back({"nrt0", 500.0, 10.0, 7, 40.0, 1.0});
+  o.nrt.push_back({"tracking", 900.0, 20.0, 11, 90.0, 1.0});
+  Baselines b;
+  b.put(Baselines::key(s, s.nodes.rt[0].workload, 0), {50.0, kNaN, kNaN}, 0);
+  for (const auto& n : s.nodes.nrt)
+    b.put(Baselines::key(s, n.workload, n.core), {250.0, kNaN, kNaN}, 0);
+  std::string row = points_row(header, SweepPoint{0, "p0", {}, {}}, s, 0, o, b);
+  row.pop_back();
+  CHECK(cell(header, row, "rt_name") == "rt0");
+  CHECK(cell(header, row, "rt_core") == "0");
+  CHECK(cell(header, row, "nrt_name") == "nrt0");
+  CHECK(cell(header, row, "nrt_core") == "1");
+  CHECK(cell(header, row, "nrt_throttle_count") == "7");
+  CHECK(cell(header, row, "throttle_count") == "7");  // the fixed name of the same value
+  CHECK(cell(header, row, "nrt_throttled_us") == "40.000");
+  CHECK(cell(header, row, "throttled_us") == "40.000");
+  CHECK(cell(header, row, "nrt1_name") == "tracking");
+  CHECK(cell(header, row, "nrt1_core") == "3");
+  CHECK(cell(header, row, "nrt1_workload") == "track_work");
+  CHECK(cell(header, row, "nrt1_throttle_count") == "11");
+  CHECK(cell(header, row, "nrt1_throttled_us") == "90.000");
+  CHECK(cell(header, row, "nrt1_slowdown") == "3.600000");
+}
+
 TEST_CASE("each RT job's response time is a samples.csv row of kind rt_job", "[baselines]") {
   PointOutcome o;
   o.samples.push_back({"activation_delay", 5.0});

@@ -30,7 +30,9 @@ TEST_CASE("the column dictionary: per-node patterns, no duplicates, MiB/s bandwi
   CHECK(describe_point_column("param:nodes.rt[0].workload")->name == "param:nodes.rt[0].workload");
   CHECK_FALSE(describe_point_column("rt_nonsense"));
   CHECK_FALSE(describe_point_column("rtx_time_us"));
-  CHECK_FALSE(describe_point_column("nrt_throttle_count"));  // named throttle_count
+  CHECK(describe_point_column("nrt_throttle_count")->unit == "count");
+  CHECK(describe_point_column("nrt2_name")->unit == "text");
+  CHECK(describe_point_column("rt_core")->unit == "count");
   std::set<std::string> names;
   for (const auto& c : point_column_dictionary())
     CHECK(names.insert(c.name).second);

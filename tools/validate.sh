@@ -9,11 +9,20 @@
 # calibrate --install`), each scenario also runs in sim on every band platform into
 # results/validation/sim-band/<variant>/<scenario>/, and compare and the report show the band.
 #
+# The scale scenarios (scenarios/validation/scale/, tools/scale_scenarios.py: an RT node and k
+# co-runners, k = 1, 3, 7, 14, over LLC- and DRAM-bound working sets sized from this host's
+# caches) run with the others where this host has the CPUs they name (cores 0..k); the others
+# are skipped, each with its reason, in the console and the report. A host with more than 16
+# CPUs also runs k = N - 2 (N: its CPUs), generated into results/validation/scenarios/. On a
+# 16-CPU host the scale scenarios take some 3-5 minutes (k = 14 the most: 15 DRAM-bound
+# kernels of 2 x L3 each).
+#
 # Usage: tools/validate.sh [ROSGUARD]      run the suite (default ROSGUARD: build/rosguard)
 #        tools/validate.sh --readme        regenerate README.md's validation block and
 #                                          docs/figures/validation_scatter.* from the last report
 # Environment (for one run; tests use them): ROSGUARD_VALIDATE_PLATFORM overrides the platform
-# below, ROSGUARD_VALIDATE_SUITE the scenario folder, ROSGUARD_VALIDATE_OUT the results folder.
+# below, ROSGUARD_VALIDATE_SUITE the scenario folder, ROSGUARD_VALIDATE_OUT the results folder,
+# ROSGUARD_VALIDATE_CPUS the CPUs this host is taken to have (default: nproc, the usable ones).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -77,8 +86,28 @@ else
 fi
 
 shopt -s nullglob
-scenarios=("$suite"/*.json)
+scenarios=("$suite"/*.json "$suite"/scale/*.json)
 ((${#scenarios[@]})) || { echo "validate: no scenario in $suite" >&2; exit 1; }
+
+# The CPUs a scenario may name: this host's usable ones. Beyond the scale suite's largest k, a
+# host with more CPUs also runs k = N - 2 (one CPU left to the OS and this script).
+cpus=${ROSGUARD_VALIDATE_CPUS:-$(nproc)}
+if [[ ! $cpus =~ ^[1-9][0-9]*$ ]]; then
+  echo "validate: ROSGUARD_VALIDATE_CPUS='$cpus' is not a CPU count" >&2
+  exit 1
+fi
+if [[ -d $suite/scale ]]; then
+  largest=$(py -c 'import json,sys
+print(max([len(json.load(open(f))["nodes"]["nrt"]) for f in sys.argv[1:]] or [0]))' \
+    "$suite"/scale/*.json)
+  if ((cpus - 2 > largest)); then
+    rm -rf "$out/scenarios/scale"
+    py tools/scale_scenarios.py --k $((cpus - 2)) --out "$out/scenarios/scale" >/dev/null
+    scenarios+=("$out"/scenarios/scale/*.json)
+    echo "validate: this host has $cpus CPUs: the scale scenarios of k = $((cpus - 2))" \
+         "co-runners too ($out/scenarios/scale/)"
+  fi
+fi
 
 # The host model's uncertainty band: band/*.json beside it (absolute paths: the scenario copies
 # that name them live elsewhere). Files older than the model are of an earlier one (calibrate
@@ -119,16 +148,25 @@ rm -rf "$out/sim-band"
 mkdir -p "$out"/{hw,sim,compare,logs,scenarios}
 start=$(date +%s)
 load_start=$(cut -d' ' -f1 /proc/loadavg)
-ok=() failed=() band_failed=()
+ok=() failed=() band_failed=() skipped=()
 band_runs=0 band_tenths=0
 i=0
 for file in "${scenarios[@]}"; do
   i=$((i + 1))
   name=$(basename "$file" .json)
   source_file=$file
+  # Its platform, and the CPUs it needs: its highest core + 1.
+  read -r given_platform needs < <(py -c 'import json,sys; d=json.load(open(sys.argv[1]))
+n=d["nodes"]; cores=[n["controller"]["core"]]+[x["core"] for x in n.get("rt",[])+n.get("nrt",[])]
+print(d.get("platform"), max(cores)+1)' "$file")
+  if ((needs > cpus)); then
+    printf '[%d/%d] %-26s skipped: needs %d CPUs (cores 0-%d), this host has %d\n' "$i" \
+      "${#scenarios[@]}" "$name" "$needs" $((needs - 1)) "$cpus"
+    skipped+=("$name=needs $needs CPUs (cores 0-$((needs - 1))), this host has $cpus")
+    continue
+  fi
   # The suite's files name `host`; another platform (ROSGUARD_VALIDATE_PLATFORM) runs a copy.
-  if [[ $(py -c 'import json,sys; print(json.load(open(sys.argv[1])).get("platform"))' "$file") \
-        != "$platform" ]]; then
+  if [[ $given_platform != "$platform" ]]; then
     with_platform "$file" "$platform" "$out/scenarios/$name.json"
     file=$out/scenarios/$name.json
   fi
@@ -201,6 +239,10 @@ for file in "${scenarios[@]}"; do
 done
 
 load_end=$(cut -d' ' -f1 /proc/loadavg)
+if ((${#skipped[@]})); then
+  echo "validate: ${#skipped[@]} scenario(s) skipped (more CPUs than this host's $cpus):" \
+       "${skipped[*]%%=*}"
+fi
 echo "validate: suite run in $(($(date +%s) - start)) s (load average $load_start at the" \
      "start, $load_end at the end, on $(nproc) CPUs); writing the report"
 if ((${#band_files[@]})); then
@@ -216,6 +258,7 @@ args=(-m analysis validate "$out/hw" "$out/sim" --out "$out" ${cpu:+--cpu "$cpu"
       --scenarios "$(IFS=,; echo "${ok[*]}")"
       --note "1-min load average $load_start at the start, $load_end at the end ($(nproc) CPUs)")
 for f in "${failed[@]}"; do args+=(--failed "$f"); done
+for f in "${skipped[@]}"; do args+=(--skipped "$f"); done
 if ((band_runs)); then args+=(--band-root "$out/sim-band"); fi
 py "${args[@]}"
 if ((${#failed[@]})); then

@@ -3,7 +3,8 @@
 # output; every scale scenario passes `rosguard check` on a 16-core host model; make validate
 # (tools/validate.sh) runs the k = 1 ones on a host of 2 CPUs and skips the others, each with its
 # reason (console and report), and on a host of 6 CPUs also runs the generated k = N - 2 = 4.
-# The CPU count is faked (ROSGUARD_VALIDATE_CPUS). Stand-ins: `rosguard platform model` says the
+# The CPU count is faked (ROSGUARD_VALIDATE_CPUS); a run without the analysis's Python modules
+# (faked: ROSGUARD_VALIDATE_ANALYSIS=0) runs the scenarios only, and --report reports them later. Stand-ins: `rosguard platform model` says the
 # model is of this machine and `rosguard run --backend hw` runs sim (no hw here); everything else
 # is the real rosguard. The host model is vm-2core with 16 cores in its cluster.
 # Usage: validate_scale.sh ROSGUARD SOURCE_DIR
@@ -110,7 +111,25 @@ assert len(report["skipped"]) == 6
 print("report: k = 1 compared, 6 skipped")
 PY
 
-# 4. A host of 6 CPUs: k = 3 runs too, and k = N - 2 = 4 is generated and run.
+# 4. Without the analysis's Python modules (faked): the runs only, then --report elsewhere.
+ROSGUARD_VALIDATE_ANALYSIS=0 validate 2 "$tmp/out-noanalysis"
+grep -q "lacks numpy, pandas, matplotlib or scipy" "$log" || fail "no word on the missing modules"
+[ ! -e "$tmp/out-noanalysis/report.json" ] || fail "a report without the analysis"
+[ -f "$tmp/out-noanalysis/hw/scale-k1-llc/points.csv" ] || fail "no runs without the analysis"
+mv "$tmp/out-noanalysis" "$tmp/copied"
+code=0
+ROSGUARD_VALIDATE_OUT=$tmp/copied "$src/tools/validate.sh" --report "$tmp/rosguard" \
+  >"$tmp/report.log" 2>&1 || code=$?
+cat "$tmp/report.log"
+[ "$code" -eq 0 ] || fail "validate.sh --report: exit $code"
+grep -qE "^scale-k1-llc +RT MAPE" "$tmp/report.log" || fail "--report did not compare"
+py - "$tmp/copied/report.json" <<'PY' || fail "--report's report"
+import json, sys
+report = json.load(open(sys.argv[1]))
+assert [r["k"] for r in report["per_k"]] == [1] and len(report["skipped"]) == 6, report
+PY
+
+# 5. A host of 6 CPUs: k = 3 runs too, and k = N - 2 = 4 is generated and run.
 rm -rf "$tmp/suite/scale"/scale-k{7,14}-*.json "$tmp/suite/scale"/scale-k1-*.json
 validate 6 "$tmp/out6"
 grep -q "this host has 6 CPUs: the scale scenarios of k = 4 co-runners too" "$log" ||

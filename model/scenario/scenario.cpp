@@ -114,8 +114,7 @@ PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file) 
 
 WorkloadInfo size_working_set(const WorkloadInfo& w, const PlatformInfo& platform,
                               const std::string& file, const std::string& pointer) {
-  if (w.is_command() || !w.doc.contains("hw") || !w.doc.at("hw").contains("working_set"))
-    return w;
+  if (w.is_command() || !w.doc.contains("hw") || !w.doc.at("hw").contains("working_set")) return w;
   const auto& spec = w.doc.at("hw").at("working_set");
   const std::string cache = spec.at("cache").get<std::string>();
   const double times = spec.at("times").get<double>();

@@ -373,11 +373,10 @@ TEST_CASE("loader: hw.working_set is sized from the platform's caches", "[loader
   // orin-agx (the default platform): 256 KB L2 per core, 2048 KB L3 per cluster.
   dir.write("wl/dram.json", R"({"name": "dram", "hw": {"kernel": "bandwidth_read",
     "working_set": {"cache": "l3", "times": 2}}})");
-  const auto file = dir.write(
-      "s.json",
-      scenario("", R"({"name": "llc", "hw": {"kernel": "bandwidth_read",
+  const auto file =
+      dir.write("s.json", scenario("", R"({"name": "llc", "hw": {"kernel": "bandwidth_read",
         "working_set": {"cache": "l2", "times": 4}}})",
-               "\"wl/dram.json\""));
+                                   "\"wl/dram.json\""));
   Loader loader = make_loader();
   const Scenario s = loader.load(file).points.at(0).scenario;
   CHECK(s.nodes.rt[0].workload.doc["hw"]["working_set_kb"] == 1024);   // 4 x 256 KB
@@ -396,8 +395,9 @@ TEST_CASE("loader: hw.working_set is sized from the platform's caches", "[loader
     const auto other = dir.write(
         "other.json", scenario(R"("platform": "big-l2.json",)", R"({"name": "llc", "hw": {"kernel":
           "bandwidth_read", "working_set": {"cache": "l2", "times": 0.5}}})"));
-    CHECK(loader.load(other).points.at(0).scenario.nodes.rt[0].workload.doc["hw"]
-                                                                           ["working_set_kb"] == 512);
+    CHECK(
+        loader.load(other).points.at(0).scenario.nodes.rt[0].workload.doc["hw"]["working_set_kb"] ==
+        512);
   }
   SECTION("not together with working_set_kb: in a workload file, and inline") {
     dir.write("wl/both.json", R"({"name": "both", "hw": {"kernel": "bandwidth_read",
@@ -413,15 +413,15 @@ TEST_CASE("loader: hw.working_set is sized from the platform's caches", "[loader
   }
   SECTION("a platform that reports no L3") {
     orin_with("nol3.json", [](json& c) { c.erase("l3_kb_per_cluster"); });
-    const auto e = load_error(dir.write("s-nol3.json", scenario(R"("platform": "nol3.json",)",
-                                                                 "\"mser\"", "\"wl/dram.json\"")));
+    const auto e = load_error(dir.write(
+        "s-nol3.json", scenario(R"("platform": "nol3.json",)", "\"mser\"", "\"wl/dram.json\"")));
     CHECK_THAT(e.file(), EndsWith("wl/dram.json"));
     CHECK(e.json_path() == "/hw/working_set/cache");
     CHECK_THAT(e.message(), Contains("reports no L3 size (caches.l3_kb_per_cluster)"));
   }
   SECTION("a size outside working_set_kb's bounds") {
-    const auto e = load_error(dir.write(
-        "tiny.json", scenario("", R"({"name": "t", "hw": {"kernel": "bandwidth_read",
+    const auto e = load_error(
+        dir.write("tiny.json", scenario("", R"({"name": "t", "hw": {"kernel": "bandwidth_read",
           "working_set": {"cache": "l2", "times": 0.001}}})")));
     CHECK(e.json_path() == "/nodes/rt/0/workload/hw/working_set/times");
     CHECK_THAT(e.message(), Contains("is 0 KB, outside 4 .. 16777216 KB"));

@@ -596,8 +596,7 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
 
 WorkloadInfo Loader::sized_workload(const WorkloadInfo& w, const PlatformInfo& platform,
                                     const std::string& file, const std::string& pointer) {
-  if (w.is_command() || !w.doc.contains("hw") || !w.doc.at("hw").contains("working_set"))
-    return w;
+  if (w.is_command() || !w.doc.contains("hw") || !w.doc.at("hw").contains("working_set")) return w;
   // One sized copy per workload and platform, shared by the points (a sweep holds every point).
   const std::string key = std::to_string(w.doc.hash()) + "\n" + std::to_string(platform.doc.hash());
   if (auto it = sized_cache_.find(key); it != sized_cache_.end()) return it->second;

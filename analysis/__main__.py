@@ -73,7 +73,9 @@ VALIDATE_HELP = """\
 The sim-vs-hw validation report of a suite: HW_ROOT and SIM_ROOT hold one results folder per
 scenario, by name. Per scenario and over all points: RT- and nRT-slowdown MAPE, the error on the
 excess slowdown (slowdown - 1) where the measured excess is >= 0.05, the hw repetitions' spread,
-each against its goal (RT MAPE <= 5 %, nRT MAPE <= 10 %, excess error <= 20 %). Writes
+each against its goal (RT MAPE <= 5 %, nRT MAPE <= 10 %, excess error <= 20 %); and per number
+of co-runners k (a scenario's nRT nodes): RT MAPE, nRT MAPE over every co-runner, and the
+per-node nRT MAPEs' range. Writes
 report.json, report.md and validation_scatter.png/pdf (simulated vs measured slowdown).
 
 --band-root BAND_ROOT: BAND_ROOT/<variant>/<scenario>/ are the sim runs of each scenario on the
@@ -151,6 +153,9 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("--failed", metavar="NAME=REASON", action="append", default=[],
                           help="a scenario that could not be run, and why (listed in the "
                                "report; repeatable)")
+    validate.add_argument("--skipped", metavar="NAME=REASON", action="append", default=[],
+                          help="a scenario not run on purpose, and why (e.g. it needs more "
+                               "CPUs than the host has; listed in the report; repeatable)")
     validate.add_argument("--note", metavar="TEXT", action="append", default=[],
                           help="a line on the conditions (e.g. the load), printed with the "
                                "host (repeatable)")
@@ -195,8 +200,11 @@ def main(argv=None) -> int:
                 if args.scenarios is not None else None
             failed = [dict(zip(("scenario", "reason"), f.split("=", 1) + [""]))
                       for f in args.failed]
+            skipped = [dict(zip(("scenario", "reason"), f.split("=", 1) + [""]))
+                       for f in args.skipped]
             return validation.run(args.hw_root, args.sim_root, args.out, names, failed,
-                                  args.note, cpu=args.cpu, band_root=args.band_root)
+                                  args.note, cpu=args.cpu, band_root=args.band_root,
+                                  skipped=skipped)
         return validation.table(args.report, args.readme, args.figure_dir)
     except InvalidInput as e:
         print(f"error: {e}", file=sys.stderr)

@@ -8,12 +8,19 @@ cost distributions) and draws into DIR/figures/:
   as the fitted model predicts it;
 - ``calibration_corun``: every run with co-runners (the bandwidth-latency curve and the co-run
   matrix) as a slowdown over the same kernel alone, measured vs fitted;
+- ``calibration_curves``: the co-runner curves, as co-runners grow (k = 1, 2, 4, ...), per
+  co-runner kind: the latency kernel's time per line (the loaded latency), the bandwidth
+  kernels' bandwidth per core, and the Mess-style curve (the latency kernel's time per line
+  against the co-runners' bandwidth together), each measured (bars: ±1 coefficient of
+  variation) and as the fitted model predicts it, and the error of the prediction per k;
+  ``calibration_curves.csv`` holds the numbers (the error per k of every curve);
 - ``calibration_costs``: each middleware / OS cost's measured distribution (histogram) with
   the fitted distribution's median and bounds.
 """
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -128,6 +135,183 @@ def draw_corun(doc: dict):
     return fig
 
 
+MIB = 1024.0 * 1024.0
+LINE_BYTES = 64.0
+
+
+def mbps(ns_per_line: float) -> float:
+    """MiB/s of one kernel streaming one 64-byte line every ns_per_line ns."""
+    return LINE_BYTES / ns_per_line * 1e9 / MIB
+
+
+def curves(doc: dict) -> list:
+    """The co-runner curves: one row per run whose co-runners are all of one kind, with its
+    measured and fitted (NaN without a fit) ns per line and the error (fitted - measured) /
+    measured in %: [{'corunner', 'corunner_kb', 'kernel', 'working_set_kb', 'k',
+    'measured_ns', 'cv', 'fitted_ns', 'error_pct'}], by co-runner kind, kernel, working set,
+    k. The runs alone (k = 0) of the curves' kernels are included: each curve starts there."""
+    runs = doc["measurements"]["runs"]
+    pred = predictions(doc)
+    kinds = {}
+    for i, r in enumerate(runs):
+        co = {(c["kernel"], c["working_set_kb"]) for c in r["corunners"]}
+        if len(co) == 1:
+            kinds.setdefault(co.pop(), []).append(i)
+    alone = {(r["kernel"], r["working_set_kb"]): i for i, r in enumerate(runs)
+             if not r["corunners"]}
+    rows = []
+    for (ck, ckb), idx in sorted(kinds.items()):
+        measured = sorted({(runs[i]["kernel"], runs[i]["working_set_kb"]) for i in idx})
+        for kernel, kb in measured:
+            series = [i for i in idx if (runs[i]["kernel"], runs[i]["working_set_kb"])
+                      == (kernel, kb)]
+            if (kernel, kb) in alone:
+                series.append(alone[(kernel, kb)])
+            for i in sorted(series, key=lambda j: len(runs[j]["corunners"])):
+                r = runs[i]
+                fitted = pred.get(i, float("nan"))
+                rows.append({"corunner": ck, "corunner_kb": ckb, "kernel": kernel,
+                             "working_set_kb": kb, "k": len(r["corunners"]),
+                             "measured_ns": r["ns_per_line"], "cv": r["cv"],
+                             "fitted_ns": fitted,
+                             "error_pct": 100.0 * (fitted - r["ns_per_line"]) / r["ns_per_line"]})
+    return rows
+
+
+def _series(rows, corunner, kernel=None):
+    """{(kernel, working set): [rows by k]} of one co-runner kind."""
+    out: dict = {}
+    for r in rows:
+        if (r["corunner"], r["corunner_kb"]) == corunner and (kernel is None
+                                                              or r["kernel"] == kernel):
+            out.setdefault((r["kernel"], r["working_set_kb"]), []).append(r)
+    return out
+
+
+def mess_points(rows, corunner) -> list:
+    """The Mess-style curve of one co-runner kind: per k, (the co-runners' bandwidth together,
+    the latency kernel's ns per line), measured and fitted, for the latency kernel over the
+    co-runners' working set. The co-runners' bandwidth is not measured in the latency kernel's
+    run: it is k x the bandwidth of one of them measured with k co-runners of its own kind
+    (the same load within one co-runner), so the curve needs that run too.
+    [(k, measured MiB/s, measured ns, fitted MiB/s, fitted ns)]."""
+    ck, ckb = corunner
+    own = {r["k"]: r for r in rows if (r["corunner"], r["corunner_kb"]) == corunner
+           and (r["kernel"], r["working_set_kb"]) == (ck, ckb)}
+    lat = {r["k"]: r for r in rows if (r["corunner"], r["corunner_kb"]) == corunner
+           and (r["kernel"], r["working_set_kb"]) == ("latency", ckb)}
+    out = []
+    for k in sorted(set(own) & set(lat)):
+        if k == 0:
+            continue
+        bw, lt = own[k], lat[k]
+        out.append((k, k * mbps(bw["measured_ns"]), lt["measured_ns"],
+                    k * mbps(bw["fitted_ns"]) if np.isfinite(bw["fitted_ns"]) else np.nan,
+                    lt["fitted_ns"]))
+    return out
+
+
+def draw_curves(doc: dict):
+    """Per co-runner kind (a row): latency vs k, bandwidth per core vs k, the Mess-style
+    latency vs the co-runners' bandwidth, and the fitted model's error per k."""
+    rows = curves(doc)
+    kinds = sorted({(r["corunner"], r["corunner_kb"]) for r in rows})
+    kinds = [c for c in kinds if len({r["k"] for r in rows
+                                      if (r["corunner"], r["corunner_kb"]) == c}) > 1]
+    if not kinds:
+        raise InvalidInput("the calibration has no co-runner curve (runs with co-runners of "
+                           "one kind)")
+    host = doc["measurements"]["host"]
+    fitted_any = any(np.isfinite(r["fitted_ns"]) for r in rows)
+    fig, axes = style.new_figure(len(kinds), 4, 17.0, 3.3)
+    for row, corunner in zip(axes, kinds):
+        ck, ckb = corunner
+        colours: dict = {}
+
+        def colour(key):
+            return colours.setdefault(key, style.colour(len(colours)))
+
+        ax_lat, ax_bw, ax_mess, ax_err = row
+        for (kernel, kb), series in _series(rows, corunner).items():
+            ks = [r["k"] for r in series]
+            meas = np.array([r["measured_ns"] for r in series])
+            cv = np.array([r["cv"] for r in series])
+            fit = np.array([r["fitted_ns"] for r in series])
+            label = f"{kernel} {size_label(kb)}"
+            if kernel == "latency":
+                ax, y, yfit = ax_lat, meas, fit
+            else:
+                ax, y, yfit = ax_bw, np.array([mbps(v) for v in meas]),                     np.array([mbps(v) for v in fit])
+            # A CV above 1 would take the lower bar below zero: it stops short of zero.
+            ax.errorbar(ks, y, yerr=[np.minimum(y * cv, 0.99 * y), y * cv], fmt="o-",
+                        color=colour(label), capsize=2,
+                        markersize=4, label=f"{label} measured")
+            if np.isfinite(yfit).any():
+                ax.plot(ks, yfit, "x--", color=colour(label), label=f"{label} fitted")
+            errs = [(r["k"], r["error_pct"]) for r in series
+                    if r["k"] > 0 and np.isfinite(r["error_pct"])]
+            if errs:
+                ax_err.plot(*zip(*errs), "o-", color=colour(label), markersize=4, label=label)
+        mess = mess_points(rows, corunner)
+        if mess:
+            ax_mess.plot([m[1] for m in mess], [m[2] for m in mess], "o-", color="k",
+                         markersize=4, label="measured")
+            for k, x, y, *_ in mess:
+                ax_mess.annotate(f"k={k}", (x, y), fontsize=6.5, textcoords="offset points",
+                                 xytext=(3, 3))
+            fitted = [(m[3], m[4]) for m in mess if np.isfinite(m[3]) and np.isfinite(m[4])]
+            if fitted:
+                ax_mess.plot(*zip(*fitted), "x--", color=style.colour(1), label="fitted model")
+        else:
+            ax_mess.text(0.5, 0.5, f"needs latency and {ck} runs over {size_label(ckb)}",
+                         transform=ax_mess.transAxes, ha="center", va="center", fontsize=7,
+                         color="0.5")
+        title = f"with k x {ck} {size_label(ckb)}"
+        ax_lat.set_title(f"latency kernel, {title}", fontsize=8.5)
+        ax_lat.set_ylabel("ns per line (pointer chase)")
+        ax_bw.set_title(f"bandwidth per core, {title}", fontsize=8.5)
+        ax_bw.set_ylabel("MiB/s of the measured kernel")
+        ax_mess.set_title(f"Mess-style: latency vs co-runners' bandwidth, {title}",
+                          fontsize=8.5)
+        ax_mess.set_xlabel("co-runners' bandwidth together (MiB/s, est.)")
+        ax_mess.set_ylabel(f"latency kernel over {size_label(ckb)}: ns per line")
+        ax_err.set_title(f"fitted model's error per k, {title}", fontsize=8.5)
+        ax_err.set_ylabel("(fitted − measured) / measured (%)")
+        ax_err.axhline(0.0, color="0.5", linewidth=0.8)
+        if not fitted_any:
+            ax_err.text(0.5, 0.5, "no fit (the calibration refused it)",
+                        transform=ax_err.transAxes, ha="center", va="center", fontsize=8,
+                        color="0.5")
+        for ax in (ax_lat, ax_bw, ax_err):
+            ax.set_xlabel("co-runners k")
+        for ax in row:
+            ax.grid(True, alpha=0.3)
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(fontsize=6.5)
+    style.finish(fig, "Co-runner curves: latency and bandwidth as co-runners grow, measured vs "
+                 "fitted",
+                 f"{host['cpu_model']}, {host['cpus']} CPUs, measured {host['date']}. Bars: "
+                 "±1 coefficient of variation. Mess-style x axis: k x one co-runner's bandwidth "
+                 "measured with k co-runners of its own kind (the co-runners' bandwidth is not "
+                 "measured in the latency kernel's run).")
+    return fig
+
+
+def write_curves_csv(doc: dict, path: Path) -> Path:
+    """calibration_curves.csv: curves(doc), one row per run (error per k)."""
+    rows = curves(doc)
+    columns = ["corunner", "corunner_kb", "kernel", "working_set_kb", "k", "measured_ns", "cv",
+               "fitted_ns", "error_pct"]
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f, lineterminator="\n")
+        writer.writerow(columns)
+        for r in rows:
+            writer.writerow(["" if isinstance(r[c], float) and not np.isfinite(r[c])
+                             else (f"{r[c]:.6g}" if isinstance(r[c], float) else r[c])
+                             for c in columns])
+    return path
+
+
 def draw_costs(doc: dict, platform: dict | None):
     """Histogram of each cost's samples and the fitted distribution's median / bounds."""
     costs = {k: v for k, v in doc["measurements"]["costs_us"].items() if v}
@@ -164,10 +348,13 @@ def run(folder: str) -> int:
     written = []
     for stem, draw in (("calibration_isolation", lambda: draw_isolation(doc)),
                        ("calibration_corun", lambda: draw_corun(doc)),
+                       ("calibration_curves", lambda: draw_curves(doc)),
                        ("calibration_costs", lambda: draw_costs(doc, platform))):
         try:
             written += style.save(draw(), out, stem)
         except InvalidInput as e:
             print(f"skipped {stem}: {e}")
+    if any(r["k"] > 0 for r in curves(doc)):
+        written.append(write_curves_csv(doc, out / "calibration_curves.csv"))
     print(f"wrote {len(written)} files to {out}")
     return 0

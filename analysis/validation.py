@@ -12,8 +12,13 @@ nRT nodes gives one nRT pair per node, all counted under nRT) the report compute
 * the measured noise: per point, the spread of the hw repetitions ``(max - min) / mean``
   (median over points), to read the errors against;
 
-per scenario and over the whole suite (every point of every scenario pooled), and marks the
-goals (``GOALS``) met or missed. Writes ``DIR/report.json``, ``DIR/report.md`` and
+per scenario, over the whole suite (every point of every scenario pooled) and per number of
+co-runners k (the scenario's nRT nodes: every scenario with that k pooled; ``per_k``), and marks
+the goals (``GOALS``) met or missed. Every nRT node of a point is a pair (``nrt_slowdown``,
+``nrt1_slowdown``, ...): the nRT errors are over every co-runner, and each scenario also has
+them per node (``nrt_nodes``: by index and name), per k their min..max. Scenarios not run on
+purpose (``--skipped NAME=REASON``: make validate's scale scenarios that need more CPUs than
+the host has) are listed with their reason. Writes ``DIR/report.json``, ``DIR/report.md`` and
 ``DIR/validation_scatter.png`` / ``.pdf`` (``analysis/figures/validation.py``).
 
 With ``--band-root BAND_ROOT`` (``BAND_ROOT/<variant>/<scenario>/``: the sim runs of each
@@ -21,7 +26,7 @@ scenario on the band platforms of the host model, which ``rosguard calibrate`` w
 prior-dominated parameters) each point's node also has a **prediction band**: min..max of the
 sim mean slowdown over the nominal run and every band run (``compare.prediction_band``: the
 envelope of one-at-a-time variations). The report then gives per scenario and over the suite,
-per node, the band's median width and its coverage (the share of points whose hw mean lies in
+per node (the first RT and nRT node), the band's median width and its coverage (the share of points whose hw mean lies in
 the band), the points their band, and the figure draws it on each sim point. Without it the
 report is as before.
 
@@ -41,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis import compare, style
+from analysis.nodes import nodes_of
 from analysis.figures import validation as figure
 from analysis.results import InvalidInput, Stat, load_results
 
@@ -65,6 +71,8 @@ DEFINITIONS = {
     "hw_spread_pct": ("median over points of (max - min) / mean of the hw repetitions x 100: "
                       "the measurement noise the errors sit on"),
     "overall": "every common point of every scenario pooled",
+    "k": ("co-runners: the scenario's nRT nodes; per k, every scenario with k of them pooled, "
+          "the nRT errors over every co-runner's pairs and the range of the per-node nRT MAPEs"),
 }
 
 
@@ -79,6 +87,9 @@ class Pair:
     sim: Stat
     band_low: float = math.nan    # the sim's prediction band (NaN: none)
     band_high: float = math.nan
+    index: int = 0     # which RT / nRT node of the point (nRT: 0 nrt_, 1 nrt1_, ...)
+    name: str = ""     # the node's name in the scenario ("" when the manifest does not say)
+    corunners: int = 1  # k: the point's nRT nodes
 
     @property
     def has_band(self) -> bool:
@@ -129,16 +140,20 @@ def goal_marks(errors: dict) -> dict:
 
 
 def scenario_pairs(name: str, hw, sim, band=None) -> tuple:
-    """([Pair], Comparison) of one scenario's loaded hw and sim folders; ``band``
-    (compare.Band of the sim folder, or None) gives each pair its band."""
+    """([Pair], Comparison) of one scenario's loaded hw and sim folders: one pair per common
+    point and node, every RT and every nRT node (nrt_slowdown, nrt1_slowdown, ...), each with
+    its index, its name and the point's number of nRT nodes (k). ``band`` (compare.Band of the
+    sim folder, or None) gives each pair its band."""
     comp = compare.compare_results(hw, sim)
+    corunners = sum(1 for n in comp.nodes if n.role == "nrt")
     pairs = []
     for pa, pb in comp.common:
         for n in comp.nodes:   # every node, under its role: nRT errors are over all nRT nodes
             a, b = pa.stat(n.metric), pb.stat(n.metric)
             if a and b and a.mean != 0:
                 low, high = band.of(pb.id, n.key) if band is not None else (math.nan, math.nan)
-                pairs.append(Pair(name, pa.id, n.role, a, b, low, high))
+                pairs.append(Pair(name, pa.id, n.role, a, b, low, high, n.index, n.name,
+                                  corunners))
     return pairs, comp
 
 
@@ -191,15 +206,56 @@ def _errors(pairs) -> dict:
     return {node: node_errors([p for p in pairs if p.node == node]) for node in ("rt", "nrt")}
 
 
+def per_node(pairs) -> list:
+    """The nRT-slowdown errors of each nRT node of the pairs (one scenario's): [{'index',
+    'name', **node_errors}] in node order."""
+    indices = sorted({p.index for p in pairs if p.node == "nrt"})
+    out = []
+    for index in indices:
+        mine = [p for p in pairs if p.node == "nrt" and p.index == index]
+        out.append({"index": index, "name": mine[0].name, **node_errors(mine)})
+    return out
+
+
+def per_k(scenarios, pairs) -> list:
+    """The errors per number of co-runners k (the scenarios' nRT nodes), every scenario with
+    that k pooled: [{'k', 'scenarios', 'points', 'rt', 'nrt' (every co-runner's pairs),
+    'nrt_nodes' ({'nodes', 'min_mape_pct', 'max_mape_pct', 'worst'}: the nRT MAPE of each
+    node of each scenario), 'goals'}], by k."""
+    out = []
+    for k in sorted({s["corunners"] for s in scenarios}):
+        names = [s["name"] for s in scenarios if s["corunners"] == k]
+        mine = [p for p in pairs if p.scenario in names]
+        errors = _errors(mine)
+        nodes = [(s["name"], n) for s in scenarios if s["corunners"] == k
+                 for n in s["nrt_nodes"] if math.isfinite(n["mape_pct"])]
+        worst = max(nodes, key=lambda sn: sn[1]["mape_pct"]) if nodes else None
+        out.append({
+            "k": k, "scenarios": names,
+            "points": sum(s["common_points"] for s in scenarios if s["corunners"] == k),
+            **errors,
+            "nrt_nodes": {
+                "nodes": len(nodes),
+                "min_mape_pct": min(n["mape_pct"] for _, n in nodes) if nodes else math.nan,
+                "max_mape_pct": max(n["mape_pct"] for _, n in nodes) if nodes else math.nan,
+                "worst": (f"{worst[0]}/{worst[1]['name'] or 'nrt' + str(worst[1]['index'])}"
+                          if worst else None)},
+            "goals": goal_marks(errors),
+        })
+    return out
+
+
 def _description(results) -> str:
     scenario = (results.manifest.get("scenario") or {}).get("given") or {}
     return str(scenario.get("description", "")) if isinstance(scenario, dict) else ""
 
 
 def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
-                 cpu=None, band_root=None) -> tuple:
+                 cpu=None, band_root=None, skipped=()) -> tuple:
     """(report dict, [Pair]) for the scenarios in ``names`` (default: every folder of
-    hw_root). ``failed``: [{'scenario', 'reason'}] of scenarios that could not be run. A
+    hw_root). ``failed``: [{'scenario', 'reason'}] of scenarios that could not be run;
+    ``skipped``: [{'scenario', 'reason'}] of those not run on purpose (e.g. more CPUs than
+    the host has). A
     scenario whose folders are missing or share no point is added to them; the others are
     compared. ``notes``: lines about the conditions (e.g. the load), shown with the host.
     ``cpu``: the machine's CPU as lscpu names it (default: the hw manifest's cpu_model).
@@ -213,7 +269,7 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
             raise InvalidInput(f"{hw_root}: no such folder")
         names = sorted(p.name for p in hw_root.iterdir() if (p / "manifest.json").is_file())
     failed = list(failed)
-    if not names and not failed:
+    if not names and not failed and not skipped:
         raise InvalidInput(f"{hw_root}: no results folder to validate")
     scenarios, pairs, manifests, sim_manifests = [], [], [], []
     for name in names:
@@ -233,6 +289,8 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
         scenarios.append({
             "name": name,
             "description": _description(hw),
+            "corunners": len(nodes_of(hw, "nrt")),
+            "nrt_nodes": per_node(found),
             "hw": compare._side(hw),
             "sim": compare._side(sim),
             "repetitions": {"hw": hw.repetitions, "sim": sim.repetitions},
@@ -267,9 +325,12 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
         "excess_min": EXCESS_MIN,
         "definitions": DEFINITIONS,
         "overall": {**overall, "goals": goal_marks(overall)},
+        "per_k": per_k(scenarios, pairs),
         "scenarios": scenarios,
         "failed": failed,
+        "skipped": list(skipped),
         "points": [{"scenario": p.scenario, "point": p.point, "node": p.node,
+                    "index": p.index, "name": p.name, "corunners": p.corunners,
                     "hw_mean": p.hw.mean, "hw_min": p.hw.min, "hw_max": p.hw.max,
                     "hw_reps": p.hw.n, "sim_mean": p.sim.mean, "sim_min": p.sim.min,
                     "sim_max": p.sim.max, "sim_reps": p.sim.n, "error_pct": p.error_pct,
@@ -364,6 +425,24 @@ def summary_table(report: dict) -> list:
     return lines
 
 
+def per_k_table(report: dict) -> list:
+    """Markdown lines: one row per number of co-runners k."""
+    lines = ["| k | scenarios | points | RT MAPE (≤ 5 %) | nRT MAPE, all co-runners (≤ 10 %) | "
+             "nRT MAPE per node (min–max) | hw noise RT / nRT |",
+             "|---:|---|---:|---:|---:|---:|---:|"]
+    for row in report.get("per_k") or []:
+        nodes = row["nrt_nodes"]
+        spread = (f"{pct(nodes['min_mape_pct'])} – {pct(nodes['max_mape_pct'])} "
+                  f"({nodes['nodes']} nodes; worst {nodes['worst']})"
+                  if nodes["nodes"] > 1 else pct(nodes["min_mape_pct"]))
+        lines.append(
+            f"| {row['k']} | {', '.join(row['scenarios'])} | {row['points']} | "
+            f"{_cell(row, row['goals'], 'rt', 'mape_pct')} | "
+            f"{_cell(row, row['goals'], 'nrt', 'mape_pct')} | {spread} | "
+            f"{pct(row['rt']['hw_spread_pct'])} / {pct(row['nrt']['hw_spread_pct'])} |")
+    return lines
+
+
 def _host_line(report: dict) -> str:
     host = report.get("host") or {}
     tool = report.get("rosguard") or {}
@@ -402,6 +481,13 @@ def markdown(report: dict) -> str:
              f"{EXCESS_MIN:g} (mean over those points). hw noise: median spread "
              "(max − min) / mean of a point's hw repetitions.", ""]
     lines += summary_table(report)
+    lines += ["", "## Errors per number of co-runners (k)", "",
+              "k: the scenario's nRT nodes (co-runners of the RT node). The nRT MAPE pools "
+              "every co-runner's pairs; per node: the nRT MAPE of each co-runner of each "
+              "scenario with that k, lowest and highest.", "", *per_k_table(report)]
+    if report.get("skipped"):
+        lines += ["", "## Skipped", ""]
+        lines += [f"- **{f['scenario']}**: {f['reason']}" for f in report["skipped"]]
     if report.get("band"):
         lines += ["", "## Prediction band", "", *band_section(report)]
     lines += ["", "## Scenarios", ""]
@@ -417,6 +503,10 @@ def markdown(report: dict) -> str:
                              f"{e['bias']:+.3f}, max |sim − hw| {e['max_abs_error']:.3f} at "
                              f"{e['max_abs_error_point']}, excess error max "
                              f"{pct(e['excess_error_max_pct'])}")
+        if len(s.get("nrt_nodes") or []) > 1:
+            lines.append("  - nRT MAPE per node: " + ", ".join(
+                f"{n['name'] or 'nrt' + str(n['index'])} {pct(n['mape_pct'])}"
+                for n in s["nrt_nodes"]))
         if s["only_hw"] or s["only_sim"] or s["settings_mismatch"]:
             lines.append(f"  - unmatched: {len(s['only_hw'])} point(s) only in hw, "
                          f"{len(s['only_sim'])} only in sim, {s['settings_mismatch']} with "
@@ -433,7 +523,9 @@ def markdown(report: dict) -> str:
               "|---|---|---|---:|---:|---:|" + ("---:|" if banded else "") + "---:|---:|"]
     for p in report["points"]:
         band = f" {_range(p.get('band_low'), p.get('band_high'))} |" if banded else ""
-        lines.append(f"| {p['scenario']} | {p['point']} | {p['node']} | "
+        node = p["node"] if p.get("corunners", 1) <= 1 or p["node"] == "rt" else \
+            f"{p['node']} {p.get('name') or p.get('index')}"
+        lines.append(f"| {p['scenario']} | {p['point']} | {node} | "
                      f"{p['hw_mean']:.3f} | {p['hw_min']:.3f}–{p['hw_max']:.3f} | "
                      f"{p['sim_mean']:.3f} |{band} {p['error_pct']:+.1f} % | "
                      f"{_signed_pct(p['excess_error_pct'])} |")
@@ -550,14 +642,15 @@ def _figure(report: dict, pairs):
                  f"{len(band['variants'])} band platform(s) (one prior-dominated parameter ±1 "
                  "standard error at a time); hw inside it: RT "
                  f"{_coverage(band['rt'])}, nRT {_coverage(band['nrt'])} points.")
-    return figure.draw(pairs, names, titles, EXCESS_MIN, note)
+    return figure.draw(pairs, names, titles, EXCESS_MIN, note, report.get("per_k") or [],
+                       {node: GOALS[node + "_mape"][2] for node in ("rt", "nrt")})
 
 
 def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdout,
-        cpu=None, band_root=None) -> int:
+        cpu=None, band_root=None, skipped=()) -> int:
     """Builds the report and writes report.json, report.md and the figure into ``out``."""
     report, pairs = build_report(hw_root, sim_root, names, failed, notes, cpu=cpu,
-                                 band_root=band_root)
+                                 band_root=band_root, skipped=skipped)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = style.save(_figure(report, pairs), out, FIGURE_STEM)
@@ -566,6 +659,8 @@ def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdo
                                      encoding="utf-8")
     (out / "report.md").write_text(markdown(_clean(report)), encoding="utf-8")
     print("\n".join(summary_table(_clean(report))), file=stream)
+    print("per number of co-runners k:", file=stream)
+    print("\n".join(per_k_table(_clean(report))), file=stream)
     print(verdict(report), file=stream)
     if report.get("band"):
         print(band_summary(report), file=stream)
@@ -575,6 +670,8 @@ def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdo
         print(f"warning: {_model_line(report)}", file=stream)
     for f in report["failed"]:
         print(f"not compared: {f['scenario']}: {f['reason']}", file=stream)
+    for f in report["skipped"]:
+        print(f"skipped: {f['scenario']}: {f['reason']}", file=stream)
     print(f"written: {out / 'report.md'}, {out / 'report.json'}, "
           + ", ".join(str(p) for p in written), file=stream)
     return 0

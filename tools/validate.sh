@@ -9,11 +9,29 @@
 # calibrate --install`), each scenario also runs in sim on every band platform into
 # results/validation/sim-band/<variant>/<scenario>/, and compare and the report show the band.
 #
+# The scale scenarios (scenarios/validation/scale/, tools/scale_scenarios.py: an RT node and k
+# co-runners, k = 1, 3, 7, 14, over LLC- and DRAM-bound working sets sized from this host's
+# caches) run with the others where this host has the CPUs they name (cores 0..k); the others
+# are skipped, each with its reason, in the console and the report. A host with more than 16
+# CPUs also runs k = N - 2 (N: its CPUs), generated into results/validation/scenarios/. On a
+# 16-CPU host the scale scenarios take some 3-5 minutes (k = 14 the most: 15 DRAM-bound
+# kernels of 2 x L3 each).
+#
+# Without the analysis's Python modules (numpy, pandas, matplotlib, scipy: a lent machine with
+# none installed) the script runs every scenario on both backends, then says so and stops before
+# compare and the report; `tools/validate.sh --report` on a machine with them (the results
+# folder copied there, suite.state included) compares and reports.
+#
 # Usage: tools/validate.sh [ROSGUARD]      run the suite (default ROSGUARD: build/rosguard)
+#        tools/validate.sh --report [ROSGUARD]
+#                                          compare and report the runs in the results folder
+#                                          (after a run without the analysis's modules)
 #        tools/validate.sh --readme        regenerate README.md's validation block and
 #                                          docs/figures/validation_scatter.* from the last report
 # Environment (for one run; tests use them): ROSGUARD_VALIDATE_PLATFORM overrides the platform
-# below, ROSGUARD_VALIDATE_SUITE the scenario folder, ROSGUARD_VALIDATE_OUT the results folder.
+# below, ROSGUARD_VALIDATE_SUITE the scenario folder, ROSGUARD_VALIDATE_OUT the results folder,
+# ROSGUARD_VALIDATE_CPUS the CPUs this host is taken to have (default: nproc, the usable ones),
+# ROSGUARD_VALIDATE_ANALYSIS=0 runs as if the analysis's Python modules were missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -30,10 +48,75 @@ if [[ ${1:-} == --readme ]]; then
   py -m analysis validate-table "$out/report.json" --readme README.md --figure-dir docs/figures
   exit 0
 fi
+report_only=0
+if [[ ${1:-} == --report ]]; then
+  report_only=1
+  shift
+fi
 rosguard=${1:-build/rosguard}
 if [[ ! -x $rosguard ]]; then
   echo "validate: $rosguard not found; build first (make build)" >&2
   exit 1
+fi
+shopt -s nullglob
+analysis=${ROSGUARD_VALIDATE_ANALYSIS:-1}
+py -c 'import numpy, pandas, matplotlib, scipy' 2>/dev/null || analysis=0
+
+# rosguard compare of scenario $1's hw and sim runs (with its band runs, where compare takes
+# them): adds it to ok, or to failed, and prints its MAPEs.
+compare_one() {
+  local name=$1 band_args=() d
+  if ((band_compare)); then
+    for d in "$out"/sim-band/*/"$name"; do band_args+=(--band "$d"); done
+  fi
+  if ! "$rosguard" compare "$out/hw/$name" "$out/sim/$name" --out "$out/compare/$name" \
+       "${band_args[@]}" > "$out/logs/$name-compare.log" 2>&1; then
+    echo " compare FAILED (see $out/logs/$name-compare.log)"
+    failed+=("$name=rosguard compare failed; see $out/logs/$name-compare.log")
+    return
+  fi
+  ok+=("$name")
+  # compare's summary rows: "RT  pairs  MAPE ..." (not its band lines: "RT   B's band ...")
+  awk '/^(RT|nRT) +[0-9]+ / { printf "  %s MAPE %s %%", $1, $3 }' "$out/logs/$name-compare.log"
+  echo
+}
+
+# The report of the compared scenarios (ok), the failed and the skipped ones.
+write_report() {
+  local args f
+  args=(-m analysis validate "$out/hw" "$out/sim" --out "$out" ${cpu:+--cpu "$cpu"}
+        --scenarios "$(IFS=,; echo "${ok[*]}")"
+        --note "1-min load average $load_start at the start, $load_end at the end ($cpus CPUs)")
+  for f in "${failed[@]}"; do args+=(--failed "$f"); done
+  for f in "${skipped[@]}"; do args+=(--skipped "$f"); done
+  if ((band_runs)); then args+=(--band-root "$out/sim-band"); fi
+  py "${args[@]}"
+  if ((${#failed[@]})); then
+    echo "validate: ${#failed[@]} scenario(s) failed: ${failed[*]%%=*}" >&2
+    exit 1
+  fi
+  echo "validate: README block: tools/validate.sh --readme (make validate-readme)"
+}
+
+if ((report_only)); then
+  if ((!analysis)); then
+    echo "validate: --report needs python3 with numpy, pandas, matplotlib and scipy" >&2
+    exit 1
+  fi
+  if [[ ! -f $out/suite.state ]]; then
+    echo "validate: no $out/suite.state: run the suite first (tools/validate.sh)" >&2
+    exit 1
+  fi
+  # runs_ok (the scenarios whose runs succeeded), failed, skipped, cpu, cpus, load_start, load_end,
+  # band_runs, band_compare, as the run left them.
+  source "$out/suite.state"
+  ok=()
+  for name in "${runs_ok[@]}"; do
+    printf '%-26s' "$name"
+    compare_one "$name"
+  done
+  write_report
+  exit 0
 fi
 
 # The sim side of `platform: host` is the installed calibrated model; it must be a model of THIS
@@ -77,8 +160,28 @@ else
 fi
 
 shopt -s nullglob
-scenarios=("$suite"/*.json)
+scenarios=("$suite"/*.json "$suite"/scale/*.json)
 ((${#scenarios[@]})) || { echo "validate: no scenario in $suite" >&2; exit 1; }
+
+# The CPUs a scenario may name: this host's usable ones. Beyond the scale suite's largest k, a
+# host with more CPUs also runs k = N - 2 (one CPU left to the OS and this script).
+cpus=${ROSGUARD_VALIDATE_CPUS:-$(nproc)}
+if [[ ! $cpus =~ ^[1-9][0-9]*$ ]]; then
+  echo "validate: ROSGUARD_VALIDATE_CPUS='$cpus' is not a CPU count" >&2
+  exit 1
+fi
+if [[ -d $suite/scale ]]; then
+  largest=$(py -c 'import json,sys
+print(max([len(json.load(open(f))["nodes"]["nrt"]) for f in sys.argv[1:]] or [0]))' \
+    "$suite"/scale/*.json)
+  if ((cpus - 2 > largest)); then
+    rm -rf "$out/scenarios/scale"
+    py tools/scale_scenarios.py --k $((cpus - 2)) --out "$out/scenarios/scale" >/dev/null
+    scenarios+=("$out"/scenarios/scale/*.json)
+    echo "validate: this host has $cpus CPUs: the scale scenarios of k = $((cpus - 2))" \
+         "co-runners too ($out/scenarios/scale/)"
+  fi
+fi
 
 # The host model's uncertainty band: band/*.json beside it (absolute paths: the scenario copies
 # that name them live elsewhere). Files older than the model are of an earlier one (calibrate
@@ -119,16 +222,25 @@ rm -rf "$out/sim-band"
 mkdir -p "$out"/{hw,sim,compare,logs,scenarios}
 start=$(date +%s)
 load_start=$(cut -d' ' -f1 /proc/loadavg)
-ok=() failed=() band_failed=()
+ok=() runs_ok=() failed=() band_failed=() skipped=()
 band_runs=0 band_tenths=0
 i=0
 for file in "${scenarios[@]}"; do
   i=$((i + 1))
   name=$(basename "$file" .json)
   source_file=$file
+  # Its platform, and the CPUs it needs: its highest core + 1.
+  read -r given_platform needs < <(py -c 'import json,sys; d=json.load(open(sys.argv[1]))
+n=d["nodes"]; cores=[n["controller"]["core"]]+[x["core"] for x in n.get("rt",[])+n.get("nrt",[])]
+print(d.get("platform"), max(cores)+1)' "$file")
+  if ((needs > cpus)); then
+    printf '[%d/%d] %-26s skipped: needs %d CPUs (cores 0-%d), this host has %d\n' "$i" \
+      "${#scenarios[@]}" "$name" "$needs" $((needs - 1)) "$cpus"
+    skipped+=("$name=needs $needs CPUs (cores 0-$((needs - 1))), this host has $cpus")
+    continue
+  fi
   # The suite's files name `host`; another platform (ROSGUARD_VALIDATE_PLATFORM) runs a copy.
-  if [[ $(py -c 'import json,sys; print(json.load(open(sys.argv[1])).get("platform"))' "$file") \
-        != "$platform" ]]; then
+  if [[ $given_platform != "$platform" ]]; then
     with_platform "$file" "$platform" "$out/scenarios/$name.json"
     file=$out/scenarios/$name.json
   fi
@@ -156,7 +268,6 @@ for file in "${scenarios[@]}"; do
   done
   [[ $status == ok ]] || continue
   # The band: the same scenario in sim on each band platform of the host model.
-  band_args=()
   if ((${#band_files[@]})); then
     t0=$(date +%s%N)
     ran=0
@@ -178,7 +289,6 @@ for file in "${scenarios[@]}"; do
         rm -rf "$out/sim-band/$variant/$name"
       else
         ran=$((ran + 1))
-        band_args+=(--band "$out/sim-band/$variant/$name")
       fi
     done
     tenths=$((($(date +%s%N) - t0) / 100000000))
@@ -187,22 +297,21 @@ for file in "${scenarios[@]}"; do
     printf ' band %d run(s) %d.%d s' "$ran" $((tenths / 10)) $((tenths % 10))
     ((ran == ${#band_files[@]})) || printf ' (%d FAILED)' $((${#band_files[@]} - ran))
   fi
-  ((band_compare)) || band_args=()
-  if ! "$rosguard" compare "$out/hw/$name" "$out/sim/$name" --out "$out/compare/$name" \
-       "${band_args[@]}" > "$out/logs/$name-compare.log" 2>&1; then
-    echo " compare FAILED (see $out/logs/$name-compare.log)"
-    failed+=("$name=rosguard compare failed; see $out/logs/$name-compare.log")
-    continue
+  runs_ok+=("$name")
+  if ((analysis)); then
+    compare_one "$name"
+  else
+    echo
   fi
-  ok+=("$name")
-  # compare's summary rows: "RT  pairs  MAPE ..." (not its band lines: "RT   B's band ...")
-  awk '/^(RT|nRT) +[0-9]+ / { printf "  %s MAPE %s %%", $1, $3 }' "$out/logs/$name-compare.log"
-  echo
 done
 
 load_end=$(cut -d' ' -f1 /proc/loadavg)
+if ((${#skipped[@]})); then
+  echo "validate: ${#skipped[@]} scenario(s) skipped (more CPUs than this host's $cpus):" \
+       "${skipped[*]%%=*}"
+fi
 echo "validate: suite run in $(($(date +%s) - start)) s (load average $load_start at the" \
-     "start, $load_end at the end, on $(nproc) CPUs); writing the report"
+     "start, $load_end at the end, on $cpus CPUs)"
 if ((${#band_files[@]})); then
   echo "validate: prediction band: $band_runs band run(s) on ${#band_files[@]} platform(s) in" \
        "$((band_tenths / 10)).$((band_tenths % 10)) s"
@@ -212,14 +321,18 @@ if ((${#band_files[@]})); then
 fi
 # The machine's CPU as lscpu names it, beside the date in the report and the README block.
 cpu=$(LC_ALL=C lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -n 1 || true)
-args=(-m analysis validate "$out/hw" "$out/sim" --out "$out" ${cpu:+--cpu "$cpu"}
-      --scenarios "$(IFS=,; echo "${ok[*]}")"
-      --note "1-min load average $load_start at the start, $load_end at the end ($(nproc) CPUs)")
-for f in "${failed[@]}"; do args+=(--failed "$f"); done
-if ((band_runs)); then args+=(--band-root "$out/sim-band"); fi
-py "${args[@]}"
-if ((${#failed[@]})); then
-  echo "validate: ${#failed[@]} scenario(s) failed: ${failed[*]%%=*}" >&2
-  exit 1
+# What --report needs to compare and report later.
+declare -p runs_ok failed skipped cpu cpus load_start load_end band_runs band_compare \
+  > "$out/suite.state"
+if ((!analysis)); then
+  echo "validate: python3 here lacks numpy, pandas, matplotlib or scipy (the analysis): the runs" \
+       "are in $out/{hw,sim}/; copy $out to a machine with them and run" \
+       "tools/validate.sh --report there (ROSGUARD_VALIDATE_OUT=<the copy>) for compare and the" \
+       "report"
+  if ((${#failed[@]})); then
+    echo "validate: ${#failed[@]} scenario(s) failed: ${failed[*]%%=*}" >&2
+    exit 1
+  fi
+  exit 0
 fi
-echo "validate: README block: tools/validate.sh --readme (make validate-readme)"
+write_report

@@ -1,10 +1,12 @@
 """The validation figure: simulated vs measured slowdown per point (``make validate``).
 
-Three panels: the RT node's slowdown, the nRT node's slowdown (sim on y, hw on x, each with
-the identity line and the +-5 % / +-10 % bands around it; log axes where the values span more
-than a factor LOG_SPAN), and the excess slowdown
-(slowdown - 1) of both nodes on log axes, where the measured excess is at least the report's
-minimum, with a +-20 % band. Marker shape: the node (RT o, nRT ^); colour: the scenario.
+Four panels: the RT node's slowdown, the nRT nodes' slowdown (every co-runner; sim on y, hw
+on x, each with the identity line and the +-5 % / +-10 % bands around it; log axes where the
+values span more than a factor LOG_SPAN), the excess slowdown
+(slowdown - 1) of both on log axes, where the measured excess is at least the report's
+minimum, with a +-20 % band, and the MAPE per number of co-runners k (RT, nRT over every
+co-runner, the per-node nRT MAPEs' min-max as a bar, the goals as lines; the report's
+``per_k``). Marker shape: the node (RT o, nRT ^); colour: the scenario.
 Markers are means over repetitions, error bars min-max over repetitions on each side; the axis
 limits follow the means, so the bar of an outlying repetition may run off the panel. Where a pair
 has a prediction band (``band_low`` / ``band_high``: the sim model's band platforms, see
@@ -34,11 +36,14 @@ TITLE_CHARS = 48
 BAND_STYLE = {"elinewidth": 5.0, "alpha": 0.3}
 
 
-def draw(pairs, scenarios, summary: dict, excess_min: float, note: str):
+def draw(pairs, scenarios, summary: dict, excess_min: float, note: str, per_k=(),
+         goals=None):
     """The figure. pairs: objects with .scenario, .node ('rt' | 'nrt'), .hw and .sim (Stat);
-    scenarios: scenario names in legend order; summary: {'rt' | 'nrt': panel title suffix}."""
+    scenarios: scenario names in legend order; summary: {'rt' | 'nrt': panel title suffix};
+    per_k: the report's per-k rows; goals: {'rt' | 'nrt': MAPE bound in %}."""
     colours = {name: style.colour(i) for i, name in enumerate(scenarios)}
-    fig, axes = style.new_figure(1, 3, width=15.0, row_height=5.2)
+    fig, axes = style.new_figure(1, 4, width=20.0, row_height=5.2)
+    _per_k_panel(axes[0][3], list(per_k), goals or {})
     for ax, node in zip(axes[0][:2], ("rt", "nrt")):
         _slowdown_panel(ax, [p for p in pairs if p.node == node], node, colours)
         ax.set_title(style.wrap(f"{NODE_NAMES[node]} node: {summary.get(node, '')}",
@@ -215,3 +220,38 @@ def _excess_panel(ax, pairs, colours, excess_min) -> None:
                 fontsize=7.5, color="0.4")
     _limits_note(ax, shown, lim, shift=1.0, y=0.07)
 
+
+
+def _per_k_panel(ax, rows, goals) -> None:
+    """MAPE vs k: RT and nRT (every co-runner) per k, the per-node nRT MAPEs' min-max as a bar
+    on the nRT marker, each goal as a horizontal line of its node's colour."""
+    colour = {"rt": style.colour(0), "nrt": style.colour(1)}
+    ks = [r["k"] for r in rows]
+    for node in ("rt", "nrt"):
+        ys = [r[node]["mape_pct"] for r in rows]
+        shown = [(k, y) for k, y in zip(ks, ys) if _finite(y)]
+        if shown:
+            ax.plot(*zip(*shown), marker=NODE_MARKERS[node], color=colour[node],
+                    markerfacecolor="none", label=f"{NODE_NAMES[node]} MAPE"
+                    + (" (all co-runners)" if node == "nrt" else ""))
+        if node in goals:
+            ax.axhline(goals[node], color=colour[node], linestyle=":", linewidth=1.0,
+                       label=f"{NODE_NAMES[node]} goal ≤ {goals[node]:g} %")
+    for r in rows:
+        nodes, y = r["nrt_nodes"], r["nrt"]["mape_pct"]
+        if nodes["nodes"] > 1 and _finite(y):
+            below, above = bar_lengths(y, nodes["min_mape_pct"], nodes["max_mape_pct"])
+            ax.errorbar([r["k"]], [y], yerr=[[below], [above]], color=colour["nrt"],
+                        capsize=3, linestyle="none", elinewidth=1.0)
+    if not ks:
+        ax.text(0.5, 0.5, "no scenario compared", transform=ax.transAxes, ha="center",
+                va="center", color="0.5")
+    else:
+        ax.set_xticks(ks, [str(k) for k in ks])
+        ax.set_xlim(min(ks) - 0.5 - 0.05 * max(ks), max(ks) + 0.5 + 0.05 * max(ks))
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("co-runners k (nRT nodes beside the RT node)")
+    ax.set_ylabel("slowdown MAPE (%)")
+    ax.set_title("MAPE per number of co-runners; bar: nRT MAPE per node, min–max", fontsize=9)
+    ax.legend(loc="upper left", fontsize=7.5)

@@ -1,6 +1,8 @@
 #include "scenario/scenario.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 
@@ -28,6 +30,13 @@ PmcSourceKind parse_pmc_source(const std::string& s) {
   if (s == "software") return PmcSourceKind::Software;
   if (s == "instrumented") return PmcSourceKind::Instrumented;
   return PmcSourceKind::Auto;
+}
+
+// %g: 2, 0.5, 35840.
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
 }
 
 std::string core_range(const PlatformInfo& p) {
@@ -101,6 +110,33 @@ PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file) 
   p.counter_bits = doc.at("pmu").at("counter_bits").get<unsigned>();
   p.doc = doc;
   return p;
+}
+
+WorkloadInfo size_working_set(const WorkloadInfo& w, const PlatformInfo& platform,
+                              const std::string& file, const std::string& pointer) {
+  if (w.is_command() || !w.doc.contains("hw") || !w.doc.at("hw").contains("working_set")) return w;
+  const auto& spec = w.doc.at("hw").at("working_set");
+  const std::string cache = spec.at("cache").get<std::string>();
+  const double times = spec.at("times").get<double>();
+  const auto& caches = platform.doc.at("caches");
+  const char* key = cache == "l2" ? "l2_kb" : "l3_kb_per_cluster";
+  const double cache_kb = caches.value(key, 0.0);
+  if (!(cache_kb > 0.0))
+    throw InputError(file, pointer + "/cache",
+                     "platform " + platform.name + " reports no " + (cache == "l2" ? "L2" : "L3") +
+                         " size (caches." + key +
+                         "), so a working set relative to it cannot be sized; give "
+                         "working_set_kb instead");
+  constexpr double kMinKb = 4.0, kMaxKb = 16777216.0;  // working_set_kb's bounds
+  const double kb = std::round(times * cache_kb);
+  if (kb < kMinKb || kb > kMaxKb)
+    throw InputError(file, pointer + "/times",
+                     number_text(times) + " x the " + (cache == "l2" ? "L2" : "L3") +
+                         " of platform " + platform.name + " (" + number_text(cache_kb) +
+                         " KB) is " + number_text(kb) + " KB, outside 4 .. 16777216 KB");
+  nlohmann::json doc = w.doc.get();
+  doc["hw"]["working_set_kb"] = static_cast<std::int64_t>(kb);
+  return WorkloadInfo{w.name, w.origin, std::move(doc)};
 }
 
 namespace {

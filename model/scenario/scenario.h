@@ -157,6 +157,15 @@ struct ResolvedRefs {
   std::vector<WorkloadInfo> nrt_workloads;
 };
 
+// `w` with its working set sized from `platform`'s caches where its hw section asks for it
+// (hw.working_set {"cache": "l2" | "l3", "times": x}): hw.working_set_kb becomes round(x x
+// caches.l2_kb or caches.l3_kb_per_cluster) KB; any other workload is returned as it is.
+// `file` and `pointer` name the workload's hw.working_set in errors (its file, or the scenario
+// at an inline workload). Throws InputError when the platform reports no size for that cache
+// or the result is outside the 4 KB .. 16777216 KB of working_set_kb.
+WorkloadInfo size_working_set(const WorkloadInfo& w, const PlatformInfo& platform,
+                              const std::string& file, const std::string& pointer);
+
 // Typed view of a validated platform document. Throws InputError naming `file` and the path.
 PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file);
 

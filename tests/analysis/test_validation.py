@@ -448,3 +448,126 @@ def test_a_variant_without_a_run_of_a_scenario_is_said(suite, band_root):
             and p.node == "rt"] == [pytest.approx((1.30, 1.35))]
     assert any(w.startswith("beta: no run on band platform m-x-low") for w in
                report["band"]["warnings"])
+
+
+# Scale validation (issue 24): scenarios of k co-runners, every nRT node paired, errors per k.
+# scenario -> (k, point -> [(rt, nrt per node...) per repetition]); node names from the manifest.
+SCALE_HW = {
+    "scale-k1": (1, {"p0000000011": [(1.0, 2.0)], "p0000000012": [(1.25, 1.0)]}),
+    "scale-k3": (3, {"p0000000021": [(2.0, 2.0, 4.0, 1.0)], "p0000000022": [(1.6, 1.0, 1.0, 2.0)]}),
+}
+SCALE_SIM = {
+    "scale-k1": {"p0000000011": [(1.08, 2.2)], "p0000000012": [(1.25, 0.95)]},
+    "scale-k3": {"p0000000021": [(2.2, 2.0, 5.0, 1.0)], "p0000000022": [(1.2, 1.1, 1.0, 2.4)]},
+}
+
+
+def write_scale_folder(folder, k, points, backend):
+    """A results folder of an RT node and k nRT nodes (nrt_, nrt1_, ... name, workload and
+    slowdown columns, as points.csv has them) with its scenario's nodes in the manifest."""
+    folder.mkdir(parents=True)
+    extra = ["rt_name", "nrt_name"] + [f"nrt{i}_{c}" for i in range(1, k)
+                                       for c in ("name", "workload", "slowdown")]
+    header = resultgen.FIXED_COLUMNS + resultgen.EXTRA_COLUMNS + extra
+    with (folder / "points.csv").open("w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(header)
+        for pid, reps in points.items():
+            for rep, (rt, *nrt) in enumerate(reps):
+                cells = {"point": pid, "rep": rep, "backend": backend,
+                         "rt_workload": "bandwidth_read_llc",
+                         "nrt_workload": "bandwidth_read_llc", "policy": "interval",
+                         "sampling": "self", "scope": "core", "threshold_pct": 20,
+                         "sampling_period_us": 1000, "regulation_period_us": 5000,
+                         "rt_slowdown": rt, "nrt_slowdown": nrt[0], "platform": "host",
+                         "rt_name": "rt0", "nrt_name": "co1"}
+                for i in range(1, k):
+                    cells[f"nrt{i}_name"] = f"co{i + 1}"
+                    cells[f"nrt{i}_workload"] = "bandwidth_read_llc"
+                    cells[f"nrt{i}_slowdown"] = nrt[i]
+                w.writerow([cells.get(c, "") for c in header])
+    nodes = {"controller": {"core": k}, "rt": [{"name": "rt0", "core": 0}],
+             "nrt": [{"name": f"co{i}", "core": i} for i in range(1, k + 1)]}
+    (folder / "manifest.json").write_text(json.dumps({
+        "schema_version": 1, "backend": backend, "status": "complete",
+        "start_time": "2026-01-01T00:00:00Z", "end_time": "2026-01-01T00:10:00Z",
+        "tool": {"name": "rosguard", "version": "0.1.0", "git_revision": "abc123"},
+        "host": {"hostname": "testhost", "cpu_model": "Test CPU", "cpus_online": 16},
+        "scenario": {"given": {"description": f"checks {folder.name}", "nodes": nodes}}}))
+
+
+@pytest.fixture
+def scale_suite(tmp_path):
+    for name, (k, points) in SCALE_HW.items():
+        write_scale_folder(tmp_path / "hw" / name, k, points, "hw")
+        write_scale_folder(tmp_path / "sim" / name, k, SCALE_SIM[name], "sim")
+    return tmp_path / "hw", tmp_path / "sim"
+
+
+def test_every_corunner_is_paired_and_the_errors_are_given_per_k(scale_suite):
+    report, pairs = validation.build_report(*scale_suite)
+    k3 = next(s for s in report["scenarios"] if s["name"] == "scale-k3")
+    assert k3["corunners"] == 3
+    # nRT errors per node: co1 0 %, 10 % -> 5 %; co2 25 %, 0 % -> 12.5 %; co3 0 %, 20 % -> 10 %.
+    assert [(n["name"], n["index"]) for n in k3["nrt_nodes"]] == [("co1", 0), ("co2", 1),
+                                                                 ("co3", 2)]
+    assert [n["mape_pct"] for n in k3["nrt_nodes"]] == pytest.approx([5.0, 12.5, 10.0])
+    # Over every co-runner: (0 + 10 + 25 + 0 + 0 + 20) / 6.
+    assert k3["nrt"]["pairs"] == 6
+    assert k3["nrt"]["mape_pct"] == pytest.approx(55.0 / 6)
+    # RT k3: |2.2 - 2| / 2 = 10 %, |1.2 - 1.6| / 1.6 = 25 % -> 17.5 %.
+    assert k3["rt"]["mape_pct"] == pytest.approx(17.5)
+    per_k = {row["k"]: row for row in report["per_k"]}
+    assert sorted(per_k) == [1, 3]
+    assert per_k[1]["scenarios"] == ["scale-k1"] and per_k[1]["points"] == 2
+    # k = 1: RT 8 %, 0 % -> 4 %; nRT 10 %, 5 % -> 7.5 %.
+    assert per_k[1]["rt"]["mape_pct"] == pytest.approx(4.0)
+    assert per_k[1]["nrt"]["mape_pct"] == pytest.approx(7.5)
+    assert per_k[1]["goals"]["nrt_mape"]["status"] == "met"
+    assert per_k[3]["nrt"]["mape_pct"] == pytest.approx(55.0 / 6)
+    assert per_k[3]["goals"]["rt_mape"]["status"] == "missed"
+    assert per_k[3]["nrt_nodes"] == {"nodes": 3, "min_mape_pct": pytest.approx(5.0),
+                                     "max_mape_pct": pytest.approx(12.5),
+                                     "worst": "scale-k3/co2"}
+    # Overall pools every node: nRT pairs 2 (k1) + 6 (k3).
+    assert report["overall"]["nrt"]["pairs"] == 8
+    assert {(p.name, p.index) for p in pairs if p.scenario == "scale-k3" and p.node == "nrt"} \
+        == {("co1", 0), ("co2", 1), ("co3", 2)}
+
+
+def test_the_report_gives_errors_per_k_and_the_skipped_scenarios(scale_suite, tmp_path):
+    out = tmp_path / "out"
+    done = run_cli("validate", *scale_suite, "--out", out,
+                   "--skipped", "scale-k7-llc=needs 8 CPUs (cores 0-7), this host has 2")
+    assert done.returncode == 0, done.stderr
+    assert "per number of co-runners k:" in done.stdout
+    assert "skipped: scale-k7-llc: needs 8 CPUs (cores 0-7), this host has 2" in done.stdout
+    md = (out / "report.md").read_text()
+    assert "## Errors per number of co-runners (k)" in md
+    assert "| 3 | scale-k3 | 2 | 17.5 % **missed** | 9.2 % met | 5.0 % – 12.5 % (3 nodes; " \
+           "worst scale-k3/co2) |" in md
+    assert "| 1 | scale-k1 | 2 | 4.0 % met | 7.5 % met | 7.5 % |" in md
+    assert "- **scale-k7-llc**: needs 8 CPUs (cores 0-7), this host has 2" in md
+    assert "  - nRT MAPE per node: co1 5.0 %, co2 12.5 %, co3 10.0 %" in md
+    assert "| scale-k3 | p0000000021 | nrt co3 |" in md
+    report = json.loads((out / "report.json").read_text())
+    assert report["skipped"] == [{"scenario": "scale-k7-llc",
+                                  "reason": "needs 8 CPUs (cores 0-7), this host has 2"}]
+    assert [row["k"] for row in report["per_k"]] == [1, 3]
+    assert_figure_files(out, validation.FIGURE_STEM)
+    # The figure's fourth panel: MAPE per k, RT and nRT, the per-node range as a bar at k = 3.
+    fig = validation._figure(*validation.build_report(*scale_suite))
+    panel = fig.axes[3]
+    lines = {line.get_label(): line for line in panel.get_lines()}
+    rt = lines["RT MAPE"]
+    assert list(rt.get_xdata()) == [1, 3]
+    assert list(rt.get_ydata()) == pytest.approx([4.0, 17.5])
+
+
+def test_a_suite_of_skipped_scenarios_only_is_reported(tmp_path):
+    (tmp_path / "hw").mkdir()
+    report, pairs = validation.build_report(tmp_path / "hw", tmp_path / "sim", [],
+                                            skipped=[{"scenario": "scale-k3-llc",
+                                                      "reason": "needs 4 CPUs"}])
+    assert report["scenarios"] == [] and report["per_k"] == [] and not pairs
+    assert report["skipped"][0]["scenario"] == "scale-k3-llc"

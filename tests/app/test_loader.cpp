@@ -9,6 +9,7 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -367,6 +368,66 @@ TEST_CASE("loader: inline workload objects", "[loader]") {
   CHECK(c.doc == json({{"command", {"sleep", "1"}}}));
 }
 
+TEST_CASE("loader: hw.working_set is sized from the platform's caches", "[loader]") {
+  TempDir dir;
+  // orin-agx (the default platform): 256 KB L2 per core, 2048 KB L3 per cluster.
+  dir.write("wl/dram.json", R"({"name": "dram", "hw": {"kernel": "bandwidth_read",
+    "working_set": {"cache": "l3", "times": 2}}})");
+  const auto file =
+      dir.write("s.json", scenario("", R"({"name": "llc", "hw": {"kernel": "bandwidth_read",
+        "working_set": {"cache": "l2", "times": 4}}})",
+                                   "\"wl/dram.json\""));
+  Loader loader = make_loader();
+  const Scenario s = loader.load(file).points.at(0).scenario;
+  CHECK(s.nodes.rt[0].workload.doc["hw"]["working_set_kb"] == 1024);   // 4 x 256 KB
+  CHECK(s.nodes.nrt[0].workload.doc["hw"]["working_set_kb"] == 4096);  // 2 x 2048 KB
+  CHECK(s.nodes.nrt[0].workload.name == "dram");
+
+  // orin-agx with other caches, written to `name`.
+  const auto orin_with = [&](const std::string& name, const std::function<void(json&)>& edit) {
+    std::ifstream in(Home::locate().platforms() / "orin-agx.json");
+    json p = json::parse(in);
+    edit(p["caches"]);
+    dir.write(name, p.dump());
+  };
+  SECTION("on another platform, another size") {
+    orin_with("big-l2.json", [](json& c) { c["l2_kb"] = 1024; });
+    const auto other = dir.write(
+        "other.json", scenario(R"("platform": "big-l2.json",)", R"({"name": "llc", "hw": {"kernel":
+          "bandwidth_read", "working_set": {"cache": "l2", "times": 0.5}}})"));
+    CHECK(
+        loader.load(other).points.at(0).scenario.nodes.rt[0].workload.doc["hw"]["working_set_kb"] ==
+        512);
+  }
+  SECTION("not together with working_set_kb: in a workload file, and inline") {
+    dir.write("wl/both.json", R"({"name": "both", "hw": {"kernel": "bandwidth_read",
+      "working_set_kb": 64, "working_set": {"cache": "l2", "times": 4}}})");
+    auto e = load_error(dir.write("both.json", scenario("", "\"wl/both.json\"")));
+    CHECK_THAT(e.file(), EndsWith("wl/both.json"));
+    CHECK(e.json_path() == "/hw/working_set");
+    CHECK_THAT(e.message(), Contains("not both"));
+    e = load_error(dir.write("both-inline.json",
+                             scenario("", R"({"name": "b", "hw": {"kernel": "bandwidth_read",
+                               "working_set_kb": 64, "working_set": {"cache": "l2", "times": 4}}})")));
+    CHECK(e.json_path() == "/nodes/rt/0/workload/hw/working_set");
+  }
+  SECTION("a platform that reports no L3") {
+    orin_with("nol3.json", [](json& c) { c.erase("l3_kb_per_cluster"); });
+    const auto e = load_error(dir.write(
+        "s-nol3.json", scenario(R"("platform": "nol3.json",)", "\"mser\"", "\"wl/dram.json\"")));
+    CHECK_THAT(e.file(), EndsWith("wl/dram.json"));
+    CHECK(e.json_path() == "/hw/working_set/cache");
+    CHECK_THAT(e.message(), Contains("reports no L3 size (caches.l3_kb_per_cluster)"));
+  }
+  SECTION("a size outside working_set_kb's bounds") {
+    const auto e = load_error(
+        dir.write("tiny.json", scenario("", R"({"name": "t", "hw": {"kernel": "bandwidth_read",
+          "working_set": {"cache": "l2", "times": 0.001}}})")));
+    CHECK(e.json_path() == "/nodes/rt/0/workload/hw/working_set/times");
+    CHECK_THAT(e.message(), Contains("is 0 KB, outside 4 .. 16777216 KB"));
+  }
+}
+
 // --- files ---------------------------------------------------------------------------------
 
 TEST_CASE("read_json_file: duplicate keys are reported with their JSON pointer", "[loader]") {
@@ -460,12 +521,13 @@ TEST_CASE("Loader::workloads() lists the shipped workloads with their Table 1 fi
     CHECK(fs::exists(w.file));
     CHECK_THAT(w.summary, !StartsWith("(invalid"));
   }
-  CHECK(names == std::vector<std::string>{"bandwidth_read", "bandwidth_write", "disparity",
+  CHECK(names == std::vector<std::string>{"bandwidth_read", "bandwidth_read_dram",
+                                          "bandwidth_read_llc", "bandwidth_write", "disparity",
                                           "latency", "mser", "sift", "stitch", "tracking"});
   // The figures as written in the files: no rounding to six significant digits.
   CHECK_THAT(workloads[0].summary, StartsWith("IsolBench; IPC 1.07, 26271.74 MB/s in isolation"));
-  CHECK_THAT(workloads[1].summary, StartsWith("IsolBench; IPC 1.61, 25519.15 MB/s in isolation"));
-  CHECK_THAT(workloads[4].summary, StartsWith("SD-VBS; IPC 2.16, 3722.43 MB/s in isolation"));
+  CHECK_THAT(workloads[3].summary, StartsWith("IsolBench; IPC 1.61, 25519.15 MB/s in isolation"));
+  CHECK_THAT(workloads[6].summary, StartsWith("SD-VBS; IPC 2.16, 3722.43 MB/s in isolation"));
 
   const auto platforms = loader.platforms();
   std::vector<std::string> platform_names;

@@ -479,6 +479,22 @@ fs::path Loader::find_named(const std::string& ref, const fs::path& dir, const f
                        "; or give a path to a " + what + " JSON file)");
 }
 
+namespace {
+
+// A workload document (before its defaults) gives its working set one way: working_set_kb or
+// working_set (sized from the platform's caches), not both. `pointer`: where the document is in
+// `file` ("" for a workload file).
+void check_one_working_set(const json& doc, const std::string& file, const std::string& pointer) {
+  if (!doc.is_object() || !doc.contains("hw") || !doc["hw"].is_object()) return;
+  const auto& hw = doc["hw"];
+  if (hw.contains("working_set") && hw.contains("working_set_kb"))
+    throw InputError(file, pointer + "/hw/working_set",
+                     "give the working set one way: working_set_kb (fixed) or working_set "
+                     "(sized from the platform's caches), not both");
+}
+
+}  // namespace
+
 PlatformInfo Loader::host_platform(const std::string& backend, const std::string& file,
                                    const std::string& pointer) {
   if (auto it = host_cache_.find(backend); it != host_cache_.end()) {
@@ -552,6 +568,7 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
     // Inline: validated by the scenario schema already; defaults from the workload schema.
     WorkloadInfo w;
     json doc = ref;
+    check_one_working_set(doc, file, pointer);
     if (!doc.contains("command")) schemas_.apply_defaults(doc, SchemaKind::Workload);
     w.doc = std::move(doc);
     w.name = ref.value("name", w.is_command() ? ref["command"][0].get<std::string>() : "inline");
@@ -571,11 +588,25 @@ WorkloadInfo Loader::resolve_workload(const json& ref, const fs::path& base,
   const std::string shown = display_path(path);
   json doc = read_json_file(path, shown);
   schemas_.validate(doc, SchemaKind::Workload, shown);
+  check_one_working_set(doc, shown, "");
   schemas_.apply_defaults(doc, SchemaKind::Workload);
   WorkloadInfo w{doc.at("name").get<std::string>(), shown, doc};
   workload_cache_[key] = w;
   resolved_[ref_key] = key;
   return w;
+}
+
+WorkloadInfo Loader::sized_workload(const WorkloadInfo& w, const PlatformInfo& platform,
+                                    const std::string& file, const std::string& pointer) {
+  if (w.is_command() || !w.doc.contains("hw") || !w.doc.at("hw").contains("working_set")) return w;
+  // One sized copy per workload and platform, shared by the points (a sweep holds every point).
+  const std::string key = std::to_string(w.doc.hash()) + "\n" + std::to_string(platform.doc.hash());
+  if (auto it = sized_cache_.find(key); it != sized_cache_.end()) return it->second;
+  const bool inline_workload = w.origin == "inline";
+  WorkloadInfo sized = size_working_set(w, platform, inline_workload ? file : w.origin,
+                                        (inline_workload ? pointer : "") + "/hw/working_set");
+  sized_cache_[key] = sized;
+  return sized;
 }
 
 Scenario Loader::build_point(json document, const std::string& file, bool skip_schema) {
@@ -604,6 +635,12 @@ Scenario Loader::build_point(json document, const std::string& file, bool skip_s
       refs.nrt_workloads.push_back(
           resolve_workload(nodes["nrt"][i]["workload"], base, file,
                            "/nodes/nrt/" + std::to_string(i) + "/workload"));
+    for (std::size_t i = 0; i < refs.rt_workloads.size(); ++i)
+      refs.rt_workloads[i] = sized_workload(refs.rt_workloads[i], refs.platform, file,
+                                            "/nodes/rt/" + std::to_string(i) + "/workload");
+    for (std::size_t i = 0; i < refs.nrt_workloads.size(); ++i)
+      refs.nrt_workloads[i] = sized_workload(refs.nrt_workloads[i], refs.platform, file,
+                                             "/nodes/nrt/" + std::to_string(i) + "/workload");
   }
   Scenario s = build_scenario(document, std::move(refs), file);
   s.regulation.policy_defaults = std::move(policy_defaults);

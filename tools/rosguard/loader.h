@@ -123,6 +123,10 @@ class Loader {
                              const std::string& pointer);
   WorkloadInfo resolve_workload(const nlohmann::json& ref, const std::filesystem::path& base,
                                 const std::string& file, const std::string& pointer);
+  // `w` with hw.working_set sized on `platform` (size_working_set), cached per workload and
+  // platform; `pointer`: the node's workload in the scenario `file` (for an inline workload).
+  WorkloadInfo sized_workload(const WorkloadInfo& w, const PlatformInfo& platform,
+                              const std::string& file, const std::string& pointer);
   std::filesystem::path find_named(const std::string& ref, const std::filesystem::path& dir,
                                    const std::filesystem::path& base, const std::string& file,
                                    const std::string& pointer, const char* what) const;
@@ -132,6 +136,8 @@ class Loader {
   std::mutex refs_mutex_;  // the caches below (points are built on several threads)
   std::map<std::string, PlatformInfo> platform_cache_;
   std::map<std::string, WorkloadInfo> workload_cache_;
+  // "<workload document hash>\n<platform document hash>" -> the workload sized on that platform
+  std::map<std::string, WorkloadInfo> sized_cache_;
   // "platform|workload\n<base folder>\n<reference>" -> its cache key (the canonical path)
   std::map<std::string, std::string> resolved_;
   std::map<std::string, PlatformInfo> host_cache_;      // by backend

@@ -28,6 +28,7 @@
 #include "hw/pmc_source/perf_events.h"
 #include "hw/workload/work_counters.h"
 #include "hw/workload/workload.h"
+#include "results/results.h"
 
 namespace rosguard::hw {
 namespace {
@@ -352,13 +353,6 @@ void probe_sched_fifo(HostProbe& p) {
   if (rc != 0) p.notes.push_back("SCHED_FIFO is not available: " + errno_text(rc));
 }
 
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2.0;
-}
-
 // bandwidth_read (2048 KB, one load per line) alone on `cpu` (SCHED_OTHER): a warm-up, then
 // kRuns runs of about 40 ms each; MiB/s per run, median.
 ReferenceRun measure_reference(int cpu) {
@@ -417,7 +411,7 @@ ReferenceRun measure_reference(int cpu) {
   });
   worker.join();
   if (error) std::rethrow_exception(error);
-  r.mbps = median_of(r.run_mbps);
+  r.mbps = median(r.run_mbps);
   r.wall_ms = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();
   return r;
 }

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <string>
 
+#include "core/error.h"
 #include "hw/common/clock.h"
 #include "hw/executor/executor.h"
 #include "hw/topic/waker.h"
@@ -50,13 +51,7 @@ class ErrorBox {
   explicit ErrorBox(Waker& waker) : waker_(waker) {}
   RtThread::ErrorHandler handler() {
     return [this](const std::string& thread, std::exception_ptr e) {
-      std::string what = "unknown error";
-      try {
-        std::rethrow_exception(e);
-      } catch (const std::exception& x) {
-        what = x.what();
-      } catch (...) {
-      }
+      const std::string what = exception_text(e);
       {
         std::lock_guard lock(mu_);
         if (message_.empty()) message_ = "thread " + thread + ": " + what;

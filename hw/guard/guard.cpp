@@ -123,13 +123,7 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
   auto errors = std::make_shared<ErrorSink>();
   const RtThread::ErrorHandler on_error = [errors, this](const std::string& thread,
                                                          std::exception_ptr e) {
-    std::string what = "unknown error";
-    try {
-      std::rethrow_exception(e);
-    } catch (const std::exception& x) {
-      what = x.what();
-    } catch (...) {
-    }
+    const std::string what = exception_text(e);
     std::lock_guard lock(errors->mutex);
     errors->errors.push_back(thread + ": " + what);
     notes_waker_.notify();

@@ -2,6 +2,7 @@
 // InputError -> 2 (the user can fix the input), everything else -> 1.
 #pragma once
 
+#include <exception>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -56,6 +57,17 @@ class InputError : public std::runtime_error {
   std::string file_, json_path_, message_;
   std::vector<std::string> problems_;
 };
+
+// The message of a caught exception: what() of a std::exception, "unknown error" otherwise.
+inline std::string exception_text(const std::exception_ptr& e) {
+  try {
+    std::rethrow_exception(e);
+  } catch (const std::exception& x) {
+    return x.what();
+  } catch (...) {
+    return "unknown error";
+  }
+}
 
 // A failure while running (a backend, a counter, a worker). Exit code 1.
 class RunError : public std::runtime_error {

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "platform/contention.h"
+#include "results/results.h"
 #include "workload/profile.h"
 
 namespace rosguard::calibration {
@@ -208,13 +209,6 @@ struct Residuals {
   }
 };
 
-double quantile(const std::vector<double>& sorted, double q) {
-  const double pos = q * static_cast<double>(sorted.size() - 1);
-  const auto lo = static_cast<std::size_t>(std::floor(pos));
-  const std::size_t hi = std::min(lo + 1, sorted.size() - 1);
-  return sorted[lo] + (pos - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
-}
-
 double round_sig(double v, int digits) {
   if (v == 0.0 || !std::isfinite(v)) return v;
   const double mag = std::pow(10.0, std::floor(std::log10(std::abs(v))) - (digits - 1));
@@ -270,8 +264,8 @@ CostFit fit_cost(std::vector<double> samples) {
   c.samples = samples.size();
   c.min_us = samples.front();
   c.max_us = samples.back();
-  c.median_us = quantile(samples, 0.5);
-  c.p90_us = quantile(samples, 0.9);
+  c.median_us = percentile(samples, 50.0);
+  c.p90_us = percentile(samples, 90.0);
   if (c.max_us <= c.min_us) {
     c.distribution = {{"dist", "constant"}, {"value_us", round_sig(c.min_us, 4)}};
     return c;
@@ -279,7 +273,7 @@ CostFit fit_cost(std::vector<double> samples) {
   // A shifted lognormal loc + m exp(sigma N(0,1)) through the 10th, 50th and 90th percentiles:
   // (q90 - loc)(q10 - loc) = (q50 - loc)^2 gives the location, which must lie in [0, min].
   constexpr double kZ90 = 1.2815515655446004;  // standard normal 90th percentile
-  const double q10 = quantile(samples, 0.1);
+  const double q10 = percentile(samples, 10.0);
   const double skew = c.p90_us + q10 - 2.0 * c.median_us;
   double loc = skew > 0 ? (c.p90_us * q10 - c.median_us * c.median_us) / skew : -1.0;
   if (skew > 0) loc = std::clamp(loc, 0.0, c.min_us);

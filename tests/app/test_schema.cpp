@@ -1,9 +1,12 @@
 // Schema validation messages and defaults (tools/rosguard/schema.h), tested directly on
 // documents: the text a user reads is rendered from the schema node at the failing path.
 #include <catch2/catch.hpp>
+#include <fstream>
+#include <set>
 #include <string>
 
 #include "loader.h"
+#include "policy/policy.h"
 #include "schema.h"
 
 using namespace rosguard;
@@ -311,4 +314,23 @@ TEST_CASE("schema: names and sweep keys have a length limit", "[schema]") {
   const auto [where, what] = error_of(doc);
   CHECK(where == "/sweep");
   CHECK_THAT(what, Catch::Matchers::Contains("key of 1025 characters is not valid here"));
+}
+
+TEST_CASE("schema: the policy enums name the registry's policies", "[schema]") {
+  // A policy added to the registry (model/policy/policy.cpp) and not to the schema could never be
+  // chosen; one in the schema and not in the registry would fail after validation.
+  std::set<std::string> registered;
+  for (const auto& info : builtin_policies())
+    registered.insert(info.name);
+  const auto enum_of = [](const std::string& file) {
+    std::ifstream in(Home::locate().schemas() / file);
+    const json schema = json::parse(in);
+    const auto& e =
+        schema.at("properties").at("regulation").at("properties").at("policy").at("enum");
+    return e.get<std::set<std::string>>();
+  };
+  CHECK(enum_of("scenario.schema.json") == registered);
+  // The guard runs the policies whose regulation needs no PMU overflow or debug registers.
+  for (const auto& name : enum_of("guard.schema.json"))
+    CHECK(registered.count(name) == 1);
 }

@@ -4,7 +4,10 @@
 # 10 s: the guard's resident memory (VmRSS) and its log's size. At the end: RSS after the first
 # minute and at the end, its growth (per cent and kB per hour, least squares over the samples
 # after the first minute) and the log's growth in bytes per hour at steady state (after the first
-# minute). Not a test: it asserts nothing about the machine; it says whether the goals hold
+# minute), and the same for the anonymous part of RSS (heap, stacks: RssAnon) apart from the
+# file-backed part (RssFile: pages of the binary and its libraries, which fault in as code runs for
+# the first time and may be dropped and faulted in again by the page cache). Not a test: it
+# asserts nothing about the machine; it says whether the goals hold
 # (RSS growth < 1 % after the first minute, log < 1 MB per hour) and writes every sample to
 # OUT/soak.csv.
 # Usage: tests/bench/guard_soak.sh [BUILD_DIR] [DURATION_S] [OUT_DIR]   (defaults: build 1800 results/soak)
@@ -41,7 +44,7 @@ guard_pid=$!
 for _ in $(seq 200); do grep -q "regulating be" "$out/guard.log" && break; sleep 0.05; done
 grep -q "regulating be" "$out/guard.log" || { cat "$out/guard.log"; echo "error: the guard did not start" >&2; exit 1; }
 exec 3>"$tmp/activity"
-echo "t_s,rss_kb,log_bytes" >"$out/soak.csv"
+echo "t_s,rss_kb,rss_anon_kb,rss_file_kb,log_bytes" >"$out/soak.csv"
 start=$(date +%s)
 next=0
 echo "soak: guard pid $guard_pid on CPU 0, stress-ng on CPU $last, ${duration} s; samples every 10 s in $out/soak.csv"
@@ -49,8 +52,9 @@ while :; do
   now=$(($(date +%s) - start))
   ((now >= duration)) && break
   if ((now >= next)); then
-    rss=$(awk '/^VmRSS/ {print $2}' "/proc/$guard_pid/status")
-    echo "$now,$rss,$(stat -c %s "$out/guard.log")" >>"$out/soak.csv"
+    read -r rss anon file < <(awk '/^VmRSS/ {r = $2} /^RssAnon/ {a = $2} /^RssFile/ {f = $2}
+      END {print r, a, f}' "/proc/$guard_pid/status")
+    echo "$now,$rss,$anon,$file,$(stat -c %s "$out/guard.log")" >>"$out/soak.csv"
     ((now % 300 < 10)) && echo "soak: ${now} s, RSS ${rss} kB, log $(stat -c %s "$out/guard.log") bytes"
     next=$((next + 10))
   fi
@@ -66,7 +70,8 @@ guard_pid=""
 grep "totals:" "$out/guard.log" || true
 /usr/bin/python3 - "$out/soak.csv" <<'PY'
 import csv, sys
-rows = [(float(r["t_s"]), float(r["rss_kb"]), float(r["log_bytes"])) for r in csv.DictReader(open(sys.argv[1]))]
+rows = [(float(r["t_s"]), float(r["rss_kb"]), float(r["log_bytes"]), float(r["rss_anon_kb"]),
+         float(r["rss_file_kb"])) for r in csv.DictReader(open(sys.argv[1]))]
 steady = [r for r in rows if r[0] >= 60]
 if len(steady) < 3:
     sys.exit("soak: too few samples after the first minute")
@@ -81,4 +86,8 @@ log_per_h = slope([r[2] for r in steady]) * 3600
 print(f"soak: {steady[-1][0] - steady[0][0]:.0f} s after the first minute: RSS {rss0:.0f} -> {rss1:.0f} kB "
       f"({growth:+.2f} %, trend {rss_per_h:+.0f} kB/h; goal < 1 %: {'met' if growth < 1.0 else 'MISSED'}); "
       f"log {log_per_h / 1e6:.3f} MB/h (goal < 1 MB/h: {'met' if log_per_h < 1e6 else 'MISSED'})")
+for name, i in (("anonymous (RssAnon)", 3), ("file-backed (RssFile)", 4)):
+    a0, a1 = steady[0][i], steady[-1][i]
+    print(f"soak: {name}: {a0:.0f} -> {a1:.0f} kB ({100.0 * (a1 - a0) / a0:+.2f} %, "
+          f"trend {slope([r[i] for r in steady]) * 3600:+.0f} kB/h)")
 PY

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -359,12 +360,16 @@ std::string read_text_file(const fs::path& path, const std::string& display) {
                          " a scenario, platform or workload file may have");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(display, "", "cannot read the file (does it exist?)");
-  std::string text(kMaxJsonFileBytes + 1, '\0');
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
-  text.resize(static_cast<std::size_t>(in.gcount()));
-  if (text.size() > kMaxJsonFileBytes)  // it grew since stat()
-    throw InputError(display, "",
-                     "the file is larger than " + std::to_string(kMaxJsonFileBytes) + " bytes");
+  // Read in blocks up to the bound: the file may have grown since stat().
+  std::string text;
+  text.reserve(static_cast<std::size_t>(st.st_size));
+  std::array<char, 65536> block{};
+  while (in.read(block.data(), block.size()) || in.gcount() > 0) {
+    text.append(block.data(), static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxJsonFileBytes)
+      throw InputError(display, "",
+                       "the file is larger than " + std::to_string(kMaxJsonFileBytes) + " bytes");
+  }
   return text;
 }
 

@@ -197,12 +197,14 @@ TEST_CASE("memory model: a system-level cache below the L3s takes what they miss
   big.slc->capacity_kb = 4096;
   const ContentionModel with(big);
   const MemoryState st = with.solve(pair);
+  // Each hits there as it does alone in its L3 (br.l3_hit: the lines it never reuses miss).
   CHECK(st.l3_hit[0] == 0.0);
-  CHECK(st.slc_hit[0] == 1.0);
-  CHECK(st.slc_hit[1] == 1.0);
+  CHECK(st.slc_hit[0] == Approx(br.l3_hit));
+  CHECK(st.slc_hit[1] == Approx(br.l3_hit));
   const CoreRates r = with.rates(*pair[0].phase, st.l3_hit[0], 0, st, st.slc_hit[0]);
   CHECK(r.l3_refill_per_ns == Approx(r.refill_per_ns));  // every refill misses the L3 ...
-  CHECK(r.dram_lines_per_ns == Approx(r.wb_per_ns));     // ... and only write-backs reach DRAM
+  CHECK(r.dram_lines_per_ns ==                           // ... what the SLC misses reaches DRAM
+        Approx((1.0 - st.slc_hit[0]) * r.refill_per_ns + r.wb_per_ns));
   // They progress faster than with the L3 misses going to the DRAM.
   SimPlatform none = p;
   none.slc.reset();
@@ -225,8 +227,8 @@ TEST_CASE("memory model: a system-level cache below the L3s takes what they miss
   // The SLC is shared by all clusters: a third stream on another cluster takes its part.
   const std::vector<CoreDemand> three = {demand(br, 0), demand(br, 0), demand(br, 1)};
   const MemoryState t = with.solve(three);
-  CHECK(t.l3_hit[2] == Approx(br.l3_hit));  // alone in its L3: it hits there ...
-  CHECK(t.slc_hit[0] == 1.0);               // ... and sends the SLC nothing
+  CHECK(t.l3_hit[2] == Approx(br.l3_hit));   // alone in its L3: it hits there ...
+  CHECK(t.slc_hit[0] == Approx(br.l3_hit));  // ... so the pair still fits in the SLC
   const std::vector<CoreDemand> spread = {demand(br, 0), demand(br, 0), demand(br, 1),
                                           demand(br, 1)};
   const MemoryState s4 = with.solve(spread);
@@ -273,7 +275,7 @@ TEST_CASE("L3 residency: a throttled core loses its lines at the rate its co-run
   const std::vector<CoreDemand> thr = {throttled(demand(mser, 0)), demand(br, 0)};
   const MemoryState st = step(res, m, 1000.0, thr);
   CHECK(res.target_kb(0) == 0.0);
-  const CoreRates stream = m.rates(br.phases[0], res.hits()[1], 0, st);
+  const CoreRates stream = m.rates(br.phases[0], res.hits()[1], 0, st, st.slc_hit[1]);
   CHECK(stream.l3_refill_per_ns > 0.0);
   CHECK(res.rate_kb_per_ns(0) == Approx(-line_kb * stream.l3_refill_per_ns));
   CHECK(res.rate_kb_per_ns(1) == Approx(line_kb * stream.l3_refill_per_ns));  // it grows
@@ -321,7 +323,7 @@ TEST_CASE(
   const MemoryState warm_st = step(res, m, 0.0, alone);
   const double warm_hit = res.hits()[0];
   CHECK(warm_hit == Approx(1.0 - mser.phases[0].mrc.miss_ratio(p.l3.capacity_kb)));
-  const double warm = m.rates(mser.phases[0], warm_hit, 0, warm_st).inst_per_ns;
+  const double warm = m.rates(mser.phases[0], warm_hit, 0, warm_st, warm_st.slc_hit[0]).inst_per_ns;
   // Lose most of it to a stream on core 1 while throttled, then resume with the stream idle.
   const std::vector<CoreDemand> thr = {throttled(demand(mser, 0)), demand(br, 0)};
   step(res, m, 1.0, thr);
@@ -332,9 +334,10 @@ TEST_CASE(
   const double hit = res.hits()[0];
   CHECK(hit == Approx(1.0 - mser.phases[0].mrc.miss_ratio(0.1 * p.l3.capacity_kb)));
   CHECK(hit < warm_hit);
-  const CoreRates cold = m.rates(mser.phases[0], hit, 0, st);
+  const CoreRates cold = m.rates(mser.phases[0], hit, 0, st, st.slc_hit[0]);
   CHECK(cold.inst_per_ns < warm);
-  CHECK(cold.l3_refill_per_ns > m.rates(mser.phases[0], warm_hit, 0, warm_st).l3_refill_per_ns);
+  CHECK(cold.l3_refill_per_ns >
+        m.rates(mser.phases[0], warm_hit, 0, warm_st, warm_st.slc_hit[0]).l3_refill_per_ns);
   // Refill: every L3 miss inserts a line of its own (the co-runner's lines are older).
   CHECK(res.rate_kb_per_ns(0) == Approx(line_kb * cold.l3_refill_per_ns));
   // Stepping level by level (as the memory system re-solves), it gets warm again, and its
@@ -346,7 +349,7 @@ TEST_CASE(
     REQUIRE(next >= 0.0);
     t += std::max(next, 1.0);
     st = step(res, m, t, back);
-    const double now = m.rates(mser.phases[0], res.hits()[0], 0, st).inst_per_ns;
+    const double now = m.rates(mser.phases[0], res.hits()[0], 0, st, st.slc_hit[0]).inst_per_ns;
     CHECK(now >= speed);
     speed = now;
   }

@@ -456,23 +456,28 @@ FINDINGS = (("table1", table1), ("exp1-pmc-callback", exp1),
 # Only statements about the model's structure here: every figure is in the table, computed.
 WHY = {
     "4c": "Two 2 MB streams on one cluster both miss in the shared L3 (LRU shares it by insertion "
-          "rate, and each stream needs more than the other leaves it), so the bandwidth_read "
-          "pair is DRAM-bound; at 5 % the nRT node is throttled after its first sample of every "
-          "interval, at 10 % later, so the two differ (sim/README.md, the memory model).",
-    "4d": "The DRAM-bound nRT copy of bandwidth_read moves less than the 30 % budget in an "
-          "interval (its co-run bandwidth is in the exp. 4 results), so it is not throttled "
-          "there; that bandwidth rests on the phase's mlp (an estimate) and the DRAM latency (a "
-          "guess, swept over its range in the sensitivity table below).",
+          "rate, and each stream needs more than the other leaves it) and hit in the system-level "
+          "cache where the platform has one large enough for both (orin-agx: 4 MB, a guess); the "
+          "nRT copy then uses the 5 % budget of an interval within its first 1 ms sample and the "
+          "10 % budget just after it, so at 10 % it is throttled a sample later and runs about "
+          "twice as long per interval (its throttled time is in the exp. 4 results; sim/README.md, "
+          "the memory model).",
+    "4d": "Where the bandwidth_read pair is DRAM-bound (no system-level cache, or one too small "
+          "for both streams) the nRT copy moves less than the 30 % budget in an interval (its "
+          "co-run bandwidth is in the exp. 4 results), so it is not throttled there; that "
+          "bandwidth rests on the phase's mlp (an estimate) and the DRAM latency (a guess, swept "
+          "over its range in the sensitivity table below).",
     "6": "With the bandwidth_read pair DRAM-bound and not throttled at this threshold (4d), the "
          "regulation period has nothing to change.",
     "5": "In the model the self-sampling cost (one PMC callback plus publishing per sampling "
          "period) is paid by every running nRT node, so a looser sampling period lowers the nRT "
          "slowdown at every threshold; at low thresholds the nRT node is still running for part "
          "of the RT job (the throttled share is in the table), and that part pays the cost.",
-    "7a": "The RT slowdown in the model comes from L3 and DRAM contention in the part of each "
-          "interval the nRT node runs; against a bandwidth_read / _write nRT node that is "
-          "throttled late or not at all (experiment 4d) the RT node shares the cluster's L3 "
-          "with a stream for most of its job.",
+    "7a": "The RT slowdown in the model comes from L3, system-level cache and DRAM contention "
+          "in the part of each interval the nRT node runs; against a bandwidth_read / _write "
+          "nRT node the RT node shares the cluster's L3 with a stream until the throttle (at "
+          "15-30 % after one or more 1 ms samples of each interval: the throttled time is in "
+          "the exp. 7 results), and LRU gives the stream most of it.",
     "7b": "A workload's nRT impact in the model is its throttling plus the sampling overhead "
           "plus contention. disparity's profile is measured (rosguard profile, a 160 M-"
           "instruction window) with its rates scaled to Table 1's 1517 MB/s; per 2 M-instruction "

@@ -68,7 +68,9 @@ class SlowdownPanel:
                 continue
             stats = [p.stat(self.metric) for p in pts]
             mean = np.array([s.mean for s in stats])
-            err = [mean - [s.min for s in stats], np.array([s.max for s in stats]) - mean]
+            # The mean of equal repetitions can round a last bit past their min or max: clip.
+            err = [np.maximum(0.0, mean - [s.min for s in stats]),
+                   np.maximum(0.0, np.array([s.max for s in stats]) - mean)]
             ax.errorbar([p.config[x] for p in pts], mean, yerr=err, color=style.colour(index),
                         marker=style.marker(index), markersize=5, linewidth=1.4, capsize=3,
                         label=label)

@@ -76,6 +76,27 @@ double MissRatioCurve::miss_ratio(double kb) const {
   return a.miss + (b.miss - a.miss) * (kb - a.kb) / (b.kb - a.kb);
 }
 
+double MissRatioCurve::capacity_for(double miss) const {
+  if (points_.front().miss <= miss) return points_.front().kb;
+  for (std::size_t i = 1; i < points_.size(); ++i) {
+    const Point& a = points_[i - 1];
+    const Point& b = points_[i];
+    if (b.miss > miss) continue;
+    if (b.kb == a.kb || a.miss == b.miss) return b.kb;
+    return a.kb + (b.kb - a.kb) * (a.miss - miss) / (a.miss - b.miss);
+  }
+  return points_.back().kb;
+}
+
+MissRatioCurve MissRatioCurve::beyond(double kb) const {
+  const double at = miss_ratio(kb);
+  if (!(at > 0.0)) return from_points({{0.0, 0.0}});
+  std::vector<Point> shifted{{0.0, 1.0}};
+  for (const Point& p : points_)
+    if (p.kb > kb) shifted.push_back({p.kb - kb, std::min(1.0, p.miss / at)});
+  return from_points(std::move(shifted));
+}
+
 double MissRatioCurve::fill_time(double kb, double accesses, double line_kb) const {
   if (kb <= 0.0) return 0.0;
   if (!(accesses > 0.0) || !(line_kb > 0.0)) return kInf;

@@ -58,6 +58,14 @@ class MissRatioCurve {
   static MissRatioCurve uniform_reuse(double footprint_kb, double hit, double capacity_kb);
 
   double miss_ratio(double kb) const;
+  // The smallest capacity at which the curve's miss ratio is at most `miss` (0 for miss >= 1;
+  // the last point's capacity when the curve never gets that low): the share that gives a tenant
+  // that miss ratio, counting no lines it holds without reuse.
+  double capacity_for(double miss) const;
+  // The curve of the accesses that miss at `kb` (those whose stack distance exceeds it), as seen
+  // by a further LRU level that they feed: m'(x) = m(kb + x) / m(kb). A tenant that misses
+  // nowhere at `kb` (m(kb) = 0) sends it nothing: m' = 0.
+  MissRatioCurve beyond(double kb) const;
   // Time to grow from 0 to `kb` KB at `accesses` accesses per unit time of `line_kb` each
   // (t(c) above); +inf when the curve reaches 0 before `kb` or accesses is 0.
   double fill_time(double kb, double accesses, double line_kb) const;

@@ -253,7 +253,7 @@ double predict_ns_per_line(const SimPlatform& platform, const KernelRun& run) {
     demands.push_back({0, &w.phases[0], &w, true, &w.phases[0]});
   const sim::ContentionModel model(platform);
   const sim::MemoryState st = model.solve(demands);
-  const sim::CoreRates r = model.rates(profiles[0].phases[0], st.l3_hit[0], 0, st);
+  const sim::CoreRates r = model.rates(profiles[0].phases[0], st.l3_hit[0], 0, st, st.slc_hit[0]);
   return 1.0 / r.inst_per_ns;  // one instruction per line
 }
 

@@ -52,6 +52,10 @@ double ContentionModel::dram_latency(double u) const {
   return p_.dram.latency_ns + p_.dram.queue_ns * u / (1.0 - u);
 }
 
+double ContentionModel::miss_latency(double g, double dram_ns) const {
+  return p_.slc ? g * p_.slc->latency_ns + (1.0 - g) * dram_ns : dram_ns;
+}
+
 MemoryState ContentionModel::unloaded(std::size_t demands) const {
   MemoryState s;
   const auto n = static_cast<std::size_t>(p_.clusters);
@@ -59,15 +63,17 @@ MemoryState ContentionModel::unloaded(std::size_t demands) const {
   s.l3_util.assign(n, 0.0);
   s.mlp_scale.assign(n, 1.0);
   s.l3_hit.assign(demands, 1.0);
+  s.slc_hit.assign(demands, 0.0);
   s.dram_ns = p_.dram.latency_ns;
   return s;
 }
 
-CoreRates ContentionModel::rates(const Phase& ph, double hit, int cluster,
-                                 const MemoryState& st) const {
+CoreRates ContentionModel::rates(const Phase& ph, double hit, int cluster, const MemoryState& st,
+                                 double slc_hit) const {
   const auto k = static_cast<std::size_t>(cluster);
   const double h = std::clamp(hit, 0.0, 1.0);
-  const double latency = st.l3_ns[k] + (1.0 - h) * st.dram_ns;
+  const double g = std::clamp(slc_hit, 0.0, 1.0);
+  const double latency = st.l3_ns[k] + (1.0 - h) * miss_latency(g, st.dram_ns);
   const double scale = k < st.mlp_scale.size() ? st.mlp_scale[k] : 1.0;
   const double inflight = std::min(ph.mlp, p_.mshr.per_core) * scale;
   const double stall =
@@ -78,7 +84,7 @@ CoreRates ContentionModel::rates(const Phase& ph, double hit, int cluster,
   r.refill_per_ns = r.inst_per_ns * ph.refill_pki / 1000.0;
   r.wb_per_ns = r.inst_per_ns * ph.wb_pki / 1000.0;
   r.l3_refill_per_ns = (1.0 - h) * r.refill_per_ns;
-  r.dram_lines_per_ns = (1.0 - h) * (r.refill_per_ns + r.wb_per_ns);
+  r.dram_lines_per_ns = (1.0 - h) * ((1.0 - g) * r.refill_per_ns + r.wb_per_ns);
   return r;
 }
 
@@ -134,9 +140,50 @@ std::vector<double> ContentionModel::steady_hits(std::span<const CoreDemand> dem
   return hits;
 }
 
+std::vector<double> ContentionModel::slc_hits(std::span<const CoreDemand> demands,
+                                              std::span<const double> hits) const {
+  std::vector<double> g(demands.size(), 0.0);
+  if (!p_.slc) return g;
+  std::vector<std::size_t> members;
+  std::vector<cache::MissRatioCurve> curves;
+  for (std::size_t i = 0; i < demands.size(); ++i) {
+    const Phase* ph = demands[i].phase;
+    if (ph == nullptr) continue;
+    members.push_back(i);
+    curves.push_back(ph->mrc.beyond(ph->mrc.capacity_for(1.0 - hits[i])));
+  }
+  if (members.empty()) return g;
+  const MemoryState idle = unloaded(0);
+  const double cap = p_.slc->capacity_kb;
+  std::vector<double> occ(members.size(), cap / static_cast<double>(members.size()));
+  std::vector<cache::Tenant> tenants(members.size());
+  // As for the L3 (occupancies()): the access rates depend on the hit ratios, iterated from an
+  // equal split.
+  for (int round = 0; round < 100; ++round) {
+    for (std::size_t j = 0; j < members.size(); ++j) {
+      const std::size_t i = members[j];
+      g[i] = 1.0 - curves[j].miss_ratio(occ[j]);
+      tenants[j] = {
+          &curves[j],
+          rates(*demands[i].phase, hits[i], demands[i].cluster, idle, g[i]).l3_refill_per_ns};
+    }
+    const std::vector<double> next = cache::natural_partition(tenants, cap, line_kb());
+    double moved = 0.0;
+    const double w = round < 20 ? 1.0 : 0.5;
+    for (std::size_t j = 0; j < members.size(); ++j) {
+      moved = std::max(moved, std::abs(next[j] - occ[j]));
+      occ[j] = w * next[j] + (1.0 - w) * occ[j];
+    }
+    if (moved <= 1e-9 * cap) break;
+  }
+  for (std::size_t j = 0; j < members.size(); ++j)
+    g[members[j]] = 1.0 - curves[j].miss_ratio(occ[j]);
+  return g;
+}
+
 double ContentionModel::cluster_scale(std::span<const CoreDemand> demands,
-                                      std::span<const double> hits, int cluster, double l3_ns,
-                                      double dram_ns) const {
+                                      std::span<const double> hits, std::span<const double> slc,
+                                      int cluster, double l3_ns, double dram_ns) const {
   MemoryState st;
   const auto k = static_cast<std::size_t>(cluster);
   st.l3_ns.assign(k + 1, l3_ns);
@@ -149,7 +196,8 @@ double ContentionModel::cluster_scale(std::span<const CoreDemand> demands,
     for (std::size_t i = 0; i < demands.size(); ++i) {
       const CoreDemand& d = demands[i];
       if (d.cluster != cluster || d.phase == nullptr) continue;
-      sum += rates(*d.phase, hits[i], cluster, st).l3_refill_per_ns * dram_ns;
+      sum += rates(*d.phase, hits[i], cluster, st, slc[i]).l3_refill_per_ns *
+             miss_latency(slc[i], dram_ns);
     }
     return sum;
   };
@@ -178,19 +226,20 @@ double ContentionModel::cluster_scale(std::span<const CoreDemand> demands,
 }
 
 double ContentionModel::l3_traffic(std::span<const CoreDemand> demands,
-                                   std::span<const double> hits, int cluster, double l3_ns,
-                                   double dram_ns, double* dram_bytes, double* scale) const {
+                                   std::span<const double> hits, std::span<const double> slc,
+                                   int cluster, double l3_ns, double dram_ns, double* dram_bytes,
+                                   double* scale) const {
   MemoryState st;
   const auto k = static_cast<std::size_t>(cluster);
   st.l3_ns.assign(k + 1, l3_ns);
-  st.mlp_scale.assign(k + 1, cluster_scale(demands, hits, cluster, l3_ns, dram_ns));
+  st.mlp_scale.assign(k + 1, cluster_scale(demands, hits, slc, cluster, l3_ns, dram_ns));
   st.dram_ns = dram_ns;
   if (scale) *scale = st.mlp_scale[k];
   double bytes = 0.0;
   for (std::size_t i = 0; i < demands.size(); ++i) {
     const CoreDemand& d = demands[i];
     if (d.cluster != cluster || d.phase == nullptr) continue;
-    const CoreRates r = rates(*d.phase, hits[i], cluster, st);
+    const CoreRates r = rates(*d.phase, hits[i], cluster, st, slc[i]);
     bytes += (r.refill_per_ns + r.wb_per_ns) * line_;
     if (dram_bytes) *dram_bytes += r.dram_lines_per_ns * line_;
   }
@@ -205,7 +254,7 @@ double ContentionModel::alone_inst_per_ns(const Phase& phase, int cluster) const
   d.resident = true;
   d.resident_phase = &phase;
   const MemoryState state = solve(std::span(&d, 1));
-  return rates(phase, state.l3_hit.at(0), cluster, state).inst_per_ns;
+  return rates(phase, state.l3_hit.at(0), cluster, state, state.slc_hit.at(0)).inst_per_ns;
 }
 
 MemoryState ContentionModel::solve(std::span<const CoreDemand> demands) const {
@@ -217,6 +266,8 @@ MemoryState ContentionModel::solve(std::span<const CoreDemand> demands,
                                    std::span<const double> hits) const {
   MemoryState s = unloaded(demands.size());
   s.l3_hit.assign(hits.begin(), hits.end());
+  s.slc_hit = slc_hits(demands, hits);
+  const std::span<const double> slc = s.slc_hit;
   std::vector<bool> busy(s.l3_ns.size(), false);
   for (const auto& d : demands)
     if (d.phase) busy[static_cast<std::size_t>(d.cluster)] = true;
@@ -230,11 +281,12 @@ MemoryState ContentionModel::solve(std::span<const CoreDemand> demands,
       if (!busy[k]) continue;
       const int c = static_cast<int>(k);
       const double u = increasing_root([&](double x) {
-        return x - l3_traffic(demands, hits, c, l3_latency(x), dram_ns, nullptr, nullptr) / l3_bw;
+        return x -
+               l3_traffic(demands, hits, slc, c, l3_latency(x), dram_ns, nullptr, nullptr) / l3_bw;
       });
       out.l3_util[k] = u;
       out.l3_ns[k] = l3_latency(u);
-      l3_traffic(demands, hits, c, out.l3_ns[k], dram_ns, &dram_bytes, &out.mlp_scale[k]);
+      l3_traffic(demands, hits, slc, c, out.l3_ns[k], dram_ns, &dram_bytes, &out.mlp_scale[k]);
     }
     return dram_bytes;
   };

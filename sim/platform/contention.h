@@ -5,6 +5,7 @@
 // A core running phase P with L3 hit ratio h retires instructions at
 //     CPI = 1 / base_ipc + refill_pki / 1000 * f * max(0, L - L3_unloaded) / n
 //     L   = l3_latency(cluster) + (1 - h) * dram_latency,   n = min(mlp, mshr.per_core) * s
+// (with a system-level cache, below, dram_latency is the L3 miss's mix of SLC and DRAM latency)
 // (f in cycles per ns), and moves (refill_pki + wb_pki) / 1000 L3 lines per instruction, of which
 // the fraction (1 - h) also goes to DRAM.
 //
@@ -26,6 +27,18 @@
 // occupancies are the steady state; the simulator moves each core's occupancy towards it over
 // time (residency.h: refill after throttling) and solves with the hit ratios of the
 // occupancies (solve(demands, hits)).
+//
+// The system-level cache (optional, platform "memory.slc"): one more shared LRU level below every
+// cluster's L3, fed by their misses. A core with L3 hit ratio h sends it the accesses its curve
+// misses at c3 = m.capacity_for(1 - h) (its share that gives h: lines its L3 holds without reuse,
+// a cyclic stream larger than its share, count for nothing), so its curve there is
+// m(c3 + x) / m(c3) (MissRatioCurve::beyond); the running cores of all clusters share it by the
+// natural partition, with accesses their L3 misses per ns at the unloaded latencies (a fixed
+// point, iterated as for the L3). A core with SLC hit ratio g then waits, per L3 miss,
+//     g * slc.latency_ns + (1 - g) * dram_latency
+// instead of dram_latency, and sends (1 - g) of its L3 misses (and all its L3 write-backs) to the
+// DRAM. The SLC has no bandwidth or queue of its own and no refill dynamics (its occupancies are
+// the steady state of the cores running now). Without it g = 0 and all of the above is as before.
 //
 // The latencies are the fixed point of "latency -> rates -> traffic -> utilisation -> latency"
 // (utilisation is monotone in it, so the root is unique): solved by nested bracketed root finding
@@ -59,6 +72,7 @@ struct MemoryState {
   std::vector<double> l3_util;    // per cluster
   std::vector<double> mlp_scale;  // per cluster: s in (0, 1], 1 unless mshr.per_cluster binds
   std::vector<double> l3_hit;     // per demand (in the order solve() got them), in [0, 1]
+  std::vector<double> slc_hit;    // per demand: the SLC hit ratio of its L3 misses (0: no SLC)
   double dram_ns = 0.0;
   double dram_util = 0.0;
   bool operator==(const MemoryState&) const = default;
@@ -83,8 +97,10 @@ class ContentionModel {
   MemoryState solve(std::span<const CoreDemand> demands) const;
   // With each demand's L3 hit ratio given (residency.h: refill after throttling).
   MemoryState solve(std::span<const CoreDemand> demands, std::span<const double> hits) const;
-  // Rates of a core running `phase` on `cluster` with L3 hit ratio `hit`.
-  CoreRates rates(const Phase& phase, double hit, int cluster, const MemoryState& state) const;
+  // Rates of a core running `phase` on `cluster` with L3 hit ratio `hit` and `slc_hit` of its
+  // L3 misses hitting in the system-level cache (state.slc_hit; 0 without one).
+  CoreRates rates(const Phase& phase, double hit, int cluster, const MemoryState& state,
+                  double slc_hit = 0.0) const;
   // Instructions per ns of a core running `phase` on `cluster` with every other core idle: its
   // progress in isolation (it holds the whole L3, or all it reuses).
   double alone_inst_per_ns(const Phase& phase, int cluster) const;
@@ -95,9 +111,17 @@ class ContentionModel {
   // 1 for a demand with neither.
   std::vector<double> steady_hits(std::span<const CoreDemand> demands) const;
 
+  // The SLC hit ratio of each demand's L3 misses with these L3 hit ratios: the natural partition
+  // of the system-level cache among the running demands; all 0 without one.
+  std::vector<double> slc_hits(std::span<const CoreDemand> demands,
+                               std::span<const double> hits) const;
+
   // latency(u) of the L3 or the DRAM; u is clamped below 1.
   double l3_latency(double u) const;
   double dram_latency(double u) const;
+  // The latency an L3 miss of a core with SLC hit ratio g waits: g * slc.latency_ns +
+  // (1 - g) * dram_ns, or dram_ns without an SLC.
+  double miss_latency(double g, double dram_ns) const;
   double line_kb() const { return line_ / 1024.0; }
 
   // Bytes per ns of a bandwidth in MB/s (MiB/s, Eq. 1).
@@ -106,9 +130,11 @@ class ContentionModel {
  private:
   // The cluster's scale s of misses in flight at these latencies (1 when mshr.per_cluster holds).
   double cluster_scale(std::span<const CoreDemand> demands, std::span<const double> hits,
-                       int cluster, double l3_ns, double dram_ns) const;
-  double l3_traffic(std::span<const CoreDemand> demands, std::span<const double> hits, int cluster,
-                    double l3_ns, double dram_ns, double* dram_bytes, double* scale) const;
+                       std::span<const double> slc, int cluster, double l3_ns,
+                       double dram_ns) const;
+  double l3_traffic(std::span<const CoreDemand> demands, std::span<const double> hits,
+                    std::span<const double> slc, int cluster, double l3_ns, double dram_ns,
+                    double* dram_bytes, double* scale) const;
 
   SimPlatform p_;
   double f_ghz_;

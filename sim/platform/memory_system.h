@@ -48,7 +48,8 @@ class MemorySystem : public sc_core::sc_module {
   CoreRates rates(std::size_t index, const Phase& phase, int cluster) const {
     const double hit =
         index < state_.l3_hit.size() ? state_.l3_hit[index] : 1.0 - phase.mrc.miss_ratio(0.0);
-    return model_.rates(phase, hit, cluster, state_);
+    const double slc = index < state_.slc_hit.size() ? state_.slc_hit[index] : 0.0;
+    return model_.rates(phase, hit, cluster, state_, slc);
   }
   std::uint64_t solves() const { return solves_; }
   const L3Residency& residency() const { return residency_; }

@@ -69,7 +69,10 @@ double L3Residency::set_rates(std::span<const CoreDemand> demands, const MemoryS
   for (std::size_t k = 0; k < n; ++k) {
     const CoreDemand& d = demands[k];
     if (d.phase == nullptr) continue;
-    insert[k] = line_kb_ * model_.rates(*d.phase, hits_[k], d.cluster, state).l3_refill_per_ns;
+    insert[k] = line_kb_ * model_
+                               .rates(*d.phase, hits_[k], d.cluster, state,
+                                      k < state.slc_hit.size() ? state.slc_hit[k] : 0.0)
+                               .l3_refill_per_ns;
     if (owner_[k] != nullptr && kb_[k] < target_[k]) rate_[k] = insert[k];
   }
   // The lines of the cores above their targets are the least recently used: every insertion of

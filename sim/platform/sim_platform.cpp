@@ -124,6 +124,10 @@ SimPlatform parse_sim_platform(const PlatformInfo& p) {
   s.dram.latency_ns = dram.at("latency_ns").get<double>();
   s.dram.queue_ns = dram.at("queue_ns").get<double>();
   s.dram.bandwidth_mbps = dram.at("bandwidth_mbps").get<double>();
+  if (mem.contains("slc")) {
+    const auto& slc = mem.at("slc");
+    s.slc = SlcParams{slc.at("size_kb").get<double>(), slc.at("latency_ns").get<double>()};
+  }
   s.mshr.per_core = mem.at("mshr").at("per_core").get<double>();
   s.mshr.per_cluster = mem.at("mshr").at("per_cluster").get<double>();
   if (s.mshr.per_cluster < s.mshr.per_core)

@@ -45,6 +45,14 @@ struct DramParams {
   double bandwidth_mbps = 90000.0;
 };
 
+// A system-level cache shared by all clusters below their L3s (the platform's optional
+// "memory.slc"): fed by the L3 misses, shared as an LRU cache like the L3; a hit takes latency_ns
+// instead of the DRAM's (no bandwidth or queueing of its own).
+struct SlcParams {
+  double capacity_kb = 0.0;
+  double latency_ns = 0.0;
+};
+
 // Memory-level parallelism as a limit (the platform's "memory.mshr"): L2 refills in flight.
 struct MshrParams {  // defaults: the schema's largest, which no workload reaches
   double per_core = 1024.0;
@@ -106,6 +114,7 @@ struct SimPlatform {
   std::vector<std::string> pmu_events;
   L3Params l3;
   DramParams dram;
+  std::optional<SlcParams> slc;  // none: the L3 misses go to the DRAM
   MshrParams mshr;
   CoreParams core;
   CostParams costs;

@@ -46,7 +46,7 @@ Figures steady_state(const SimPlatform& p, const WorkloadProfile& w) {
   for (const Phase& ph : w.phases) {
     CoreDemand d{0, &ph, &w, true, &ph};
     const MemoryState st = model.solve({&d, 1});
-    const CoreRates r = model.rates(ph, st.l3_hit[0], 0, st);
+    const CoreRates r = model.rates(ph, st.l3_hit[0], 0, st, st.slc_hit[0]);
     const double inst = w.instructions * ph.fraction;
     const double t = inst / r.inst_per_ns;
     ns += t;

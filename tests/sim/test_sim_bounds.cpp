@@ -63,7 +63,7 @@ TEST_CASE(
     for (const auto& ph : prof.phases) {
       const sim::CoreDemand d{plat.cluster_of(2), &ph, &prof, true, &ph};
       const auto st = model.solve({&d, 1});
-      const auto r = model.rates(ph, st.l3_hit[0], d.cluster, st);
+      const auto r = model.rates(ph, st.l3_hit[0], d.cluster, st, st.slc_hit[0]);
       rate = std::max(rate, (r.refill_per_ns + r.wb_per_ns) * plat.line_bytes);
     }
     double max_delay_us = 0.0;

@@ -300,12 +300,14 @@ TEST_CASE("exp5: looser sampling gains least at 5 %, where the budget is gone af
     return mean(rows, {{"sampling_period_us", std::to_string(period)}, {"threshold_pct", t}},
                 "nrt_slowdown");
   };
-  // With the profiles fitted on the shared-LRU model (make fit-table1): at 5 % 1.99 -> 1.94
-  // from 250 us to 2 ms (-3 %), at 10-30 % -14 to -20 % (make reproduce).
-  const double gain5 = 1.0 - nrt(2000, "5") / nrt(500, "5");
+  // From 250 us to 2 ms, as the paper's statement and tools/paper_table.py compare (make
+  // reproduce, the profiles fitted with the system-level cache): at 5 % 2.03 -> 1.95 (-4 %), at
+  // 10-30 % -14 to -20 %. (From 500 us, 10 % gains least: 500 us and 1 ms sampling leave the
+  // node throttled alike there, 1.37 both, and 2 ms gains 2.4 % against 6.1 % at 5 %.)
+  const double gain5 = 1.0 - nrt(2000, "5") / nrt(250, "5");
   for (const std::string t : {"10", "15", "20", "25", "30"}) {
     INFO("threshold " << t << " %");
-    CHECK(gain5 < 1.0 - nrt(2000, t) / nrt(500, t));
+    CHECK(gain5 < 1.0 - nrt(2000, t) / nrt(250, t));
   }
 }
 
@@ -321,7 +323,7 @@ TEST_CASE(
         {{"rt_workload", w}, {"nrt_workload", w}, {"regulation_period_us", std::to_string(period)}},
         col);
   };
-  // The bandwidth_read pair's statement is not reproduced: the [!shouldfail] case below.
+  // The bandwidth_read pair's statement: the case below.
   double lo = 1e9, hi = 0.0;
   for (int p : {1000, 2000, 3000, 4000, 5000}) {
     lo = std::min(lo, at("mser", p, "nrt_slowdown"));
@@ -331,9 +333,9 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "exp6 (not reproduced: the DRAM-bound bandwidth_read nRT stays below the threshold): longer "
-    "regulation periods penalise it and protect the RT node more",
-    "[sim][fidelity][!shouldfail]") {
+    "exp6: a bandwidth_read nRT node throttled at 30 % (its L3 misses hit in the system-level "
+    "cache) - longer regulation periods penalise it and protect the RT node more",
+    "[sim][fidelity]") {
   test::TempDir dir;
   const auto rows = run_scenario("scenarios/paper/exp6-regulation-period.json", dir);
   const auto at = [&](int period, const std::string& col) {
@@ -343,7 +345,8 @@ TEST_CASE(
                  {"regulation_period_us", std::to_string(period)}},
                 col);
   };
-  // 1 ms and 5 ms alike: nRT 3.96, RT 3.50, no throttle.
+  // 1 ms -> 5 ms: nRT 2.30 -> 3.18, RT 2.03 -> 1.59 (make reproduce). Without the system-level
+  // cache the pair is DRAM-bound, never throttled at 30 %, and both periods give nRT 3.96, RT 3.50.
   CHECK(at(5000, "nrt_slowdown") > 1.1 * at(1000, "nrt_slowdown"));
   CHECK(at(5000, "rt_slowdown") < at(1000, "rt_slowdown"));
 }
@@ -474,10 +477,17 @@ TEST_CASE(
   // DRAM traffic to load it. The RT window falls somewhere among the nRT's phases; the slowdown
   // compares the window with the isolation time of exactly the instructions retired in it
   // (model/engine/outcome.h), so it is 1 whatever the phases (dividing by the fraction of a run
-  // done instead gave sift 1.025).
+  // done instead gave sift 1.025). On orin-agx without its system-level cache, which all
+  // clusters share (there the RT node's misses take some of it: nRT up to 1.04).
   test::TempDir dir;
+  nlohmann::json platform = nlohmann::json::parse(
+      test::read_text(test::source_dir() / "scenarios/platforms/orin-agx.json"));
+  platform["memory"].erase("slc");
+  platform["name"] = "orin-agx-no-slc";
+  std::ofstream(dir.path() / "orin-no-slc.json") << platform.dump(2);
   const nlohmann::json doc = {
       {"name", "phased-nrt-apart"},
+      {"platform", "orin-no-slc.json"},
       {"nodes",
        {{"controller", {{"core", 0}}},
         {"rt", {{{"name", "rt0"}, {"core", 1}, {"workload", "tracking"}}}},

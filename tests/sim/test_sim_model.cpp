@@ -39,7 +39,7 @@ std::vector<double> speeds(const ContentionModel& m, const std::vector<CoreDeman
   const MemoryState st = m.solve(d);
   std::vector<double> out;
   for (std::size_t i = 0; i < d.size(); ++i)
-    out.push_back(m.rates(*d[i].phase, st.l3_hit[i], d[i].cluster, st).inst_per_ns);
+    out.push_back(m.rates(*d[i].phase, st.l3_hit[i], d[i].cluster, st, st.slc_hit[i]).inst_per_ns);
   return out;
 }
 
@@ -58,7 +58,7 @@ TEST_CASE("memory model: the solved latencies are a fixed point of the traffic t
   const MemoryState st = m.solve(d);
   double bytes = 0.0;
   for (std::size_t i = 0; i < d.size(); ++i) {
-    const CoreRates r = m.rates(*d[i].phase, st.l3_hit[i], 0, st);
+    const CoreRates r = m.rates(*d[i].phase, st.l3_hit[i], 0, st, st.slc_hit[i]);
     bytes += (r.refill_per_ns + r.wb_per_ns) * p.line_bytes;
   }
   const double util = bytes / ContentionModel::bytes_per_ns(p.l3.bandwidth_mbps);
@@ -174,7 +174,8 @@ TEST_CASE("memory model: misses in flight are bounded per core and per cluster (
   REQUIRE(st.mlp_scale[0] < 1.0);
   double inflight = 0.0;
   for (std::size_t i = 0; i < d.size(); ++i)
-    inflight += bound.rates(wide.phases[0], st.l3_hit[i], 0, st).l3_refill_per_ns * st.dram_ns;
+    inflight += bound.rates(wide.phases[0], st.l3_hit[i], 0, st, st.slc_hit[i]).l3_refill_per_ns *
+                bound.miss_latency(st.slc_hit[i], st.dram_ns);
   CHECK(inflight == Approx(p.mshr.per_cluster).epsilon(1e-6));
   CHECK(st.mlp_scale[1] == 1.0);
   // Without the bound they would have more in flight, and progress faster.
@@ -183,6 +184,55 @@ TEST_CASE("memory model: misses in flight are bounded per core and per cluster (
   const std::vector<double> unbounded = speeds(free, d);
   CHECK(unbounded[0] > speeds(bound, d)[0]);
   CHECK(free.solve(d).mlp_scale[0] == 1.0);
+}
+
+TEST_CASE("memory model: a system-level cache below the L3s takes what they miss",
+          "[sim][memory]") {
+  const SimPlatform p = orin();
+  REQUIRE(p.slc);
+  const WorkloadProfile br = profile("bandwidth_read");
+  const std::vector<CoreDemand> pair = {demand(br, 0), demand(br, 0)};
+  // Two 2 MB streams thrash their cluster's 2 MB L3, and fit together in a 4 MB SLC.
+  SimPlatform big = p;
+  big.slc->capacity_kb = 4096;
+  const ContentionModel with(big);
+  const MemoryState st = with.solve(pair);
+  // Each hits there as it does alone in its L3 (br.l3_hit: the lines it never reuses miss).
+  CHECK(st.l3_hit[0] == 0.0);
+  CHECK(st.slc_hit[0] == Approx(br.l3_hit));
+  CHECK(st.slc_hit[1] == Approx(br.l3_hit));
+  const CoreRates r = with.rates(*pair[0].phase, st.l3_hit[0], 0, st, st.slc_hit[0]);
+  CHECK(r.l3_refill_per_ns == Approx(r.refill_per_ns));  // every refill misses the L3 ...
+  CHECK(r.dram_lines_per_ns ==                           // ... what the SLC misses reaches DRAM
+        Approx((1.0 - st.slc_hit[0]) * r.refill_per_ns + r.wb_per_ns));
+  // They progress faster than with the L3 misses going to the DRAM.
+  SimPlatform none = p;
+  none.slc.reset();
+  const ContentionModel without(none);
+  CHECK(speeds(with, pair)[0] > 1.2 * speeds(without, pair)[0]);
+  CHECK(st.dram_util < without.solve(pair).dram_util);
+  // In a 2 MB SLC they thrash again; in one of 0 KB nothing hits, and the model solves to the
+  // same doubles as without an SLC (the miss latency is then the DRAM's exactly).
+  SimPlatform small = p;
+  small.slc->capacity_kb = 2048;
+  CHECK(ContentionModel(small).solve(pair).slc_hit[0] == 0.0);
+  SimPlatform zero = p;
+  zero.slc->capacity_kb = 0;
+  const MemoryState z = ContentionModel(zero).solve(pair);
+  const MemoryState n = without.solve(pair);
+  CHECK(z.slc_hit == std::vector<double>{0.0, 0.0});
+  CHECK(z.l3_ns == n.l3_ns);
+  CHECK(z.dram_ns == n.dram_ns);
+  CHECK(z.mlp_scale == n.mlp_scale);
+  // The SLC is shared by all clusters: a third stream on another cluster takes its part.
+  const std::vector<CoreDemand> three = {demand(br, 0), demand(br, 0), demand(br, 1)};
+  const MemoryState t = with.solve(three);
+  CHECK(t.l3_hit[2] == Approx(br.l3_hit));   // alone in its L3: it hits there ...
+  CHECK(t.slc_hit[0] == Approx(br.l3_hit));  // ... so the pair still fits in the SLC
+  const std::vector<CoreDemand> spread = {demand(br, 0), demand(br, 0), demand(br, 1),
+                                          demand(br, 1)};
+  const MemoryState s4 = with.solve(spread);
+  CHECK(s4.slc_hit[0] == 0.0);  // four 1792 KB streams of L3 misses exceed 4 MB: LRU thrashes
 }
 
 namespace {
@@ -225,7 +275,7 @@ TEST_CASE("L3 residency: a throttled core loses its lines at the rate its co-run
   const std::vector<CoreDemand> thr = {throttled(demand(mser, 0)), demand(br, 0)};
   const MemoryState st = step(res, m, 1000.0, thr);
   CHECK(res.target_kb(0) == 0.0);
-  const CoreRates stream = m.rates(br.phases[0], res.hits()[1], 0, st);
+  const CoreRates stream = m.rates(br.phases[0], res.hits()[1], 0, st, st.slc_hit[1]);
   CHECK(stream.l3_refill_per_ns > 0.0);
   CHECK(res.rate_kb_per_ns(0) == Approx(-line_kb * stream.l3_refill_per_ns));
   CHECK(res.rate_kb_per_ns(1) == Approx(line_kb * stream.l3_refill_per_ns));  // it grows
@@ -273,7 +323,7 @@ TEST_CASE(
   const MemoryState warm_st = step(res, m, 0.0, alone);
   const double warm_hit = res.hits()[0];
   CHECK(warm_hit == Approx(1.0 - mser.phases[0].mrc.miss_ratio(p.l3.capacity_kb)));
-  const double warm = m.rates(mser.phases[0], warm_hit, 0, warm_st).inst_per_ns;
+  const double warm = m.rates(mser.phases[0], warm_hit, 0, warm_st, warm_st.slc_hit[0]).inst_per_ns;
   // Lose most of it to a stream on core 1 while throttled, then resume with the stream idle.
   const std::vector<CoreDemand> thr = {throttled(demand(mser, 0)), demand(br, 0)};
   step(res, m, 1.0, thr);
@@ -284,9 +334,10 @@ TEST_CASE(
   const double hit = res.hits()[0];
   CHECK(hit == Approx(1.0 - mser.phases[0].mrc.miss_ratio(0.1 * p.l3.capacity_kb)));
   CHECK(hit < warm_hit);
-  const CoreRates cold = m.rates(mser.phases[0], hit, 0, st);
+  const CoreRates cold = m.rates(mser.phases[0], hit, 0, st, st.slc_hit[0]);
   CHECK(cold.inst_per_ns < warm);
-  CHECK(cold.l3_refill_per_ns > m.rates(mser.phases[0], warm_hit, 0, warm_st).l3_refill_per_ns);
+  CHECK(cold.l3_refill_per_ns >
+        m.rates(mser.phases[0], warm_hit, 0, warm_st, warm_st.slc_hit[0]).l3_refill_per_ns);
   // Refill: every L3 miss inserts a line of its own (the co-runner's lines are older).
   CHECK(res.rate_kb_per_ns(0) == Approx(line_kb * cold.l3_refill_per_ns));
   // Stepping level by level (as the memory system re-solves), it gets warm again, and its
@@ -298,7 +349,7 @@ TEST_CASE(
     REQUIRE(next >= 0.0);
     t += std::max(next, 1.0);
     st = step(res, m, t, back);
-    const double now = m.rates(mser.phases[0], res.hits()[0], 0, st).inst_per_ns;
+    const double now = m.rates(mser.phases[0], res.hits()[0], 0, st, st.slc_hit[0]).inst_per_ns;
     CHECK(now >= speed);
     speed = now;
   }

@@ -136,3 +136,41 @@ TEST_CASE("a small footprint beside a stream keeps the share its insertion rate 
   const std::vector<Tenant> idle{{&a, 0.0}, {&stream, 1.0}};
   CHECK(natural_partition(idle, kL3, kLine)[0] == 0.0);
 }
+
+TEST_CASE("a further LRU level sees the accesses that miss before it", "[cache]") {
+  // capacity_for: the smallest share with a miss ratio, its inverse where the curve falls.
+  const auto m = MissRatioCurve::from_points({{0, 1.0}, {1000, 0.5}, {2000, 0.25}});
+  CHECK(m.capacity_for(1.0) == 0.0);
+  CHECK(m.capacity_for(0.75) == Approx(500.0));
+  CHECK(m.capacity_for(0.5) == Approx(1000.0));
+  CHECK(m.capacity_for(0.3) == Approx(1800.0));
+  CHECK(m.capacity_for(0.1) == 2000.0);  // never that low: the last point
+  CHECK(m.miss_ratio(m.capacity_for(0.4)) == Approx(0.4));
+  const auto s = MissRatioCurve::step(1792, 1.0, 0.0);
+  CHECK(s.capacity_for(1.0) == 0.0);  // a cyclic stream that misses always holds no reuse
+  CHECK(s.capacity_for(0.0) == 1792.0);
+
+  // beyond: m'(x) = m(kb + x) / m(kb); the shares add up as one LRU stack.
+  const auto b = m.beyond(1000);
+  CHECK(b.miss_ratio(0) == 1.0);
+  CHECK(b.miss_ratio(500) == Approx(m.miss_ratio(1500) / 0.5));
+  CHECK(b.miss_ratio(1000) == Approx(0.5));
+  CHECK(b.miss_ratio(5000) == Approx(0.5));
+  for (double x : {0.0, 100.0, 700.0, 1500.0})
+    CHECK(m.miss_ratio(1000) * b.miss_ratio(x) == Approx(m.miss_ratio(1000 + x)));
+  // A stream of 1792 KB that misses in a smaller share hits in a further level of 1792 KB.
+  const auto past = s.beyond(s.capacity_for(1.0));
+  CHECK(past.miss_ratio(1791) == 1.0);
+  CHECK(past.miss_ratio(1792) == 0.0);
+  CHECK(past.saturation_kb() == 1792.0);
+  // Nothing misses at its saturation: nothing reaches the next level.
+  CHECK(s.beyond(1792).miss_ratio(0) == 0.0);
+  CHECK(s.beyond(1792).saturation_kb() == 0.0);
+
+  // Two such streams share a further level of 4096 KB: both fit and hit; of 2048 KB they thrash.
+  const std::vector<Tenant> two{{&past, 1.0}, {&past, 1.0}};
+  for (double occ : natural_partition(two, 4096, kLine))
+    CHECK(past.miss_ratio(occ) == 0.0);
+  for (double occ : natural_partition(two, 2048, kLine))
+    CHECK(past.miss_ratio(occ) == 1.0);
+}

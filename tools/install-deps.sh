@@ -21,12 +21,14 @@ packages=(
 )
 [[ "${ROSGUARD_WITH_SIM:-ON}" == OFF ]] || packages+=(libsystemc-dev)
 # The aarch64 build (cmake/aarch64-linux-gnu.cmake) is without the sim backend; its header-only
-# dependencies (nlohmann-json, CLI11, valijson, Catch2) are the ones above, its compiled ones
-# are the arm64 packages.
+# dependencies (nlohmann-json, CLI11, valijson, Catch2) and idlc are the ones above, Cyclone DDS
+# is the arm64 package, and its programs run under qemu-user on the arm64 loader, C library and
+# C++ runtime (libc6:arm64, libstdc++6:arm64; the cross compiler's own copies are for linking).
 aarch64=0
 if [[ "${ROSGUARD_AARCH64:-OFF}" == ON ]]; then
   aarch64=1
-  packages+=(g++-aarch64-linux-gnu qemu-user ccache cyclonedds-dev:arm64)
+  packages+=(g++-aarch64-linux-gnu qemu-user ccache
+    cyclonedds-dev:arm64 libc6:arm64 libstdc++6:arm64)
 fi
 
 # A name without :arch means this machine's architecture (or an Architecture: all package): with

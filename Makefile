@@ -3,6 +3,8 @@
 #   make test   installs what is missing, builds, runs every test
 #   make install [PREFIX=/usr/local]   installs bin/rosguard, share/rosguard/, the CMake package
 #   make test-nosim   builds without the sim backend (no SystemC) in $(BUILD)-nosim, runs its tests
+#   make test-aarch64 cross-builds for aarch64 (the Orin's architecture; hw backend, no sim) in
+#                     $(BUILD)-aarch64 and runs under qemu-user the tests that need no PMU or root
 #   make validate     runs scenarios/validation/ on hw and in sim, writes results/validation/report.md
 #   make fit-table1   refits the seven Table 1 workloads (base_ipc; measured profiles' rates scaled)
 #   make bench-middleware  the paper's experiments 1-3 on hw, transport inproc vs dds, as a table
@@ -18,7 +20,7 @@ CMAKE_ARGS ?=
 PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
-.PHONY: all deps configure build test test-nosim run install reproduce sensitivity validate \
+.PHONY: all deps configure build test test-nosim test-aarch64 run install reproduce sensitivity validate \
         validate-readme bench-parallel bench-large bench-soak bench-middleware bench format clean fit-table1
 
 all: build
@@ -41,6 +43,18 @@ test-nosim:
 	  -DROSGUARD_WITH_SIM=OFF $(CMAKE_ARGS) >/dev/null
 	@cmake --build $(BUILD)-nosim -j $(JOBS)
 	cd $(BUILD)-nosim && ctest --output-on-failure -j $(JOBS)
+
+# The aarch64 build (cmake/aarch64-linux-gnu.cmake): the cross compiler, qemu-user and the arm64
+# libraries (Debian multiarch) installed first; without the sim backend (the board runs hw, and
+# SystemC would double the build); through ccache, so that a rebuild takes seconds. Its ctest
+# holds only what runs under the emulator (tests/cross/CMakeLists.txt).
+test-aarch64:
+	@ROSGUARD_AARCH64=ON ROSGUARD_WITH_SIM=OFF tools/install-deps.sh
+	@cmake -S . -B $(BUILD)-aarch64 --toolchain cmake/aarch64-linux-gnu.cmake \
+	  -DCMAKE_BUILD_TYPE=Release -DROSGUARD_WERROR=$(WERROR) -DROSGUARD_WITH_SIM=OFF \
+	  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache $(CMAKE_ARGS) >/dev/null
+	@cmake --build $(BUILD)-aarch64 -j $(JOBS)
+	cd $(BUILD)-aarch64 && ctest --output-on-failure -j $(JOBS)
 
 install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)
@@ -108,4 +122,4 @@ format:
 	@git ls-files '*.cpp' '*.h' | xargs clang-format -i
 
 clean:
-	rm -rf $(BUILD) $(BUILD)-nosim
+	rm -rf $(BUILD) $(BUILD)-nosim $(BUILD)-aarch64

@@ -3,6 +3,9 @@
 # Called by `make deps` (and so by `make run` / `make test`). One `apt-get update`, then one
 # `apt-get install -y`; nothing when everything is present. Needs root or sudo to install.
 # ROSGUARD_WITH_SIM=OFF (as `make test-nosim` sets it): without SystemC (libsystemc-dev).
+# ROSGUARD_AARCH64=ON (as `make test-aarch64` sets it): also what the aarch64 cross build needs,
+# the cross compiler, qemu-user and the arm64 libraries as Debian multiarch packages (adds the
+# arm64 architecture to dpkg once, which needs its own `apt-get update`).
 set -euo pipefail
 
 packages=(
@@ -17,11 +20,26 @@ packages=(
   slurm-wlm munge
 )
 [[ "${ROSGUARD_WITH_SIM:-ON}" == OFF ]] || packages+=(libsystemc-dev)
+# The aarch64 build (cmake/aarch64-linux-gnu.cmake) is without the sim backend; its header-only
+# dependencies (nlohmann-json, CLI11, valijson, Catch2) and idlc are the ones above, Cyclone DDS
+# is the arm64 package, and its programs run under qemu-user on the arm64 loader, C library and
+# C++ runtime (libc6:arm64, libstdc++6:arm64; the cross compiler's own copies are for linking).
+aarch64=0
+if [[ "${ROSGUARD_AARCH64:-OFF}" == ON ]]; then
+  aarch64=1
+  packages+=(g++-aarch64-linux-gnu qemu-user ccache
+    cyclonedds-dev:arm64 libc6:arm64 libstdc++6:arm64)
+fi
 
+# A name without :arch means this machine's architecture (or an Architecture: all package): with
+# arm64 added, dpkg-query lists both instances of a multiarch package such as cyclonedds-dev.
+native=$(dpkg --print-architecture)
 missing=()
 for p in "${packages[@]}"; do
-  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
-  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+  arch=$native
+  [[ $p != *:* ]] || arch=${p#*:}
+  dpkg-query -W -f='${Architecture} ${Status}\n' "$p" 2>/dev/null |
+    grep -Eqx "($arch|all) install ok installed" || missing+=("$p")
 done
 
 if ((${#missing[@]} == 0)); then
@@ -30,14 +48,23 @@ if ((${#missing[@]} == 0)); then
 fi
 
 echo "deps: installing missing Debian packages: ${missing[*]}"
+add_arch=0
+if ((aarch64)) && ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  add_arch=1
+fi
 if [[ $(id -u) -eq 0 ]]; then
   sudo=()
 elif command -v sudo >/dev/null 2>&1; then
   sudo=(sudo)
 else
   echo "deps: not root and no sudo; install them yourself:" >&2
+  ((add_arch == 0)) || echo "  dpkg --add-architecture arm64" >&2
   echo "  apt-get update && apt-get install -y ${missing[*]}" >&2
   exit 1
+fi
+if ((add_arch)); then
+  "${sudo[@]}" dpkg --add-architecture arm64
+  unset ROSGUARD_APT_UPDATED  # the lists have no arm64 packages yet
 fi
 export DEBIAN_FRONTEND=noninteractive
 # slurm-wlm and munge are for tests/slurm, which start their own daemons on their own config;

@@ -28,6 +28,9 @@
 #endif
 
 namespace rosguard {
+// The measuring and the documents below all serve the fit: without the sim backend,
+// calibrate_host only refuses.
+#if ROSGUARD_WITH_SIM
 namespace {
 
 namespace fs = std::filesystem;
@@ -119,6 +122,7 @@ json calibration_document(const calibration::Measurements& m, const std::vector<
 }
 
 }  // namespace
+#endif
 
 int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
 #if !ROSGUARD_WITH_SIM

@@ -157,6 +157,27 @@ TEST_CASE(
     CHECK(h.mode == Sampling::External);
     CHECK_THAT(h.fallback,
                Catch::Contains("cannot be armed") && Catch::Contains("counts without perf events"));
+    // The point runs regulated all the same, and its manifest (and the run's warnings) say so.
+    auto backend = make_hw_backend(test_policies());
+    TestContext ctx;
+    const PointOutcome o = backend->run_point(s, Baselines{}, 0, 0, ctx);
+    CHECK(ctx.fallbacks["sampling"] == h.fallback);
+    CHECK(ctx.facts.count("overflow_sampling") == 0);
+    REQUIRE(o.nrt.size() == 1);
+  }
+  SECTION("perf_event_open refused: the source's reason in the fallback") {
+    const auto perf = sources.find("perf")->make();
+    MetricPlan plan;  // the scenario's metric on the perf source
+    plan.group_events = {"l2d_cache_refill", "l2d_cache_wb"};
+    plan.metric_events = 2;
+    const HwSampling h = hw_sampling(s, plan, *perf);
+    if (const auto why = perf->unavailable_reason()) {
+      CHECK(h.mode == Sampling::External);
+      CHECK_THAT(h.fallback, Catch::Contains(*why));
+    } else {
+      WARN("this host has a PMU: overflow counters on hardware events");
+      CHECK(h.mode == Sampling::Overflow);
+    }
   }
   SECTION("an external command: its inherited counters cannot overflow as one") {
     s.nodes.nrt[0].workload.doc = {{"command", {"true"}}};

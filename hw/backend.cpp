@@ -270,8 +270,6 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   ctx.fact("pmc_source_choice", plan.why);
   ctx.fact("metric_basis", plan.basis);
   if (!plan.fallback.empty()) ctx.fallback("metric", plan.fallback);
-  if (const HwSampling hs = hw_sampling(s); !hs.fallback.empty())
-    ctx.fallback("sampling", hs.fallback);
   if (plan.spec.events.size() != s.regulation.metric.events.size() &&
       !s.regulation.event_budget_mbps.empty())
     ctx.fallback("event_budget",
@@ -280,14 +278,26 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   report_shared_core(s, ctx);
   report_transport(s, ctx);
   const auto source = sources_.find(plan.source)->make();
+  const HwSampling sampling = hw_sampling(s, plan, *source);
+  if (!sampling.fallback.empty()) ctx.fallback("sampling", sampling.fallback);
+  if (sampling.mode == Sampling::Overflow && !s.nodes.nrt.empty()) {
+    std::string events;
+    for (std::size_t i = 0; i < plan.metric_events; ++i)
+      events += (events.empty() ? "" : ", ") + plan.group_events[i];
+    ctx.fact("overflow_sampling",
+             "perf overflow counters (" + events + ", " + plan.source +
+                 " source) on each nRT node's workload thread, armed with the budget left "
+                 "(sample_period), signal the controller thread (F_SETSIG), which reads the "
+                 "node and throttles it at once");
+  }
   const ThrottleChoice& throttle = throttle_for(s, ctx);
   // The engine's thread above every node thread while they run (restored before the safety
   // check below; declared before the rig so that unwinding tears the rig down at this priority):
   // it must not wait for a time slice behind SCHED_FIFO threads on every core.
   std::optional<ScopedSched> engine_sched(std::in_place,
                                           ThreadSpec{"", -1, sched_of(s), prio::kEngine});
-  PointRig rig(s, plan, *source, make_point_regulator(s, plan, baselines, policies_), options_,
-               ctx.trace() != nullptr, throttle);
+  PointRig rig(s, plan, *source, sampling, make_point_regulator(s, plan, baselines, policies_),
+               options_, ctx.trace() != nullptr, throttle);
   report_sched(rig.start(), ctx);
   audit_threads(s, ctx);
   rig.drive(ctx);

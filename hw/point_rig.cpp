@@ -67,7 +67,7 @@ void emit_trace(TraceSink* sink, const TraceLog& log, const char* default_track)
 
 }  // namespace
 
-HwSampling hw_sampling(const Scenario& s) {
+HwSampling hw_sampling(const Scenario& s, const MetricPlan& plan, const PmcSource& source) {
   const RegulationSpec& r = s.regulation;
   const std::int64_t period_us = std::max(r.sampling_period_us, kHwFinestPollUs);
   const std::string period =
@@ -78,13 +78,27 @@ HwSampling hw_sampling(const Scenario& s) {
                  " us)"
            : "");
   switch (r.sampling) {
-    case Sampling::Overflow:
+    case Sampling::Overflow: {
+      std::string why;
+      for (const auto& n : s.nodes.nrt)
+        if (n.workload.is_command()) {
+          why = "nRT node " + n.name +
+                " runs an external command, counted with inherited perf events (the process and "
+                "its children), which the kernel cannot sample as one count";
+          break;
+        }
+      if (why.empty() && !s.nodes.nrt.empty()) {
+        const std::vector<std::string> events(
+            plan.group_events.begin(),
+            plan.group_events.begin() + static_cast<std::ptrdiff_t>(plan.metric_events));
+        if (auto u = source.overflow_unavailable(events)) why = *u;
+      }
+      if (why.empty()) return {Sampling::Overflow, r.sampling_period_us * kNsPerUs, ""};
       return {Sampling::External, period_us * kNsPerUs,
-              "overflow sampling (" + r.policy +
-                  ") is not available on the hw backend: it arms no perf overflow signal "
-                  "(perf_event_attr.sample_period with F_SETSIG), so the controller reads the nRT "
-                  "cores' counters externally every " +
+              "overflow sampling (" + r.policy + ") cannot be armed on the hw backend here (" +
+                  why + "), so the controller reads the nRT cores' counters externally every " +
                   period + " instead, and exceedance is seen up to one period late, not at once"};
+    }
     case Sampling::Mmio:
       return {Sampling::External, period_us * kNsPerUs,
               "mmio sampling (" + r.policy +
@@ -119,23 +133,29 @@ std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricP
 }
 
 PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
-                   std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace,
-                   const ThrottleChoice& throttle)
-    : s_(s), plan_(plan), options_(options), trace_(trace), throttle_(throttle), origin_(now_ns()) {
+                   const HwSampling& sampling, std::unique_ptr<Regulator> regulator,
+                   const HwOptions& options, bool trace, const ThrottleChoice& throttle)
+    : s_(s),
+      plan_(plan),
+      source_(source),
+      sampling_(sampling),
+      options_(options),
+      trace_(trace),
+      throttle_(throttle),
+      origin_(now_ns()) {
   // Wiring: every publisher and subscriber exists before the first thread starts.
   make_topics();
   // The engine publishes the one activation of a point without RT node (publisher slot 0).
   if (s.nodes.rt.empty()) engine_pub_ = rt_topic_->add_publisher();
-  wire_nodes(source);
+  wire_nodes();
   // The driver's activation accounting reads the nRT nodes through this meter, on the
   // controller thread, at both ends of every activation.
   meter_ = std::make_unique<NodeMeter>(nrts_, plan_);
   ControllerConfig cc;
   cc.core = s.nodes.controller_core;
   cc.sched = sched_of(s);
-  const HwSampling sampling = hw_sampling(s);
-  cc.sampling = sampling.mode;
-  cc.sampling_period_ns = sampling.period_ns;
+  cc.sampling = sampling_.mode;
+  cc.sampling_period_ns = sampling_.period_ns;
   cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s.hw.watchdog_ms * kNsPerMs / 4);
   cc.metric_events = plan.metric_events;
   cc.trace = trace;
@@ -199,7 +219,7 @@ void PointRig::make_topics() {
   }
 }
 
-void PointRig::wire_nodes(const PmcSource& source) {
+void PointRig::wire_nodes() {
   const RegulationSpec& r = s_.regulation;
   for (std::size_t i = 0; i < s_.nodes.nrt.size(); ++i) {
     const auto& n = s_.nodes.nrt[i];
@@ -207,7 +227,7 @@ void PointRig::wire_nodes(const PmcSource& source) {
     c.name = n.name;
     c.entity = i;
     c.core = n.core;
-    c.sampling = hw_sampling(s_).mode;
+    c.sampling = sampling_.mode;
     c.sampling_period_ns = r.sampling_period_us * kNsPerUs;
     c.watchdog_ns = s_.hw.watchdog_ms * kNsPerMs;
     c.mode = n.mode;
@@ -217,7 +237,7 @@ void PointRig::wire_nodes(const PmcSource& source) {
     c.group_events = plan_.group_events;
     c.metric_events = plan_.metric_events;
     c.trace = trace_;
-    nrts_.push_back(std::make_unique<NrtRunner>(c, n.workload, source, *controls_[i], *samples_,
+    nrts_.push_back(std::make_unique<NrtRunner>(c, n.workload, source_, *controls_[i], *samples_,
                                                 engine_waker_, errors_.handler(), origin_));
   }
   for (std::size_t i = 0; i < s_.nodes.rt.size(); ++i) {
@@ -266,6 +286,20 @@ std::vector<SchedOutcome> PointRig::start() {
   for (auto& n : nrts_)
     groups.push_back(&n->group());
   controller_->set_groups(groups);
+  if (sampling_.mode == Sampling::Overflow) {
+    // Overflow counters on each node's workload thread, for the metric's events.
+    const std::vector<std::string> events(
+        plan_.group_events.begin(),
+        plan_.group_events.begin() + static_cast<std::ptrdiff_t>(plan_.metric_events));
+    std::vector<std::unique_ptr<OverflowCounters>> counters;
+    for (auto& n : nrts_) {
+      PmcTarget target;
+      target.kind = PmcTarget::Kind::Thread;
+      target.pid = n->workload_tid();
+      counters.push_back(source_.open_overflow(events, target));
+    }
+    controller_->set_overflow(std::move(counters));
+  }
   controller_->start();
   for (auto& x : rts_)
     x->start();
@@ -515,7 +549,8 @@ void PointRig::signal_samples(PointOutcome& out) const {
 void PointRig::report_external_lag(RunContext& ctx) const {
   const auto& reads = controller_->external_reads_us();
   const std::size_t n_nrt = nrts_.size();
-  const std::int64_t period_us = hw_sampling(s_).period_ns / kNsPerUs;
+  if (sampling_.mode == Sampling::Overflow) return;  // no periodic reads to be late
+  const std::int64_t period_us = sampling_.period_ns / kNsPerUs;
   const double round_budget_us =
       static_cast<double>(period_us) / static_cast<double>(std::max<std::size_t>(n_nrt, 1));
   const auto slow =

@@ -17,6 +17,7 @@
 
 #include "backend/backend.h"
 #include "hw/backend.h"
+#include "hw/metric_plan.h"
 #include "hw/nodes/controller.h"
 #include "hw/nodes/nrt_node.h"
 #include "hw/nodes/rt_node.h"
@@ -26,13 +27,33 @@
 
 namespace rosguard::hw {
 
+// The sampling mode the hw backend runs for a scenario's regulation.sampling, and why when it
+// differs (a fallback for the manifest, "" otherwise). Overflow sampling (memguard) arms perf
+// overflow counters on the nRT nodes' threads (hw/pmc_source/overflow.h) where the point's PMC
+// source gives them on this host (perf and software sources, probed here) and every nRT node runs
+// a built-in workload; otherwise, and always for mmio sampling (mempol: there are no
+// memory-mapped debug registers to poll), it becomes external sampling every
+// regulation.sampling_period_us, but not faster than kHwFinestPollUs.
+struct HwSampling {
+  Sampling mode = Sampling::Self;
+  TimeNs period_ns = 0;
+  std::string fallback;
+};
+// The finest external sampling period the hw controller is run at in place of overflow / mmio
+// sampling: the floor rosguard guard's schema sets for its external sampling (guard.schema.json,
+// sampling_period_us minimum), below which the controller thread's reads and wake-ups take a
+// shared core from its nodes.
+inline constexpr std::int64_t kHwFinestPollUs = 100;
+HwSampling hw_sampling(const Scenario& s, const MetricPlan& plan, const PmcSource& source);
+
 class NodeMeter;
 
 class PointRig {
  public:
+  // `sampling`: hw_sampling() of the point, with the same source.
   PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
-           std::unique_ptr<Regulator> regulator, const HwOptions& options, bool trace,
-           const ThrottleChoice& throttle);
+           const HwSampling& sampling, std::unique_ptr<Regulator> regulator,
+           const HwOptions& options, bool trace, const ThrottleChoice& throttle);
   ~PointRig();
   PointRig(const PointRig&) = delete;
   PointRig& operator=(const PointRig&) = delete;
@@ -49,9 +70,13 @@ class PointRig {
   void check_errors() const;
   PointOutcome outcome(RunContext& ctx) const;
   std::size_t nrt_count() const { return nrts_.size(); }
+  // After teardown(): the overflow signals the controller took (overflow sampling), and the
+  // nRT nodes (their throttle entries).
+  const std::vector<OverflowRecord>& overflows() const { return controller_->overflows(); }
+  const NrtRunner& nrt(std::size_t i) const { return *nrts_.at(i); }
 
  private:
-  void wire_nodes(const PmcSource& source);
+  void wire_nodes();
   bool wait_for_signals(RunContext& ctx);
   void report_external_lag(RunContext& ctx) const;
   void make_topics();
@@ -63,6 +88,8 @@ class PointRig {
 
   const Scenario& s_;
   const MetricPlan& plan_;
+  const PmcSource& source_;
+  const HwSampling sampling_;
   const HwOptions& options_;
   const bool trace_;
   const ThrottleChoice& throttle_;
@@ -90,22 +117,6 @@ class PointRig {
 };
 
 // Builds the point's regulator from the run's policy registry.
-// The sampling mode the hw backend runs for a scenario's regulation.sampling, and why when it
-// differs (a fallback for the manifest, "" otherwise). Overflow sampling (memguard) and mmio
-// sampling (mempol) become external sampling every regulation.sampling_period_us, but not
-// faster than kHwFinestPollUs: this backend arms no perf overflow signal and has no
-// memory-mapped debug registers to poll.
-struct HwSampling {
-  Sampling mode = Sampling::Self;
-  TimeNs period_ns = 0;
-  std::string fallback;
-};
-// The finest external sampling period the hw controller is run at in place of overflow / mmio
-// sampling: the floor rosguard guard's schema sets for its external sampling (guard.schema.json,
-// sampling_period_us minimum), below which the controller thread's reads and wake-ups take a
-// shared core from its nodes.
-inline constexpr std::int64_t kHwFinestPollUs = 100;
-HwSampling hw_sampling(const Scenario& s);
 
 std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
                                                 const Baselines& baselines,

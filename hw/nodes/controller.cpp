@@ -59,6 +59,16 @@ void Controller::shutdown() {
   stop_.store(true, std::memory_order_release);
   waker_.notify();
   if (thread_) thread_->join();
+  overflow_.clear();  // their owner is gone: no signal can reach a handler any more
+}
+
+void Controller::set_overflow(std::vector<std::unique_ptr<OverflowCounters>> counters) {
+  if (counters.size() > controls_.size())
+    throw ContractError("overflow counters for more entities than the controller has");
+  overflow_ = std::move(counters);
+  overflow_.resize(controls_.size());
+  armed_.assign(controls_.size(), {});
+  sink_ = std::make_unique<OverflowSink>(controls_.size(), waker_);
 }
 
 // Monotonic for the driver, whatever the threads' clocks read.
@@ -121,14 +131,62 @@ void Controller::handle() {
     }
     for (std::size_t e : out_.keepalives)
       controls_[e]->publish(control_pubs_[e], {ControlMsg::Kind::Keepalive, Command::On, 0});
-    const std::vector<std::size_t> reads = out_.reads;
+    std::vector<std::size_t> reads = out_.reads;
+    const std::vector<std::size_t> rearm = out_.rearm;
     out_.clear();
+    for (std::size_t e : rearm)
+      if (!arm_overflow(e)) reads.push_back(e);  // over a limit already: read it now
     if (reads.empty()) return;
     read_entities(reads);
   }
 }
 
-void Controller::read_entities(const std::vector<std::size_t>& entities) {
+// Overflow sampling: arms entity e's counters for its limits (when they changed or the last arm
+// was taken by a signal). False when a limit is exceeded already: the caller reads e now.
+bool Controller::arm_overflow(std::size_t e) {
+  if (e >= overflow_.size() || !overflow_[e] || e >= groups_.size()) return true;
+  Armed& a = armed_[e];
+  std::vector<OverflowLimit> limits = driver_.regulator().overflow_limits(e);
+  if (limits.empty()) {
+    if (a.armed) overflow_[e]->disarm();
+    a = {};
+    return true;
+  }
+  if (a.armed && limits == a.limits) return true;
+  // The counts now: the counter's period runs from here.
+  std::array<CounterValue, kMaxGroupEvents> v{};
+  groups_[e]->read(std::span(v.data(), cfg_.group_sizes[e]));
+  const OverflowArm arm = overflow_arm(limits, std::span(v.data(), cfg_.metric_events));
+  if (arm.due) {
+    if (a.armed) overflow_[e]->disarm();
+    a = {};
+    return false;
+  }
+  overflow_[e]->arm(arm.periods);
+  a.armed = true;
+  a.limits = std::move(limits);
+  a.periods = overflow_[e]->periods();
+  a.at.clear();
+  for (std::size_t i = 0; i < cfg_.metric_events; ++i)
+    a.at.push_back(v[i].value);
+  a.t = cfg_.clock();
+  return true;
+}
+
+// Overflow sampling: every entity whose counters signalled is read now (its arm is spent).
+void Controller::take_overflows(bool& busy) {
+  if (!sink_) return;
+  for (std::size_t e = 0; e < overflow_.size(); ++e) {
+    const OverflowSink::Hit hit = sink_->take(e);
+    if (hit.t == 0) continue;
+    busy = true;
+    read_entities({e}, &hit);
+    handle();
+  }
+}
+
+void Controller::read_entities(const std::vector<std::size_t>& entities,
+                               const OverflowSink::Hit* hit) {
   std::array<CounterValue, kMaxGroupEvents> v{};
   for (std::size_t e : entities) {
     if (e >= groups_.size()) continue;  // no group (yet): nothing to read
@@ -137,7 +195,33 @@ void Controller::read_entities(const std::vector<std::size_t>& entities) {
     const TimeNs t1 = now();
     if (cfg_.keep_measurements) reads_us_.push_back(ns_to_us(t1 - t0));
     const double before = driver_.regulator().entity(e).bytes_active;
+    const std::size_t commands_before = out_.commands.size();
     driver_.sample(t1, e, std::span(v.data(), cfg_.metric_events), t1, out_);
+    if (hit) {
+      // The throttle is caused by the overflow: its delay counts from the signal.
+      bool throttled = false;
+      for (std::size_t k = commands_before; k < out_.commands.size(); ++k)
+        if (out_.commands[k].command == Command::Thr && out_.commands[k].entity == e) {
+          out_.commands[k].cause = hit->t;
+          throttled = true;
+        }
+      Armed& a = armed_[e];
+      if (cfg_.keep_measurements && a.armed) {
+        OverflowRecord r;
+        r.entity = e;
+        while (r.event + 1 < a.periods.size() && !((hit->events >> r.event) & 1u))
+          ++r.event;
+        r.t_armed = a.t;
+        r.t_signal = hit->t;
+        r.t_read = t1;
+        r.period = a.periods[r.event];
+        r.at_arm = a.at[r.event];
+        r.at_read = v[r.event].value;
+        r.throttled = throttled;
+        overflows_.push_back(r);
+      }
+      a.armed = false;  // spent: armed again after this input
+    }
     const double bytes = driver_.regulator().entity(e).bytes_active - before;
     trace_bandwidth(e, t1, bytes);
     if (cfg_.notes) {
@@ -166,6 +250,12 @@ void Controller::trace_bandwidth(std::size_t e, TimeNs measured, double bytes) {
 
 bool Controller::serve() {
   bool busy = false;
+  if (sink_ && !claimed_) {
+    // The thread that serves takes the overflow signals.
+    for (std::size_t e = 0; e < overflow_.size(); ++e)
+      if (overflow_[e]) overflow_[e]->claim(*sink_, e);
+    claimed_ = true;
+  }
   if (Policy* p = pending_policy_.exchange(nullptr, std::memory_order_acq_rel)) {
     driver_.set_policy(std::unique_ptr<Policy>(p));
     ControllerNote n;
@@ -188,6 +278,7 @@ bool Controller::serve() {
     rt_events_.fetch_add(1, std::memory_order_acq_rel);
     engine_waker_.notify();
   }
+  take_overflows(busy);
   SampleMsg s;
   while (samples_.take(sample_sub_, s)) {
     busy = true;
@@ -229,6 +320,8 @@ void Controller::main() {
     }
     waker_.wait(epoch, deadline);
   }
+  for (auto& c : overflow_)
+    if (c) c->disarm();
 }
 
 }  // namespace rosguard::hw

@@ -9,6 +9,11 @@
 //   thread is not started: tests), with non-decreasing times from config.clock.
 // - The driver's accounting reads the entities through the EntityMeter given here, on the
 //   controller thread, at each activation edge.
+// - Overflow sampling (MemGuard): each entity's overflow counters (set_overflow) are claimed by
+//   the thread that serves (their signal wakes it) and armed from the regulator's overflow limits
+//   after every input that changed them (model/regulator/regulator.h, overflow_arm). A signal
+//   makes the controller read that entity's group at once and sample it; a THR it causes carries
+//   the signal's time as its cause. Window boundaries read every entity (the driver asks).
 // - fail_after_ns (tests only) makes the thread stop answering that long after its first THR
 //   command, without sending OFF: a controller that crashes while an nRT node is throttled
 //   (counted from the command, not from a clock time, so that a slow start cannot move the fault
@@ -25,6 +30,7 @@
 #include "hw/common/clock.h"
 #include "hw/executor/executor.h"
 #include "hw/nodes/messages.h"
+#include "hw/pmc_source/overflow.h"
 #include "hw/pmc_source/pmc_source.h"
 #include "hw/topic/topic.h"
 
@@ -83,6 +89,20 @@ struct SignalRecord {
   TimeNs t_received = 0;
 };
 
+// One overflow signal the controller took (overflow sampling): the counter that signalled, how
+// it was armed and what the read it caused found.
+struct OverflowRecord {
+  std::size_t entity = 0;
+  std::size_t event = 0;  // the lowest metric event whose counter signalled
+  TimeNs t_armed = 0;     // CLOCK_MONOTONIC: armed, signal handled, counters read
+  TimeNs t_signal = 0;
+  TimeNs t_read = 0;
+  std::uint64_t period = 0;   // that counter's period (counts)
+  std::uint64_t at_arm = 0;   // its event's raw count when it was armed
+  std::uint64_t at_read = 0;  // and at the read the signal caused
+  bool throttled = false;     // the read sent THR to the entity
+};
+
 class Controller {
  public:
   Controller(ControllerConfig config, std::unique_ptr<Regulator> regulator,
@@ -95,6 +115,9 @@ class Controller {
 
   // Before start(): the counter groups of the entities (external sampling).
   void set_groups(std::vector<CounterGroup*> groups) { groups_ = std::move(groups); }
+  // Before start(), overflow sampling: the entities' overflow counters (null: none), the metric's
+  // events in order.
+  void set_overflow(std::vector<std::unique_ptr<OverflowCounters>> counters);
   void start();
   void shutdown();
   // Any thread: a new policy for the next windows (Regulator::set_policy), taken over by the
@@ -118,13 +141,17 @@ class Controller {
   const std::vector<double>& external_reads_us() const { return reads_us_; }
   const std::vector<SignalRecord>& signals() const { return signals_; }
   const TraceLog& trace() const { return trace_; }
+  const std::vector<OverflowRecord>& overflows() const { return overflows_; }
   std::uint64_t notes_dropped() const { return notes_dropped_; }
 
  private:
   void main();
   void handle();
   void send(const DriverCommand& c);
-  void read_entities(const std::vector<std::size_t>& entities);
+  void read_entities(const std::vector<std::size_t>& entities,
+                     const OverflowSink::Hit* hit = nullptr);
+  bool arm_overflow(std::size_t e);
+  void take_overflows(bool& busy);
   void trace_bandwidth(std::size_t e, TimeNs measured, double bytes);
   TimeNs now();
   void note(const ControllerNote& n);
@@ -157,6 +184,19 @@ class Controller {
   TraceLog trace_;
   std::atomic<Policy*> pending_policy_{nullptr};
   std::uint64_t notes_dropped_ = 0;
+  // Overflow sampling: per entity its counters, whether they are armed for the limits kept here
+  // (and from which counts, for the records), and the records of the signals taken.
+  struct Armed {
+    bool armed = false;
+    std::vector<OverflowLimit> limits;
+    std::vector<std::uint64_t> periods, at;
+    TimeNs t = 0;
+  };
+  std::unique_ptr<OverflowSink> sink_;  // outlives the counters that mark it
+  std::vector<std::unique_ptr<OverflowCounters>> overflow_;
+  bool claimed_ = false;
+  std::vector<Armed> armed_;
+  std::vector<OverflowRecord> overflows_;
   std::unique_ptr<RtThread> thread_;
   bool shut_ = false;
 };

@@ -99,6 +99,8 @@ class NrtRunner {
   NodeState state() const { return state_.load(std::memory_order_acquire); }
   bool once_done() const { return once_done_.load(std::memory_order_acquire); }
   CounterGroup& group() { return *group_; }
+  // After start(), a built-in workload: the thread it runs on (its counters' target).
+  pid_t workload_tid() const { return nct_ ? nct_->tid() : 0; }
   const WorkCounters& work() const { return work_; }
   bool builtin() const { return builtin_ != nullptr; }
   std::uint64_t units_per_run() const { return builtin_ ? builtin_->units_per_run() : 0; }

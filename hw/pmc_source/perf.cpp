@@ -100,15 +100,35 @@ class PerfSource : public PmcSource {
 
   std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
                                      const PmcTarget& target) const override {
-    std::vector<NamedEvent> named;
+    return open_perf_group(named(events), target);
+  }
+
+  std::optional<std::string> overflow_unavailable(
+      const std::vector<std::string>& events) const override {
+    if (auto why = unavailable_reason()) return why;
+    try {
+      return probe_perf_overflow(named(events));
+    } catch (const RunError& e) {
+      return std::string(e.what());
+    }
+  }
+
+  std::unique_ptr<OverflowCounters> open_overflow(const std::vector<std::string>& events,
+                                                  const PmcTarget& target) const override {
+    return open_perf_overflow(named(events), target);
+  }
+
+ private:
+  static std::vector<NamedEvent> named(const std::vector<std::string>& events) {
+    std::vector<NamedEvent> out;
     for (const auto& e : events) {
       auto code = hardware_event(e, host_arch());
       if (!code)
         throw RunError("perf source: event '" + e + "' has no code on " +
                        std::string(to_string(host_arch())));
-      named.emplace_back(e, *code);
+      out.emplace_back(e, *code);
     }
-    return open_perf_group(named, target);
+    return out;
   }
 };
 
@@ -164,6 +184,57 @@ std::unique_ptr<CounterGroup> open_perf_group(const std::vector<NamedEvent>& eve
     names.push_back(name);
   }
   return std::make_unique<PerfGroup>(std::move(fds), std::move(names));
+}
+
+std::unique_ptr<OverflowCounters> open_perf_overflow(const std::vector<NamedEvent>& events,
+                                                     const PmcTarget& target) {
+  if (target.kind != PmcTarget::Kind::Thread)
+    throw ContractError("overflow counters count one thread, not " + target.describe());
+  std::vector<Fd> fds;
+  std::vector<std::string> names;
+  std::vector<std::uint64_t> min_periods;
+  for (const auto& [name, code] : events) {
+    // The kernel runs its clock events on an hrtimer of at least 10 us (kernel/events/core.c,
+    // perf_swevent_start_hrtimer).
+    const bool clock = code.type == PERF_TYPE_SOFTWARE && (code.config == PERF_COUNT_SW_CPU_CLOCK ||
+                                                           code.config == PERF_COUNT_SW_TASK_CLOCK);
+    min_periods.push_back(clock ? 10'000 : 1);
+    perf_event_attr attr{};
+    attr.size = sizeof attr;
+    attr.type = code.type;
+    attr.config = code.config;
+    // A sampling event (the period is set when armed); no ring buffer: only the signal is used.
+    attr.sample_period = std::uint64_t{1} << 62;
+    attr.disabled = 1;
+    attr.exclude_hv = 1;
+    long fd = perf_event_open(&attr, target.pid, -1, -1, PERF_FLAG_FD_CLOEXEC);
+    if (fd < 0 && (errno == EACCES || errno == EPERM)) {
+      attr.exclude_kernel = 1;  // unprivileged: user space only, as the groups do
+      fd = perf_event_open(&attr, target.pid, -1, -1, PERF_FLAG_FD_CLOEXEC);
+    }
+    if (fd < 0) {
+      const int err = errno;
+      throw RunError("cannot open an overflow counter (sampling perf event '" + name + "', " +
+                     code_text(code) + ") on " + target.describe() + ": " + errno_text(err) +
+                     hint(err));
+    }
+    fds.emplace_back(static_cast<int>(fd));
+    names.push_back(name);
+  }
+  return std::make_unique<OverflowCounters>(std::move(fds), std::move(names),
+                                            std::move(min_periods));
+}
+
+std::optional<std::string> probe_perf_overflow(const std::vector<NamedEvent>& events) {
+  try {
+    Waker waker;
+    OverflowSink sink(1, waker);
+    auto counters = open_perf_overflow(events, PmcTarget{});
+    counters->claim(sink, 0);
+    return std::nullopt;
+  } catch (const RunError& e) {
+    return std::string(e.what());
+  }
 }
 
 std::unique_ptr<PmcSource> make_perf_source() {

@@ -7,10 +7,12 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "hw/pmc_source/overflow.h"
 #include "hw/pmc_source/perf_events.h"
 #include "hw/pmc_source/pmc_source.h"
 
@@ -21,5 +23,12 @@ using NamedEvent = std::pair<std::string, PerfEventCode>;
 // Opens `events` as one group on `target`. Throws RunError.
 std::unique_ptr<CounterGroup> open_perf_group(const std::vector<NamedEvent>& events,
                                               const PmcTarget& target);
+
+// One sampling event per entry on a thread target, disarmed (overflow.h). Throws RunError.
+std::unique_ptr<OverflowCounters> open_perf_overflow(const std::vector<NamedEvent>& events,
+                                                     const PmcTarget& target);
+// Whether this host gives overflow counters for `events`: opens them on the calling thread and
+// routes their signal to it (never armed); empty if that works, else why not.
+std::optional<std::string> probe_perf_overflow(const std::vector<NamedEvent>& events);
 
 }  // namespace rosguard::hw

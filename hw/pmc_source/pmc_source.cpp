@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "hw/pmc_source/overflow.h"
 
 namespace rosguard::hw {
 
@@ -26,6 +27,16 @@ std::optional<std::string> PmcSource::probe(const std::string& event) const {
   } catch (const RunError& e) {
     return std::string(e.what());
   }
+}
+
+std::optional<std::string> PmcSource::overflow_unavailable(const std::vector<std::string>&) const {
+  return "the " + std::string(name()) +
+         " source counts without perf events, so nothing can signal an overflow";
+}
+
+std::unique_ptr<OverflowCounters> PmcSource::open_overflow(const std::vector<std::string>&,
+                                                           const PmcTarget&) const {
+  throw ContractError("the " + std::string(name()) + " source has no overflow counters");
 }
 
 bool PmcSource::provides(std::string_view event) const {

@@ -10,6 +10,9 @@
 //   readers (the PMC callback or the controller, and the engine's window snapshots) may call it
 //   concurrently.
 // - Failures are RunError naming the event, the target and the errno.
+// - Overflow counters (MemGuard's interrupt, hw/pmc_source/overflow.h) come from the perf and
+//   software sources, on a thread target only: an inherited (process) event cannot be sampled as
+//   one count over the process and its children.
 #pragma once
 
 #include <sys/types.h>
@@ -28,6 +31,7 @@
 namespace rosguard::hw {
 
 struct WorkCounters;
+class OverflowCounters;
 
 // What a group counts.
 struct PmcTarget {
@@ -65,6 +69,13 @@ class PmcSource {
   // Opens `events` on `target` as one group. Throws RunError naming the event and errno.
   virtual std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
                                              const PmcTarget& target) const = 0;
+  // Overflow sampling (overflow.h): why this source cannot give overflow counters for `events`
+  // on this host (empty when it can; the perf-based sources try it on the calling thread).
+  virtual std::optional<std::string> overflow_unavailable(
+      const std::vector<std::string>& events) const;
+  // Overflow counters for `events` on a thread target, disarmed. Throws RunError.
+  virtual std::unique_ptr<OverflowCounters> open_overflow(const std::vector<std::string>& events,
+                                                          const PmcTarget& target) const;
 
  protected:
   // unavailable_reason() by trial: opens `event` on the calling thread; empty if that works,

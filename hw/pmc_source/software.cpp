@@ -23,13 +23,33 @@ class SoftwareSource : public PmcSource {
 
   std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
                                      const PmcTarget& target) const override {
-    std::vector<NamedEvent> named;
+    return open_perf_group(named(events), target);
+  }
+
+  std::optional<std::string> overflow_unavailable(
+      const std::vector<std::string>& events) const override {
+    if (auto why = unavailable_reason()) return why;
+    try {
+      return probe_perf_overflow(named(events));
+    } catch (const RunError& e) {
+      return std::string(e.what());
+    }
+  }
+
+  std::unique_ptr<OverflowCounters> open_overflow(const std::vector<std::string>& events,
+                                                  const PmcTarget& target) const override {
+    return open_perf_overflow(named(events), target);
+  }
+
+ private:
+  static std::vector<NamedEvent> named(const std::vector<std::string>& events) {
+    std::vector<NamedEvent> out;
     for (const auto& e : events) {
       auto code = software_event(e);
       if (!code) throw RunError("software source: '" + e + "' is not a perf software event");
-      named.emplace_back(e, *code);
+      out.emplace_back(e, *code);
     }
-    return open_perf_group(named, target);
+    return out;
   }
 };
 

@@ -17,6 +17,39 @@ std::vector<std::size_t> accounts_for_scope(Scope scope, std::size_t entities) {
   return accounts;
 }
 
+OverflowArm overflow_arm(std::span<const OverflowLimit> limits,
+                         std::span<const CounterValue> counts) {
+  OverflowArm arm;
+  arm.periods.assign(counts.size(), 0);
+  // Far beyond any budget a window can hold, and below the 63 bits perf's period takes.
+  constexpr double kMaxPeriod = 0x1p62;
+  for (const OverflowLimit& l : limits) {
+    if (l.bytes_per_count.size() > counts.size())
+      throw ContractError("an overflow limit weighs more events than were counted");
+    double now = 0.0;
+    std::size_t weighed = 0;
+    for (std::size_t i = 0; i < l.bytes_per_count.size(); ++i) {
+      now += l.bytes_per_count[i] * static_cast<double>(counts[i].value);
+      if (l.bytes_per_count[i] > 0.0) ++weighed;
+    }
+    if (weighed == 0) continue;
+    if (now > l.at_bytes) {
+      arm.due = true;
+      continue;
+    }
+    const double share = (l.at_bytes - now) / static_cast<double>(weighed);
+    for (std::size_t i = 0; i < l.bytes_per_count.size(); ++i) {
+      if (l.bytes_per_count[i] <= 0.0) continue;
+      // Overflowing after p counts: strictly past the share (the limit fires on exceeding).
+      const double p = std::min(kMaxPeriod, std::floor(share / l.bytes_per_count[i]) + 1.0);
+      const auto period = static_cast<std::uint64_t>(p);
+      if (arm.periods[i] == 0 || period < arm.periods[i]) arm.periods[i] = period;
+    }
+  }
+  if (arm.due) std::fill(arm.periods.begin(), arm.periods.end(), 0);
+  return arm;
+}
+
 void Regulator::set_policy(std::unique_ptr<Policy> policy) {
   if (!policy) throw ContractError("regulator needs a policy");
   if (policy->regulates() != policy_->regulates())

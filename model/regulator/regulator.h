@@ -27,6 +27,7 @@
 //   the interrupt's reading to sample().
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <span>
@@ -56,7 +57,23 @@ using Commands = std::vector<CommandOut>;
 struct OverflowLimit {
   std::vector<double> bytes_per_count;
   double at_bytes = 0.0;
+  bool operator==(const OverflowLimit&) const = default;
 };
+
+// How a host whose overflow counters each count one event (perf_event_open: one sample_period
+// per event) arms them for `limits`, from the entity's cumulative raw counter values `counts`
+// now (in the metric's event order). A limit's bytes still left are split evenly among the
+// events it weighs, so that whichever counter overflows first does so at or before the limit's
+// crossing; the host then reads the entity, samples it and arms again with what is left.
+struct OverflowArm {
+  bool due = false;  // a limit is exceeded already: read the entity now, arm nothing
+  // Per event: counts until its counter must overflow (>= 1), the smallest over the limits;
+  // 0: no limit weighs this event (leave its counter disarmed).
+  std::vector<std::uint64_t> periods;
+  bool operator==(const OverflowArm&) const = default;
+};
+OverflowArm overflow_arm(std::span<const OverflowLimit> limits,
+                         std::span<const CounterValue> counts);
 
 struct RegulatorConfig {
   std::size_t rt_count = 1;

@@ -138,7 +138,7 @@ const std::vector<ColumnInfo>& sample_kind_dictionary() {
   static const std::vector<ColumnInfo> d = {
       {"activation_delay", "us",
        "one delay from the sample that exhausted a budget to the throttle (overflow sampling: "
-       "from the counter crossing the budget)"},
+       "from the counter crossing the budget; on hw from the overflow signal's handler)"},
       {"pmc_callback", "us", "one PMC sampling callback's duration (mmio sampling: one poll)"},
       {"overflow_irq", "us",
        "overflow sampling (sim): one PMU overflow interrupt, crossing to the throttle taking "

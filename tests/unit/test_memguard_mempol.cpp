@@ -142,6 +142,54 @@ TEST_CASE(
   CHECK(limits[0].at_bytes == (1000.0 + 16385) * 64 + kBudgetBytes);
 }
 
+TEST_CASE("overflow_arm: one counter per event, each overflowing at or before its limit's crossing",
+          "[regulator][memguard][overflow]") {
+  const auto counts = [](std::vector<std::uint64_t> v) {
+    std::vector<CounterValue> out;
+    for (auto x : v)
+      out.push_back({x, 0, 0});
+    return out;
+  };
+  SECTION("one event: the counts left, plus one to exceed") {
+    const std::vector<OverflowLimit> l{{{64.0}, 64.0 * 1100}};
+    CHECK(overflow_arm(l, counts({1000})) == OverflowArm{false, {101}});
+    CHECK(overflow_arm(l, counts({1100})) == OverflowArm{false, {1}});  // at it: the next count
+    CHECK(overflow_arm(l, counts({1101})) == OverflowArm{true, {0}});   // past it: read now
+  }
+  SECTION("a weighted sum over two events: each gets half of what is left") {
+    // 6400 bytes left: 50 lines on either counter, at 64 bytes each.
+    const std::vector<OverflowLimit> l{{{64.0, 64.0}, 64.0 * (10 + 20) + 6400}};
+    const OverflowArm a = overflow_arm(l, counts({10, 20}));
+    CHECK(a == OverflowArm{false, {51, 51}});
+    // Neither counter reaching its period leaves the sum at or under the limit.
+    CHECK(64.0 * (10 + 50) + 64.0 * (20 + 50) <= l[0].at_bytes);
+  }
+  SECTION("per-event limits: each on its own event; a total and a per-event limit take the least") {
+    const std::vector<OverflowLimit> l{{{0.0, 64.0}, 64.0 * 100},  // writes: 100 lines
+                                       {{64.0, 64.0}, 64.0 * 1000}};
+    CHECK(overflow_arm(l, counts({0, 0})) == OverflowArm{false, {501, 101}});
+    CHECK(overflow_arm(l, counts({0, 40})) == OverflowArm{false, {481, 61}});
+    CHECK(overflow_arm(std::span(l).first(1), counts({0, 0})) == OverflowArm{false, {0, 101}});
+  }
+  SECTION("no limit: nothing to arm") {
+    CHECK(overflow_arm({}, counts({5, 5})) == OverflowArm{false, {0, 0}});
+  }
+  SECTION("arming from the regulator's limits: the interrupt's reading throttles") {
+    Rig rig(make_memguard_policy(mg_params()), 1);
+    rig.reg.rt_started(0, 0, rig.out);
+    rig.sample(0, 0, 1000);
+    const auto limits = rig.reg.overflow_limits(0);
+    const auto arm = overflow_arm(limits, counts({1000, 0}));
+    REQUIRE(!arm.due);
+    // The first counter to overflow (either one, each at half the budget) is read ...
+    rig.sample(us(100), 0, arm.periods[0]);
+    CHECK(rig.out == Commands{{0, 0, On}});
+    // ... and arming again from that reading leaves the other half.
+    const auto next = overflow_arm(rig.reg.overflow_limits(0), counts({1000 + arm.periods[0], 0}));
+    CHECK(next.periods[0] < arm.periods[0]);
+  }
+}
+
 TEST_CASE("memguard: separate read and write budgets through the metric's events",
           "[regulator][memguard][events]") {
   // Reads (l2d_cache_refill) 1000 MB/s, write-backs (l2d_cache_wb) 250 MB/s: 16 384 and 4 096

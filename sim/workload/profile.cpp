@@ -45,8 +45,7 @@ WorkloadProfile parse_profile(const WorkloadInfo& w, const SimPlatform& platform
     if (kernel == "bandwidth_read" || kernel == "bandwidth_write" || kernel == "latency")
       kernel_ws = w.doc.at("hw").value("working_set_kb", 2048.0);
   }
-  const cache::MissRatioCurve derived =
-      derived_mrc(kernel_ws, p.footprint_kb, p.l3_hit, platform);
+  const cache::MissRatioCurve derived = derived_mrc(kernel_ws, p.footprint_kb, p.l3_hit, platform);
   double total = 0.0;
   std::size_t index = 0;
   for (const auto& ph : s.at("phases")) {

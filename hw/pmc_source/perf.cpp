@@ -82,7 +82,7 @@ class PerfGroup : public CounterGroup {
   std::vector<std::uint64_t> buf_;
 };
 
-class PerfSource : public PmcSource {
+class PerfSource : public PerfEventSource {
  public:
   std::string_view name() const override { return "perf"; }
 
@@ -96,30 +96,8 @@ class PerfSource : public PmcSource {
     return out;
   }
 
-  bool counts_processes() const override { return true; }
-
-  std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
-                                     const PmcTarget& target) const override {
-    return open_perf_group(named(events), target);
-  }
-
-  std::optional<std::string> overflow_unavailable(
-      const std::vector<std::string>& events) const override {
-    if (auto why = unavailable_reason()) return why;
-    try {
-      return probe_perf_overflow(named(events));
-    } catch (const RunError& e) {
-      return std::string(e.what());
-    }
-  }
-
-  std::unique_ptr<OverflowCounters> open_overflow(const std::vector<std::string>& events,
-                                                  const PmcTarget& target) const override {
-    return open_perf_overflow(named(events), target);
-  }
-
- private:
-  static std::vector<NamedEvent> named(const std::vector<std::string>& events) {
+ protected:
+  std::vector<NamedEvent> named(const std::vector<std::string>& events) const override {
     std::vector<NamedEvent> out;
     for (const auto& e : events) {
       auto code = hardware_event(e, host_arch());
@@ -133,6 +111,26 @@ class PerfSource : public PmcSource {
 };
 
 }  // namespace
+
+std::unique_ptr<CounterGroup> PerfEventSource::open(const std::vector<std::string>& events,
+                                                    const PmcTarget& target) const {
+  return open_perf_group(named(events), target);
+}
+
+std::optional<std::string> PerfEventSource::overflow_unavailable(
+    const std::vector<std::string>& events) const {
+  if (auto why = unavailable_reason()) return why;
+  try {
+    return probe_perf_overflow(named(events));
+  } catch (const RunError& e) {
+    return std::string(e.what());
+  }
+}
+
+std::unique_ptr<OverflowCounters> PerfEventSource::open_overflow(
+    const std::vector<std::string>& events, const PmcTarget& target) const {
+  return open_perf_overflow(named(events), target);
+}
 
 std::unique_ptr<CounterGroup> open_perf_group(const std::vector<NamedEvent>& events,
                                               const PmcTarget& target) {

@@ -31,4 +31,21 @@ std::unique_ptr<OverflowCounters> open_perf_overflow(const std::vector<NamedEven
 // routes their signal to it (never armed); empty if that works, else why not.
 std::optional<std::string> probe_perf_overflow(const std::vector<NamedEvent>& events);
 
+// A source whose counters are perf events (the perf and the software sources): groups, overflow
+// counters and their probe through the functions above; each source names its events' codes.
+class PerfEventSource : public PmcSource {
+ public:
+  bool counts_processes() const override { return true; }
+  std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
+                                     const PmcTarget& target) const override;
+  std::optional<std::string> overflow_unavailable(
+      const std::vector<std::string>& events) const override;
+  std::unique_ptr<OverflowCounters> open_overflow(const std::vector<std::string>& events,
+                                                  const PmcTarget& target) const override;
+
+ protected:
+  // The perf code of each event. Throws RunError for an event this source has no code for.
+  virtual std::vector<NamedEvent> named(const std::vector<std::string>& events) const = 0;
+};
+
 }  // namespace rosguard::hw

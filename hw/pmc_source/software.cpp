@@ -9,7 +9,7 @@
 namespace rosguard::hw {
 namespace {
 
-class SoftwareSource : public PmcSource {
+class SoftwareSource : public PerfEventSource {
  public:
   std::string_view name() const override { return "software"; }
 
@@ -19,30 +19,8 @@ class SoftwareSource : public PmcSource {
     return unavailable_reason() ? std::vector<std::string>{} : software_event_names();
   }
 
-  bool counts_processes() const override { return true; }
-
-  std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
-                                     const PmcTarget& target) const override {
-    return open_perf_group(named(events), target);
-  }
-
-  std::optional<std::string> overflow_unavailable(
-      const std::vector<std::string>& events) const override {
-    if (auto why = unavailable_reason()) return why;
-    try {
-      return probe_perf_overflow(named(events));
-    } catch (const RunError& e) {
-      return std::string(e.what());
-    }
-  }
-
-  std::unique_ptr<OverflowCounters> open_overflow(const std::vector<std::string>& events,
-                                                  const PmcTarget& target) const override {
-    return open_perf_overflow(named(events), target);
-  }
-
- private:
-  static std::vector<NamedEvent> named(const std::vector<std::string>& events) {
+ protected:
+  std::vector<NamedEvent> named(const std::vector<std::string>& events) const override {
     std::vector<NamedEvent> out;
     for (const auto& e : events) {
       auto code = software_event(e);

@@ -169,12 +169,17 @@ class HwBackend : public Backend {
                             RunContext& ctx) override {
     const MetricPlan plan = plan_metric(s, sources_);
     ctx.fact("pmc_source", plan.source);
-    ctx.fact("isolation",
-             std::string("each workload alone on its core, unregulated, measured ") +
-                 (s.hw.precision_pct ? "once before each round of its points (hw.precision_pct)"
-                                     : "hw.baseline_repetitions times interleaved with the "
-                                       "repetition rounds") +
-                 " (median); the scenario's other cores held by idle spinner threads meanwhile");
+    const char* when =
+        s.hw.adjacent_baselines
+            ? "for each point, right before each of its repetitions (hw.adjacent_baselines: a "
+              "repetition's slowdowns divide by these)"
+        : s.hw.precision_pct ? "once before each round of its points (hw.precision_pct; median)"
+                             : "hw.baseline_repetitions times interleaved with the repetition "
+                               "rounds (median)";
+    ctx.fact("isolation", std::string("each workload alone on its core, unregulated, measured ") +
+                              when +
+                              "; the scenario's other cores held by idle spinner threads "
+                              "meanwhile");
     const auto rt_before = realtime_tids();
     try {
       warm_up(s, plan, w, core, ctx);

@@ -73,7 +73,8 @@ def scenario(k: int, ws: str) -> dict:
         "regulation": {"policy": "interval", "sampling": "self", "sampling_period_us": 1000,
                        "regulation_period_us": 5000, "threshold_pct": THRESHOLD_PCT},
         "sweep": {SWEEP_KEY: POLICIES},
-        "hw": {"pmc_source": "instrumented", "scheduler": "fifo", "watchdog_ms": 100},
+        "hw": {"pmc_source": "instrumented", "scheduler": "fifo", "watchdog_ms": 100,
+               "adjacent_baselines": True},
     }
 
 

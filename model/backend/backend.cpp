@@ -37,7 +37,8 @@ std::string BaselineRuns::noise_warning(const std::string& key) const {
   return "isolation baseline " + key + ": its time varies by " + cv +
          " % (coefficient of variation over " + std::to_string(count()) +
          " measurements, above 5 %); this host is too noisy for slowdown differences of that "
-         "order (quiet the machine, or raise hw.baseline_repetitions and repetitions)";
+         "order (quiet the machine; raise repetitions or set hw.precision_pct; "
+         "hw.adjacent_baselines divides each repetition by measurements taken right before it)";
 }
 
 int baseline_round(int k, int repetitions, int measurements) {
@@ -46,16 +47,28 @@ int baseline_round(int k, int repetitions, int measurements) {
 
 std::string Baselines::key(const Scenario& s, const WorkloadInfo& workload, int core) {
   // How many times a baseline is measured does not change one measurement.
-  nlohmann::json hw = s.document.at("hw");
-  for (const char* k : {"baseline_repetitions", "precision_pct", "max_repetitions"})
-    hw.erase(k);
+  const auto without_repetition_keys = [](nlohmann::json doc) {
+    for (const char* k :
+         {"baseline_repetitions", "precision_pct", "max_repetitions", "adjacent_baselines"})
+      doc.erase(k);
+    return doc;
+  };
+  const nlohmann::json hw = without_repetition_keys(s.document.at("hw"));
   // FNV-1a of the backend, the platform's and the workload's document hashes (SharedJson::hash:
-  // made once per document, not once per row) and the sim and hw settings.
+  // made once per document, not once per row) and the sim and hw settings; with adjacent
+  // baselines, of the whole point too (each point has baselines of its own).
   char hashes[40];
   std::snprintf(hashes, sizeof hashes, "/%016llx/%016llx/",
                 static_cast<unsigned long long>(s.platform.doc.hash()),
                 static_cast<unsigned long long>(workload.doc.hash()));
-  const std::uint64_t h = fnv1a(s.backend + hashes + s.document.at("sim").dump() + hw.dump());
+  std::string identity = s.backend + hashes + s.document.at("sim").dump() + hw.dump();
+  if (s.hw.adjacent_baselines) {
+    nlohmann::json point = s.document;
+    point.erase("repetitions");
+    point["hw"] = hw;
+    identity += point.dump();
+  }
+  const std::uint64_t h = fnv1a(identity);
   char buf[20];
   std::snprintf(buf, sizeof buf, "%08llx", static_cast<unsigned long long>(h & 0xffffffffULL));
   return workload.name + "/core" + std::to_string(core) + "/" + buf;

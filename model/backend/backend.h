@@ -61,7 +61,8 @@ int baseline_round(int k, int repetitions, int measurements);
 class Baselines {
  public:
   // Identity of an isolation run: the workload, the core, and everything else that can change
-  // its result (platform, backend and backend settings; not how often it is measured).
+  // its result (platform, backend and backend settings; not how often it is measured); with
+  // hw.adjacent_baselines the point itself too: each point has baselines of its own.
   static std::string key(const Scenario& scenario, const WorkloadInfo& workload, int core);
   // Records measurement `rep` of baseline `key` (replacing an earlier one of the same index).
   void put(const std::string& key, IsolationResult result, int rep = 0) {

@@ -15,7 +15,8 @@ const std::vector<ColumnInfo>& rt_node_columns() {
       {"core", "count", "the core the RT node runs on"},
       {"time_us", "us", "the RT node's job time in the co-run (median over its jobs)"},
       {"isolation_us", "us",
-       "the same job alone on the same core, unregulated (median of the baseline measurements)"},
+       "the same job alone on the same core, unregulated (median of the baseline measurements; "
+       "with hw.adjacent_baselines the measurement taken right before this repetition)"},
       {"slowdown", "ratio", "time_us / isolation_us (1.0 = as fast as alone)"},
       {"isolation_n", "count", "isolation measurements behind isolation_us"},
       {"isolation_cv", "ratio", "coefficient of variation of those measurements"},
@@ -36,7 +37,9 @@ const std::vector<ColumnInfo>& nrt_node_columns() {
       {"name", "text", "the nRT node's name (nodes.nrt[i].name in the scenario)"},
       {"core", "count", "the core the nRT node runs on"},
       {"time_us", "us", "time the nRT node took for the work it did in isolation_us alone"},
-      {"isolation_us", "us", "one run of the nRT workload alone on the same core, unregulated"},
+      {"isolation_us", "us",
+       "one run of the nRT workload alone on the same core, unregulated (median; with "
+       "hw.adjacent_baselines the measurement taken right before this repetition)"},
       {"slowdown", "ratio", "time_us / isolation_us over the same work (1.0 = as fast as alone)"},
       {"isolation_n", "count", "isolation measurements behind isolation_us"},
       {"isolation_cv", "ratio", "coefficient of variation of those measurements"},

@@ -45,6 +45,14 @@ struct RoundPairing {
   bool one_per_round = false;
 };
 
+// Adjacent baselines (hw.adjacent_baselines): measurement r of a point's own baseline was taken
+// right before its repetition r.
+inline RoundPairing adjacent_pairing() {
+  RoundPairing p;
+  p.one_per_round = true;
+  return p;
+}
+
 // The isolation time of round `round` of a baseline: the median of the measurements taken
 // before that round, or the median of all of them when none was (sim: one measurement before
 // round 0; a folder resumed with fewer baseline measurements). NaN when there is none.

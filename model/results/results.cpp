@@ -9,6 +9,8 @@
 #include <optional>
 #include <string>
 
+#include "results/precision.h"
+
 namespace rosguard {
 namespace {
 
@@ -40,12 +42,16 @@ std::string compact(double v) {
 }
 
 // The cells of node `prefix` ("rt_", "nrt1_", ...) that come from its isolation baseline, for a
-// co-run time `t`; `first`: the node whose ipc / mbps have fixed columns.
+// co-run time `t` of repetition `rep`; `first`: the node whose ipc / mbps have fixed columns.
+// The isolation time is the median of the baseline's measurements, or with adjacent baselines
+// (hw.adjacent_baselines) the measurement taken right before this repetition's co-run.
 void isolation_cells(std::map<std::string, std::string>& cell, const std::string& prefix,
-                     bool first, const BaselineRuns& runs, double t) {
+                     bool first, const BaselineRuns& runs, double t, const Scenario& s, int rep) {
   const IsolationResult iso = runs.median();
-  cell[prefix + "isolation_us"] = us(iso.time_us);
-  cell[prefix + "slowdown"] = ratio(t / iso.time_us);
+  const double time_us =
+      s.hw.adjacent_baselines ? round_baseline_us(runs, rep, adjacent_pairing()) : iso.time_us;
+  cell[prefix + "isolation_us"] = us(time_us);
+  cell[prefix + "slowdown"] = ratio(t / time_us);
   cell[prefix + "isolation_n"] = std::to_string(runs.count());
   cell[prefix + "isolation_cv"] = ratio(runs.time_cv());
   if (first) {
@@ -211,7 +217,7 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
     cell[prefix + "name"] = n.name;
     cell[prefix + "core"] = std::to_string(n.core);
     cell[prefix + "time_us"] = us(t);
-    isolation_cells(cell, prefix, first, b.runs(s, n.workload, n.core), t);
+    isolation_cells(cell, prefix, first, b.runs(s, n.workload, n.core), t, s, rep);
     if (out) {
       cell[prefix + "response_p99_us"] = us(percentile(out->response_us, 99.0));
       cell[prefix + "response_max_us"] = us(maximum(out->response_us));
@@ -228,7 +234,7 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
     cell[prefix + "name"] = n.name;
     cell[prefix + "core"] = std::to_string(n.core);
     cell[prefix + "time_us"] = us(t);
-    isolation_cells(cell, prefix, first, b.runs(s, n.workload, n.core), t);
+    isolation_cells(cell, prefix, first, b.runs(s, n.workload, n.core), t, s, rep);
     cell[prefix + "bandwidth_mbps"] = out ? mbps(out->bandwidth_mbps) : "";
     cell[prefix + "throttle_count"] = out ? std::to_string(out->throttle_count) : "";
     cell[prefix + "throttled_us"] = out ? us(out->throttled_us) : "";
@@ -273,12 +279,13 @@ std::optional<std::string> refresh_isolation_cells(const std::vector<std::string
   for (std::size_t c = 0; c < header.size(); ++c)
     cell[header[c]] = cells[c];
   bool changed = false;
+  const int rep = std::atoi(cell["rep"].c_str());
   const auto refresh = [&](const std::string& prefix, bool first, const BaselineRuns& runs) {
     const std::string t = cell[prefix + "time_us"];
     std::map<std::string, std::string> fresh;
     char* end = nullptr;
     const double time = std::strtod(t.c_str(), &end);  // an empty or odd cell: not measured
-    isolation_cells(fresh, prefix, first, runs, !t.empty() && *end == '\0' ? time : kNaN);
+    isolation_cells(fresh, prefix, first, runs, !t.empty() && *end == '\0' ? time : kNaN, s, rep);
     for (const auto& [column, value] : fresh)
       if (column != prefix + "slowdown" && cell.count(column) && cell[column] != value)
         changed = true;

@@ -368,6 +368,14 @@ HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const st
                        "must be at least repetitions (" + std::to_string(repetitions) +
                            "): every repetition round needs a baseline measured before it");
   }
+  out.adjacent_baselines = hw.value("adjacent_baselines", false);
+  if (out.adjacent_baselines) {
+    if (hw.contains("baseline_repetitions"))
+      throw InputError(file, "/hw/baseline_repetitions",
+                       "not with hw.adjacent_baselines: each repetition has its own baseline "
+                       "measurement, taken right before its co-run");
+    out.baseline_repetitions = repetitions;
+  }
   if (hw.contains("precision_pct")) out.precision_pct = hw.at("precision_pct").get<double>();
   out.max_repetitions = hw.value("max_repetitions", 20);
   if (out.precision_pct && out.max_repetitions < repetitions)

@@ -119,6 +119,10 @@ struct HwSettings {
   // Measurements of each isolation baseline (hw.baseline_repetitions; absent: the larger of
   // repetitions and 3).
   int baseline_repetitions = 3;
+  // Adjacent baselines (hw.adjacent_baselines): every point has baselines of its own, measured
+  // once per repetition right before that repetition's co-run, and each repetition's slowdowns
+  // divide by those (a VM's vCPUs change speed over seconds: docs/design.md, section 5).
+  bool adjacent_baselines = false;
   // Adaptive repetitions (hw.precision_pct): repeat rounds of baselines and co-runs until the 95 %
   // CI of every slowdown is within this many percent of it, or max_repetitions rounds ran
   // (model/results/precision.h). Absent: exactly `repetitions` rounds.

@@ -269,6 +269,58 @@ assert all(len(v["runs"]) == 3 for v in b.values()), b
 assert all(r["rt_isolation_n"] == "3" for r in csv.DictReader(open(f"{sys.argv[1]}/points.csv")))
 PY
   ;;
+adjacent)
+  # hw.adjacent_baselines: each point has baselines of its own, measured right before each of
+  # its repetitions (in the fixed rounds and in adaptive ones), and each row divides by the
+  # measurement taken before it; a resumed run keeps that pairing.
+  for mode in fixed adaptive; do
+    s="$tmp/adjacent-$mode.json"
+    /usr/bin/python3 - tests/app/fixtures/sweep.json "$s" "$mode" <<'PY'
+import json, os, sys
+d = json.load(open(sys.argv[1]))
+del d["$schema"]
+for n in d["nodes"]["rt"] + d["nodes"]["nrt"]:  # written outside the fixtures' folder
+    n["workload"] = os.path.abspath(os.path.join(os.path.dirname(sys.argv[1]), n["workload"]))
+d["hw"] = {"adjacent_baselines": True}
+if sys.argv[3] == "adaptive":
+    d["hw"].update({"precision_pct": 50, "max_repetitions": 4})
+json.dump(d, open(sys.argv[2], "w"))
+PY
+    out="$tmp/adj-$mode"
+    rm -f "$tmp/order"
+    ROSGUARD_FAKE_ISO_SPREAD=0.2 ROSGUARD_FAKE_ORDER="$tmp/order" \
+      "$bin" run "$s" --backend hw --out "$out" --quiet 2> "$tmp/err" || fail "$mode: $(cat "$tmp/err")"
+    /usr/bin/python3 - "$out" "$tmp/order" <<'PY' || fail "$mode: adjacent baselines"
+import csv, json, sys
+out, order = sys.argv[1], open(sys.argv[2]).read().split("\n")[:-1]
+b = json.load(open(f"{out}/baselines.json"))
+rows = list(csv.DictReader(open(f"{out}/points.csv")))
+u = json.load(open(f"{out}/unregulated.json"))
+points = {r["point"] for r in rows}
+# One RT and one nRT baseline per point and per unregulated co-run.
+assert len(b) == 2 * (len(points) + len(u)), (len(b), len(points), len(u))
+# Every run (point or co-run) is preceded by its own two baselines, measured just before it.
+for i, line in enumerate(order):
+    if line.startswith("point"):
+        assert order[i - 2:i] == ["iso 1", "iso 2"], order[max(0, i - 3):i + 1]
+runs = sum(len(v["runs"]) for v in u.values())
+assert sum(l.startswith("point") for l in order) == len(rows) + runs, (len(order), len(rows))
+assert all(r["rt_unregulated_slowdown"] for r in rows if r["policy"] != "none"), rows[0]
+for r in rows:
+    rep = int(r["rep"])
+    for side, core in (("rt", 1), ("nrt", 2)):
+        mine = [v for k, v in b.items() if k.startswith(f"fake/core{core}/") and
+                any(x["rep"] == rep for x in v["runs"]) and
+                abs(next(x["time_us"] for x in v["runs"] if x["rep"] == rep) -
+                    float(r[f"{side}_isolation_us"])) < 1e-3]
+        assert mine, (r["point"], rep, side)
+        assert abs(float(r[f"{side}_slowdown"]) - float(r[f"{side}_time_us"]) /
+                   float(r[f"{side}_isolation_us"])) < 1e-5, r
+# The spread (1 - s, 1, 1 + s by call) reaches the rows: not every row has the median.
+assert len({r["rt_isolation_us"] for r in rows}) > 1
+PY
+  done
+  ;;
 failure)
   # A failing point: exit 1, status failed, the error in the manifest, complete rows kept.
   ROSGUARD_FAKE_FAIL_AT=15 "$bin" run $scenario --out "$tmp/f" --jobs 1 --quiet 2> "$tmp/err"

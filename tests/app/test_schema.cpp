@@ -251,6 +251,7 @@ TEST_CASE("schema: apply_defaults fills nested objects and array items", "[schem
     CHECK_FALSE(doc["nodes"]["rt"][0].contains("period_us"));
     CHECK(doc["sim"] == json({{"quantum_us", 10}}));
     CHECK(doc["hw"] == json({{"pmc_source", "auto"},
+                             {"adjacent_baselines", false},
                              {"max_repetitions", 20},
                              {"progress_timeout_ms", 60000},
                              {"scheduler", "fifo"},

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <tuple>
 
 #include "core/hash.h"
 #include "engine/outcome.h"
@@ -191,6 +192,54 @@ TEST_CASE("a row written with the first baseline is refreshed with the median of
   CHECK_FALSE(refresh_isolation_cells(header, *fresh, s, b).has_value());
   // A baseline the folder does not hold leaves the row alone.
   CHECK_FALSE(refresh_isolation_cells(header, row, s, Baselines{}).has_value());
+}
+
+TEST_CASE(
+    "adjacent baselines: each point has its own, and a repetition divides by its own "
+    "measurement",
+    "[baselines]") {
+  Scenario s = two_node_scenario();
+  const WorkloadInfo& rt_work = s.nodes.rt[0].workload;
+  Scenario other = s;
+  other.document["regulation"] = {{"threshold_pct", 40}};
+  // Without the setting, two points of one sweep share their baselines.
+  CHECK(Baselines::key(s, rt_work, 0) == Baselines::key(other, rt_work, 0));
+  s.hw.adjacent_baselines = other.hw.adjacent_baselines = true;
+  s.document["hw"]["adjacent_baselines"] = other.document["hw"]["adjacent_baselines"] = true;
+  CHECK(Baselines::key(s, rt_work, 0) != Baselines::key(other, rt_work, 0));
+  // How often a point repeats does not change one measurement.
+  Scenario more = s;
+  more.document["repetitions"] = 9;
+  CHECK(Baselines::key(s, rt_work, 0) == Baselines::key(more, rt_work, 0));
+
+  const SweepPoint point{0, "p0", {}, {}};
+  const auto header = points_header(1, 1, {});
+  PointOutcome o;
+  o.rt.push_back(
+      rt_outcome("rt0", std::vector<double>{120e3}, std::vector<double>{120e3}, std::nullopt));
+  o.nrt.push_back({"nrt0", 500.0, 10.0, 0, 0.0, 1.0});
+  Baselines b;
+  const std::string rt_key = Baselines::key(s, rt_work, 0);
+  const std::string nrt_key = Baselines::key(s, s.nodes.nrt[0].workload, 1);
+  // The machine ran fast, then slow: repetition 2 ran in the slow phase with its baseline.
+  for (const auto& [k, rt, nrt] :
+       {std::tuple{0, 60.0, 250.0}, {1, 62.0, 250.0}, {2, 100.0, 400.0}}) {
+    b.put(rt_key, {rt, kNaN, kNaN}, k);
+    b.put(nrt_key, {nrt, kNaN, kNaN}, k);
+  }
+  std::string row = points_row(header, point, s, 2, o, b);
+  row.pop_back();
+  CHECK(cell(header, row, "rt_isolation_us") == "100.000");
+  CHECK(cell(header, row, "rt_slowdown") == "1.200000");
+  CHECK(cell(header, row, "nrt_isolation_us") == "400.000");
+  CHECK(cell(header, row, "nrt_slowdown") == "1.250000");
+  CHECK(cell(header, row, "rt_isolation_n") == "3");
+  // The median (62) would have said 1.935.
+  row = points_row(header, point, s, 0, o, b);
+  row.pop_back();
+  CHECK(cell(header, row, "rt_slowdown") == "2.000000");
+  // A refresh keeps each repetition's own measurement.
+  CHECK_FALSE(refresh_isolation_cells(header, row, s, b).has_value());
 }
 
 TEST_CASE("every node's columns name it: name, core and throttling, the first nodes too",

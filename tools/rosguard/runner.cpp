@@ -148,6 +148,25 @@ struct TaskPlan {
   std::set<std::string> keys;  // baselines this shard's points use
 };
 
+// Adjacent baselines (hw.adjacent_baselines): a round's phases run by run (`points`: co-runs
+// and points, in order), each run's isolation measurements (its own baselines) right before it;
+// measurements whose run is not in this round (a resumed folder holds it) first.
+template <typename Add>
+void add_adjacent(std::vector<Task> isolation, const std::vector<Task>& points, const Add& add) {
+  std::map<std::size_t, std::vector<Task>> by_point;
+  for (Task& t : isolation)
+    by_point[t.point].push_back(std::move(t));
+  std::vector<Task> orphans;
+  for (auto& [point, tasks] : by_point)
+    if (std::none_of(points.begin(), points.end(), [&](const Task& t) { return t.point == point; }))
+      orphans.insert(orphans.end(), tasks.begin(), tasks.end());
+  add(std::move(orphans));
+  for (const Task& t : points) {
+    if (const auto it = by_point.find(t.point); it != by_point.end()) add(std::move(it->second));
+    add({t});
+  }
+}
+
 TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
                     const ResultsStore::Opened& opened, const Backend& backend,
                     const CorunPlan& corun_plan, const UnregulatedCoruns& coruns_held) {
@@ -160,10 +179,13 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
     const WorkloadInfo* workload = nullptr;
     int core = 0;
     int measurements = 1;
+    bool corun = false;  // a co-run's own baseline (hw.adjacent_baselines)
   };
   std::map<std::string, Need> needs;  // by baseline key, in first-use order below
   std::vector<std::string> key_order;
   bool interleave = false;
+  bool adjacent =
+      false;  // hw.adjacent_baselines: a point's baselines right before each of its runs
   // Each point's baseline keys (RT nodes, then nRT nodes), on --jobs threads.
   std::vector<std::vector<std::string>> keys(corun_plan.first);
   parallel_for(corun_plan.first, worker_threads(opt), [&](std::size_t i) {
@@ -187,7 +209,8 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
           {Task::Kind::Point, p.sweep.index, rep, "", nullptr, 0});
     }
     const int measurements = backend.baseline_repetitions(p.scenario);
-    interleave = interleave || measurements > 1;
+    adjacent = adjacent || p.scenario.hw.adjacent_baselines;
+    interleave = interleave || measurements > 1 || adjacent;
     std::size_t k = 0;
     const auto need = [&](const WorkloadInfo& w, int core) {
       const std::string& key = keys[i][k++];
@@ -200,6 +223,22 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
     for (const auto& n : p.scenario.nodes.nrt)
       need(n.workload, n.core);
   }
+  // With adjacent baselines a co-run has baselines of its own too, measured before each of its
+  // runs.
+  for (std::size_t c = 0; adjacent && c < corun_plan.measurements.size(); ++c) {
+    const std::size_t point = corun_plan.first + c;
+    const Scenario& s = loaded.points[point].scenario;
+    const auto need = [&](const WorkloadInfo& w, int core) {
+      const std::string key = Baselines::key(s, w, core);
+      auto [it, added] = needs.try_emplace(key, Need{point, &w, core, 1, true});
+      if (added) key_order.push_back(key);
+      it->second.measurements = std::max(it->second.measurements, corun_plan.measurements[c]);
+    };
+    for (const auto& n : s.nodes.rt)
+      need(n.workload, n.core);
+    for (const auto& n : s.nodes.nrt)
+      need(n.workload, n.core);
+  }
   // Measurements a resumed folder (or another shard) already holds are not taken again.
   for (const std::string& key : key_order) {
     const Need& n = needs.at(key);
@@ -208,7 +247,8 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
     for (int k = 0; k < n.measurements; ++k) {
       if (held != opened.baselines.all().end() && held->second.runs.count(k)) continue;
       const auto round = static_cast<std::size_t>(baseline_round(k, reps, n.measurements));
-      iso_rounds[round].push_back({Task::Kind::Isolation, n.point, k, key, n.workload, n.core});
+      iso_rounds[round].push_back(
+          {Task::Kind::Isolation, n.point, k, key, n.workload, n.core, n.corun});
     }
   }
   // Co-run measurements a resumed folder (or another shard) already holds are not taken again.
@@ -243,6 +283,12 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
     return plan;
   }
   for (std::size_t r = 0; r < iso_rounds.size(); ++r) {
+    if (adjacent) {
+      std::vector<Task> runs = std::move(corun_rounds[r]);
+      runs.insert(runs.end(), point_rounds[r].begin(), point_rounds[r].end());
+      add_adjacent(std::move(iso_rounds[r]), std::move(runs), add);
+      continue;
+    }
     add(std::move(iso_rounds[r]));
     add(std::move(corun_rounds[r]));
     add(std::move(point_rounds[r]));
@@ -484,7 +530,7 @@ RoundPairing pairing_of(const Scenario& s, const Backend& backend) {
   RoundPairing r;
   r.repetitions = s.repetitions;
   r.measurements = backend.baseline_repetitions(s);
-  r.one_per_round = adaptive_rounds(s, backend);
+  r.one_per_round = adaptive_rounds(s, backend) || s.hw.adjacent_baselines;
   return r;
 }
 
@@ -592,12 +638,30 @@ bool run_adaptive(const LoadedScenario& loaded, const RunOptions& opt,
     max_rounds = std::max(max_rounds, e.rule.max_rounds);
     shard.push_back(std::move(e));
   }
+  const bool adjacent = std::any_of(shard.begin(), shard.end(), [&](const Shard& e) {
+    return loaded.points[e.point].scenario.hw.adjacent_baselines;
+  });
   bool measured_after_rows = false;
   for (int r = 0; r < max_rounds; ++r) {
     std::vector<Task> isolation, coruns, points;
     std::set<std::string> iso_added, corun_added;
     std::size_t extra = 0;   // runs beyond the planned minimum
     std::size_t active = 0;  // points in this round
+    // Adjacent baselines: the co-run's own, measurement r, unless the folder holds it.
+    const auto add_corun_baselines = [&](const Scenario& c, std::size_t point) {
+      const auto add = [&](const WorkloadInfo& w, int core) {
+        const std::string key = Baselines::key(c, w, core);
+        keys.insert(key);
+        const auto held = st.baselines.all().find(key);
+        if (held != st.baselines.all().end() && held->second.runs.count(r)) return;
+        if (iso_added.insert(key).second)
+          isolation.push_back({Task::Kind::Isolation, point, r, key, &w, core, true});
+      };
+      for (const auto& n : c.nodes.rt)
+        add(n.workload, n.core);
+      for (const auto& n : c.nodes.nrt)
+        add(n.workload, n.core);
+    };
     for (const Shard& e : shard) {
       const LoadedPoint& p = loaded.points[e.point];
       if (r >= e.rule.max_rounds) continue;
@@ -623,8 +687,10 @@ bool run_adaptive(const LoadedScenario& loaded, const RunOptions& opt,
         const std::size_t c = *e.corun - corun_plan.first;
         const std::string& id = loaded.points[*e.corun].sweep.id;
         if (r < corun_plan.measurements[c] && !st.coruns.has(id, r) &&
-            corun_added.insert(id).second)
+            corun_added.insert(id).second) {
           coruns.push_back({Task::Kind::Point, *e.corun, r, "", nullptr, 0, true});
+          if (adjacent) add_corun_baselines(loaded.points[*e.corun].scenario, *e.corun);
+        }
       }
     }
     if (active == 0) break;
@@ -632,11 +698,18 @@ bool run_adaptive(const LoadedScenario& loaded, const RunOptions& opt,
     if (points.empty() && isolation.empty() && coruns.empty()) continue;
     progress.set_total(progress.total() + extra);
     TaskPlan round;
-    for (auto* phase : {&isolation, &coruns, &points})
-      if (!phase->empty()) {
-        round.tasks += phase->size();
-        round.phases.push_back(std::move(*phase));
-      }
+    const auto add = [&round](std::vector<Task> phase) {
+      round.tasks += phase.size();
+      if (!phase.empty()) round.phases.push_back(std::move(phase));
+    };
+    if (adjacent) {
+      coruns.insert(coruns.end(), points.begin(), points.end());
+      add_adjacent(std::move(isolation), coruns, add);
+    } else {
+      add(std::move(isolation));
+      add(std::move(coruns));
+      add(std::move(points));
+    }
     measured_after_rows =
         run_tasks(round, corun_plan, st, store, runner, report, trace_events,
                   [&](const Task& t, const std::string& row) {

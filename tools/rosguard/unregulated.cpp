@@ -10,6 +10,7 @@
 #include "core/hash.h"
 #include "files.h"
 #include "policy/policy.h"
+#include "results/precision.h"
 #include "results/results.h"
 #include "results_store.h"
 
@@ -65,7 +66,8 @@ std::string UnregulatedCoruns::key(const Scenario& s) {
   for (const char* k : {"regulation", "repetitions", "name", "description", "$schema", "sweep"})
     doc.erase(k);
   if (doc.contains("hw") && doc["hw"].is_object())
-    for (const char* k : {"baseline_repetitions", "precision_pct", "max_repetitions"})
+    for (const char* k :
+         {"baseline_repetitions", "precision_pct", "max_repetitions", "adjacent_baselines"})
       doc["hw"].erase(k);
   // Regulation settings a node may carry (a per-node budget) do not change an unregulated run.
   if (doc.contains("nodes") && doc["nodes"].is_object())
@@ -222,9 +224,9 @@ std::string fill_unregulated_cells(const std::vector<std::string>& header, const
     }
   };
   // One node's pair of cells: `prefix` "rt" or "nrt".
-  const auto node = [&](const std::string& prefix, double time_us, double isolation_us) {
+  const auto node = [&](const std::string& prefix, double time_us, double slowdown) {
     set(prefix + "_unregulated_time_us", fixed(time_us, 3));
-    set(prefix + "_unregulated_slowdown", fixed(time_us / isolation_us, 6));
+    set(prefix + "_unregulated_slowdown", fixed(slowdown, 6));
   };
   if (s.regulation.policy == "none") {
     for (const std::string prefix : {"rt", "nrt"}) {
@@ -236,14 +238,38 @@ std::string fill_unregulated_cells(const std::vector<std::string>& header, const
   } else if (UnregulatedCoruns::needed(s)) {
     const auto m = coruns.median(corun_key);
     if (!m) return line;
-    const auto isolation = [&](const WorkloadInfo& w, int core) {
-      return baselines.all().count(Baselines::key(s, w, core)) ? baselines.at(s, w, core).time_us
-                                                               : kNaN;
-    };
-    if (!m->rt_time_us.empty())
-      node("rt", m->rt_time_us[0], isolation(s.nodes.rt[0].workload, s.nodes.rt[0].core));
-    if (!m->nrt_time_us.empty())
-      node("nrt", m->nrt_time_us[0], isolation(s.nodes.nrt[0].workload, s.nodes.nrt[0].core));
+    if (s.hw.adjacent_baselines) {
+      // Each run of the co-run against its own baselines, measured right before it: the median
+      // of those ratios.
+      const Scenario c = UnregulatedCoruns::scenario_of(s);
+      const auto slowdown = [&](bool rt, const WorkloadInfo& w, int core) {
+        const auto it = baselines.all().find(Baselines::key(c, w, core));
+        if (it == baselines.all().end()) return kNaN;
+        std::vector<double> ratios;
+        for (const auto& [rep, run] : coruns.all().at(corun_key)) {
+          const std::vector<double>& t = rt ? run.rt_time_us : run.nrt_time_us;
+          if (!t.empty())
+            ratios.push_back(t[0] / round_baseline_us(it->second, rep, adjacent_pairing()));
+        }
+        return median(ratios);
+      };
+      if (!m->rt_time_us.empty())
+        node("rt", m->rt_time_us[0], slowdown(true, c.nodes.rt[0].workload, c.nodes.rt[0].core));
+      if (!m->nrt_time_us.empty())
+        node("nrt", m->nrt_time_us[0],
+             slowdown(false, c.nodes.nrt[0].workload, c.nodes.nrt[0].core));
+    } else {
+      const auto isolation = [&](const WorkloadInfo& w, int core) {
+        return baselines.all().count(Baselines::key(s, w, core)) ? baselines.at(s, w, core).time_us
+                                                                 : kNaN;
+      };
+      if (!m->rt_time_us.empty())
+        node("rt", m->rt_time_us[0],
+             m->rt_time_us[0] / isolation(s.nodes.rt[0].workload, s.nodes.rt[0].core));
+      if (!m->nrt_time_us.empty())
+        node("nrt", m->nrt_time_us[0],
+             m->nrt_time_us[0] / isolation(s.nodes.nrt[0].workload, s.nodes.nrt[0].core));
+    }
   }
   if (!changed) return line;
   std::string out;

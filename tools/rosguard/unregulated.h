@@ -13,7 +13,9 @@
 // (NaN written null), merged under DIR/.lock like baselines.json, so that resumed runs and other
 // shards take what is there and do not measure it again. The points.csv columns
 // rt_unregulated_time_us / _slowdown and nrt_unregulated_time_us / _slowdown come from it (a
-// point whose policy is none carries its own times). `rosguard run --no-unregulated` skips the
+// point whose policy is none carries its own times; with hw.adjacent_baselines a co-run has
+// baselines of its own, measured right before each of its runs, and the slowdown is the median
+// of the runs' ratios). `rosguard run --no-unregulated` skips the
 // co-runs (the columns stay empty unless the folder holds them already).
 #pragma once
 

@@ -7,6 +7,8 @@
 //                            (a noisy host, for the baseline spread and its warning)
 //   ROSGUARD_FAKE_CALLS      append one line per run_point call to this file: the policy
 //                            (what a test counts to see which runs an invocation made)
+//   ROSGUARD_FAKE_ORDER      append one line per isolation or run_point call to this file:
+//                            "iso CORE" or "point THRESHOLD" (the order the runner ran them in)
 // Registered as "sim" (a worker process per task, like SystemC) and "hw" (in-process, polling
 // stop_requested() like the real hw backend).
 #include <chrono>
@@ -40,6 +42,8 @@ class FakeBackend : public Backend {
   IsolationResult isolation(const Scenario&, const WorkloadInfo& w, int core, std::uint64_t,
                             RunContext& ctx) override {
     nap(ctx);
+    if (const char* order = std::getenv("ROSGUARD_FAKE_ORDER"))
+      std::ofstream(order, std::ios::app) << "iso " << core << "\n";
     double base = 1000.0 + 100.0 * static_cast<double>(w.name.size()) + core;
     if (const char* spread = std::getenv("ROSGUARD_FAKE_ISO_SPREAD"))
       base *= 1.0 + std::atof(spread) * static_cast<double>(iso_calls_[{w.name, core}]++ % 3 - 1);
@@ -51,6 +55,8 @@ class FakeBackend : public Backend {
     nap(ctx);
     if (const char* calls = std::getenv("ROSGUARD_FAKE_CALLS"))
       std::ofstream(calls, std::ios::app) << s.regulation.policy << "\n";
+    if (const char* order = std::getenv("ROSGUARD_FAKE_ORDER"))
+      std::ofstream(order, std::ios::app) << "point " << s.regulation.threshold_pct << "\n";
     if (const char* fail = std::getenv("ROSGUARD_FAKE_FAIL_AT");
         fail && std::atof(fail) == s.regulation.threshold_pct)
       throw RunError("fake failure at threshold " + std::string(fail));

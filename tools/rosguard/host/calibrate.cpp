@@ -10,13 +10,13 @@
 #include <utility>
 
 #include "calibration/measurements.h"
-#include "store/analysis.h"
 #include "core/error.h"
 #include "load/files.h"
 #include "load/host_model.h"
-#include "run/progress.h"
 #include "load/schema.h"
+#include "run/progress.h"
 #include "run/stop_signal.h"
+#include "store/analysis.h"
 #include "version.h"
 
 #if ROSGUARD_WITH_SIM
@@ -121,40 +121,14 @@ json calibration_document(const calibration::Measurements& m, const std::vector<
               {"host_probe", probe},  {"suite_notes", notes},     {"measurements", m}};
 }
 
-}  // namespace
-#endif
-
-int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
-#if !ROSGUARD_WITH_SIM
-  (void)opt;
-  (void)loader;
-  throw InputError("", "",
-                   "this rosguard was built without the sim backend: there is no model to fit");
-#else
-  const fs::path dir = opt.out.empty() ? fs::path("results/calibration") : fs::path(opt.out);
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec || !fs::is_directory(dir))
-    throw InputError("", "",
-                     "--out " + dir.string() + ": cannot create the folder (" + ec.message() + ")");
-
-  StopSignalGuard signals;
-  std::vector<std::string> notes;
-  json probe = nullptr;  // null: refitted from a file, nothing probed
-  const calibration::Measurements m =
-      opt.from.empty() ? measure(opt, notes, probe) : read_measurements(opt.from);
-  if (const int sig = stop_signal()) {
-    std::cerr << "calibrate: interrupted; nothing written\n";
-    return 128 + sig;
-  }
-  const fs::path cal_file = dir / "calibration.json";
-  write_file_atomic(cal_file, calibration_document(m, notes, probe, "measured").dump(2) + "\n");
-
-  calibration::FitReport report;
+// Fits the model; a refused fit is recorded in cal_file, beside the measurements it keeps.
+calibration::FitReport fit_or_record(const calibration::Measurements& m,
+                                     const std::vector<std::string>& notes, const json& probe,
+                                     const fs::path& cal_file, bool strict) {
   try {
     calibration::FitOptions fit_options;
-    fit_options.strict = opt.strict;
-    report = calibration::fit(m, fit_options);
+    fit_options.strict = strict;
+    return calibration::fit(m, fit_options);
   } catch (const RunError& e) {
     json doc = calibration_document(m, notes, probe, "fit refused");
     doc["error"] = e.what();
@@ -162,32 +136,24 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
     throw RunError(std::string(e.what()) + " (the measurements are kept in " + cal_file.string() +
                    ")");
   }
+}
 
-  // The platform must be one the loader accepts and the sim can run.
-  json platform = calibration::fitted_platform(m, report, opt.name);
-  // The machine the measurements come from (not the one refitting them: --from may run
-  // anywhere): "platform": "host" compares it with the machine it runs on.
-  const calibration::MachineIdentity measured_on = calibration::machine_identity(m.host);
-  platform["measured_on"] = calibration::identity_to_json(measured_on);
-  const fs::path platform_file = dir / "platform.json";
-  SchemaSet(loader.home().schemas())
-      .validate(platform, SchemaKind::Platform, platform_file.string());
-  json doc = calibration_document(m, notes, probe, "fitted");
-  doc["fit"] = calibration::to_json(report);
-  write_file_atomic(platform_file, platform.dump(2) + "\n");
-  write_file_atomic(cal_file, doc.dump(2) + "\n");
-  // The uncertainty band: one platform per prior-dominated parameter and side, in band/ beside
-  // platform.json (replacing an earlier calibration's).
-  const auto band = calibration::band_platforms(platform, report);
-  const auto write_band = [&](const fs::path& folder) {
-    fs::remove_all(folder, ec);
-    if (band.empty()) return;
-    fs::create_directories(folder, ec);
-    for (const auto& [variant, variant_doc] : band)
-      write_file_atomic(folder / (variant + ".json"), variant_doc.dump(2) + "\n");
-  };
-  write_band(dir / "band");
+// The uncertainty band: one platform per prior-dominated parameter and side.
+using Band = std::vector<std::pair<std::string, json>>;
 
+// Writes the band into folder, replacing an earlier calibration's (none: the folder goes).
+void write_band(const fs::path& folder, const Band& band) {
+  std::error_code ec;
+  fs::remove_all(folder, ec);
+  if (band.empty()) return;
+  fs::create_directories(folder, ec);
+  for (const auto& [variant, variant_doc] : band)
+    write_file_atomic(folder / (variant + ".json"), variant_doc.dump(2) + "\n");
+}
+
+// The fit's summary: residual, parameters, notes and the machine measured.
+void print_fit(const calibration::FitReport& report,
+               const calibration::MachineIdentity& measured_on, const fs::path& cal_file) {
   std::size_t used = 0;
   for (const auto& r : report.runs)
     used += r.used ? 1 : 0;
@@ -217,6 +183,73 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
     std::cerr << " (their uncertainty is in " << cal_file.string()
               << "; --strict refuses such a fit)\n";
   }
+}
+
+// Saves the platform (and its band) as this host's model.
+void install_model(const json& platform, const Band& band) {
+  std::error_code ec;
+  const fs::path target = host_model_path();
+  fs::create_directories(target.parent_path(), ec);
+  write_file_atomic(target, platform.dump(2) + "\n");
+  write_band(target.parent_path() / "band", band);
+  std::cout << "installed as this host's model: " << target.string()
+            << " (\"platform\": \"host\" uses it in sim)"
+            << (band.empty()
+                    ? ""
+                    : "; its uncertainty band: " + (target.parent_path() / "band").string() + "/")
+            << "\n";
+}
+
+}  // namespace
+#endif
+
+int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
+#if !ROSGUARD_WITH_SIM
+  (void)opt;
+  (void)loader;
+  throw InputError("", "",
+                   "this rosguard was built without the sim backend: there is no model to fit");
+#else
+  const fs::path dir = opt.out.empty() ? fs::path("results/calibration") : fs::path(opt.out);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw InputError("", "",
+                     "--out " + dir.string() + ": cannot create the folder (" + ec.message() + ")");
+
+  StopSignalGuard signals;
+  std::vector<std::string> notes;
+  json probe = nullptr;  // null: refitted from a file, nothing probed
+  const calibration::Measurements m =
+      opt.from.empty() ? measure(opt, notes, probe) : read_measurements(opt.from);
+  if (const int sig = stop_signal()) {
+    std::cerr << "calibrate: interrupted; nothing written\n";
+    return 128 + sig;
+  }
+  const fs::path cal_file = dir / "calibration.json";
+  write_file_atomic(cal_file, calibration_document(m, notes, probe, "measured").dump(2) + "\n");
+
+  const calibration::FitReport report = fit_or_record(m, notes, probe, cal_file, opt.strict);
+
+  // The platform must be one the loader accepts and the sim can run.
+  json platform = calibration::fitted_platform(m, report, opt.name);
+  // The machine the measurements come from (not the one refitting them: --from may run
+  // anywhere): "platform": "host" compares it with the machine it runs on.
+  const calibration::MachineIdentity measured_on = calibration::machine_identity(m.host);
+  platform["measured_on"] = calibration::identity_to_json(measured_on);
+  const fs::path platform_file = dir / "platform.json";
+  SchemaSet(loader.home().schemas())
+      .validate(platform, SchemaKind::Platform, platform_file.string());
+  json doc = calibration_document(m, notes, probe, "fitted");
+  doc["fit"] = calibration::to_json(report);
+  write_file_atomic(platform_file, platform.dump(2) + "\n");
+  write_file_atomic(cal_file, doc.dump(2) + "\n");
+  // The uncertainty band: one platform per prior-dominated parameter and side, in band/ beside
+  // platform.json (replacing an earlier calibration's).
+  const Band band = calibration::band_platforms(platform, report);
+  write_band(dir / "band", band);
+
+  print_fit(report, measured_on, cal_file);
 
   const int plot = run_analysis(loader.home(), {"calibration", dir.string()});
   if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";
@@ -228,18 +261,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
                     : ", " + (dir / "band").string() + "/ (" + std::to_string(band.size()) +
                           " platforms: the uncertainty band)")
             << "\n";
-  if (opt.install) {
-    const fs::path target = host_model_path();
-    fs::create_directories(target.parent_path(), ec);
-    write_file_atomic(target, platform.dump(2) + "\n");
-    write_band(target.parent_path() / "band");
-    std::cout << "installed as this host's model: " << target.string()
-              << " (\"platform\": \"host\" uses it in sim)"
-              << (band.empty()
-                      ? ""
-                      : "; its uncertainty band: " + (target.parent_path() / "band").string() + "/")
-              << "\n";
-  }
+  if (opt.install) install_model(platform, band);
   return 0;
 #endif
 }

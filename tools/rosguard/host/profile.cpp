@@ -156,6 +156,199 @@ profile::ProfilerConfig profile_config(const ProfileOptions& o) {
   return c;
 }
 
+namespace {
+
+// Starts valgrind's lackey on the command, its trace on a pipe (fd 3 in the child).
+Child start_lackey(const std::string& valgrind, const std::vector<std::string>& command) {
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) throw RunError(std::string("pipe: ") + std::strerror(errno));
+  std::vector<std::string> args = {
+      valgrind, "--tool=lackey", "--trace-mem=yes", "--basic-counts=no", "-q", "--log-fd=3"};
+  args.insert(args.end(), command.begin(), command.end());
+  std::vector<char*> argv;
+  for (std::string& a : args)
+    argv.push_back(a.data());
+  argv.push_back(nullptr);
+
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    ::close(fds[0]);
+    ::close(fds[1]);
+    throw RunError(std::string("fork: ") + std::strerror(errno));
+  }
+  if (pid == 0) {
+    // The trace on fd 3; the program keeps stdin, stdout and stderr.
+    // dup2 onto itself would keep O_CLOEXEC: clear it then.
+    if (fds[1] == 3 ? ::fcntl(3, F_SETFD, 0) < 0 : ::dup2(fds[1], 3) < 0) ::_exit(127);
+    ::execv(valgrind.c_str(), argv.data());
+    ::_exit(127);
+  }
+  ::close(fds[1]);
+  return Child(pid, fds[0]);
+}
+
+// The trace's lines into the profiler: --skip-instructions uncounted first, then at most
+// --max-instructions.
+class TraceFeed {
+ public:
+  TraceFeed(const ProfileOptions& o, profile::Profiler& profiler)
+      : profiler_(profiler), max_(o.max_instructions), to_skip_(o.skip_instructions) {}
+
+  // One read's bytes; a line cut by its end waits for the next. False when the whole chunk
+  // only continued such a line.
+  bool feed(std::string_view chunk) {
+    std::size_t begin = 0;
+    if (!carry_.empty()) {
+      const auto nl = chunk.find('\n');
+      if (nl == std::string_view::npos) {
+        carry_.append(chunk);
+        return false;
+      }
+      carry_.append(chunk.substr(0, nl));
+      handle(carry_);
+      carry_.clear();
+      begin = nl + 1;
+    }
+    while (!stop_) {
+      const auto nl = chunk.find('\n', begin);
+      if (nl == std::string_view::npos) {
+        carry_.assign(chunk.substr(begin));
+        break;
+      }
+      handle(chunk.substr(begin, nl - begin));
+      begin = nl + 1;
+    }
+    return true;
+  }
+  // The trace ended: its last line, if it had no newline.
+  void finish() {
+    if (!stop_ && !carry_.empty()) handle(carry_);
+  }
+  // Every 4 M instructions counted: time to see whether a progress line is due.
+  bool progress_check_due() {
+    if (profiler_.instructions() < next_check_) return false;
+    next_check_ = profiler_.instructions() + (1 << 22);
+    return true;
+  }
+  bool stopped() const { return stop_; }  // --max-instructions reached
+  bool skipping() const { return to_skip_ > 0; }
+
+ private:
+  void handle(std::string_view line) {
+    const auto e = profile::parse_lackey_line(line);
+    if (!e) {
+      if (!line.empty()) std::cerr << "valgrind: " << line << "\n";
+      return;
+    }
+    switch (e->kind) {
+      case TraceEvent::Kind::Instruction:
+        if (to_skip_ > 0 && profiler_.instructions() == to_skip_) {
+          profiler_.reset_counts();
+          to_skip_ = 0;
+          next_check_ = 1 << 22;
+        }
+        if (max_ && to_skip_ == 0 && profiler_.instructions() >= max_) {
+          stop_ = true;
+          return;
+        }
+        profiler_.instruction();
+        break;
+      case TraceEvent::Kind::Load:
+        profiler_.access(e->address, e->size, AccessKind::Load);
+        break;
+      case TraceEvent::Kind::Store:
+        profiler_.access(e->address, e->size, AccessKind::Store);
+        break;
+      case TraceEvent::Kind::Modify:
+        profiler_.access(e->address, e->size, AccessKind::Modify);
+        break;
+    }
+  }
+
+  profile::Profiler& profiler_;
+  const std::uint64_t max_;
+  std::uint64_t to_skip_;
+  std::uint64_t next_check_ = 1 << 22;
+  std::string carry_;  // a line cut by the end of a read
+  bool stop_ = false;
+};
+
+// Reads the trace until it ends or --max-instructions; a progress line at most every 5 s.
+void read_trace(Child& child, TraceFeed& feed, const profile::Profiler& profiler,
+                std::chrono::steady_clock::time_point start, std::ostream* progress) {
+  // lackey writes every trace line with its own write(2). A reader blocked on the pipe is woken
+  // by each of them (two context switches per line: most of the run's time); a reader that lets
+  // the pipe fill between reads is woken by none. So: a large pipe (best effort: the default
+  // 64 KB when the kernel refuses), and a short sleep whenever a read found it less than a
+  // quarter full.
+  const int pipe_size = ::fcntl(child.fd(), F_SETPIPE_SZ, 1 << 20);
+  const std::size_t drained = pipe_size > 0 ? static_cast<std::size_t>(pipe_size) / 4 : 16384;
+  const timespec pause{0, 1'000'000};  // 1 ms: about 50 KB of trace at lackey's pace
+
+  std::vector<char> buf(1 << 20);
+  auto last_report = start;
+  while (!feed.stopped()) {
+    const ssize_t n = ::read(child.fd(), buf.data(), buf.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw RunError(std::string("reading the trace: ") + std::strerror(errno));
+    }
+    if (n == 0) break;
+    if (static_cast<std::size_t>(n) < drained) ::nanosleep(&pause, nullptr);
+    if (!feed.feed(std::string_view(buf.data(), static_cast<std::size_t>(n)))) continue;
+    if (progress && feed.progress_check_due()) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_report >= std::chrono::seconds(5)) {
+        last_report = now;
+        const double s = std::chrono::duration<double>(now - start).count();
+        char line[160];
+        std::snprintf(line, sizeof line, "profile: %.1f M instructions%s after %.0f s\n",
+                      static_cast<double>(profiler.instructions()) / 1e6,
+                      feed.skipping() ? " skipped" : "", s);
+        *progress << line << std::flush;
+      }
+    }
+  }
+  feed.finish();
+}
+
+// The CPU time of rosguard (the profiler) and of its children (valgrind and the program).
+void record_cpu_times(ProfileRun& run) {
+  const auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) / 1e6;
+  };
+  rusage usage{};
+  if (::getrusage(RUSAGE_SELF, &usage) == 0)
+    run.profiler_cpu_seconds = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+  if (::getrusage(RUSAGE_CHILDREN, &usage) == 0)
+    run.tracer_cpu_seconds = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+// No profile from a program that failed, a trace that ended inside --skip-instructions or one
+// without instructions.
+void check_trace_end(const ProfileOptions& o, const profile::Profiler& profiler,
+                     const TraceFeed& feed, int status) {
+  if (!feed.stopped()) {
+    if (WIFEXITED(status) && WEXITSTATUS(status) != 0)
+      throw RunError("'" + quoted_command(o.command) + "' failed under valgrind: exit status " +
+                     std::to_string(WEXITSTATUS(status)) + "; no profile written");
+    if (WIFSIGNALED(status))
+      throw RunError("'" + quoted_command(o.command) + "' was killed by signal " +
+                     std::to_string(WTERMSIG(status)) + " (" + ::strsignal(WTERMSIG(status)) +
+                     ") under valgrind; no profile written");
+  }
+  if (feed.skipping())
+    throw RunError("'" + quoted_command(o.command) + "' ended after " +
+                   std::to_string(profiler.instructions()) + " instructions, before the " +
+                   std::to_string(o.skip_instructions) +
+                   " of --skip-instructions; no profile written");
+  if (profiler.instructions() == 0)
+    throw RunError("the trace of '" + quoted_command(o.command) +
+                   "' has no instructions: is it valgrind lackey's?");
+}
+
+}  // namespace
+
 ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
                          std::ostream* progress) {
   if (o.command.empty()) throw InputError("", "", "no program given: rosguard profile -- PROGRAM");
@@ -172,153 +365,17 @@ ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
   run.valgrind_version = command_output("'" + valgrind + "' --version 2>/dev/null");
   run.date_utc = utc_now();
 
-  int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0) throw RunError(std::string("pipe: ") + std::strerror(errno));
-  std::vector<std::string> args = {
-      valgrind, "--tool=lackey", "--trace-mem=yes", "--basic-counts=no", "-q", "--log-fd=3"};
-  args.insert(args.end(), o.command.begin(), o.command.end());
-  std::vector<char*> argv;
-  for (std::string& a : args)
-    argv.push_back(a.data());
-  argv.push_back(nullptr);
-
   const auto start = std::chrono::steady_clock::now();
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    ::close(fds[0]);
-    ::close(fds[1]);
-    throw RunError(std::string("fork: ") + std::strerror(errno));
-  }
-  if (pid == 0) {
-    // The trace on fd 3; the program keeps stdin, stdout and stderr.
-    // dup2 onto itself would keep O_CLOEXEC: clear it then.
-    if (fds[1] == 3 ? ::fcntl(3, F_SETFD, 0) < 0 : ::dup2(fds[1], 3) < 0) ::_exit(127);
-    ::execv(valgrind.c_str(), argv.data());
-    ::_exit(127);
-  }
-  ::close(fds[1]);
-  Child child(pid, fds[0]);
-  // lackey writes every trace line with its own write(2). A reader blocked on the pipe is woken
-  // by each of them (two context switches per line: most of the run's time); a reader that lets
-  // the pipe fill between reads is woken by none. So: a large pipe (best effort: the default
-  // 64 KB when the kernel refuses), and a short sleep whenever a read found it less than a
-  // quarter full.
-  const int pipe_size = ::fcntl(child.fd(), F_SETPIPE_SZ, 1 << 20);
-  const std::size_t drained = pipe_size > 0 ? static_cast<std::size_t>(pipe_size) / 4 : 16384;
-  const timespec pause{0, 1'000'000};  // 1 ms: about 50 KB of trace at lackey's pace
-
-  std::vector<char> buf(1 << 20);
-  std::string carry;  // a line cut by the end of a read
-  const std::uint64_t max = o.max_instructions;
-  std::uint64_t to_skip = o.skip_instructions;
-  auto last_report = start;
-  std::uint64_t next_check = 1 << 22;
-  bool stop = false;
-  const auto handle = [&](std::string_view line) {
-    const auto e = profile::parse_lackey_line(line);
-    if (!e) {
-      if (!line.empty()) std::cerr << "valgrind: " << line << "\n";
-      return;
-    }
-    switch (e->kind) {
-      case TraceEvent::Kind::Instruction:
-        if (to_skip > 0 && profiler.instructions() == to_skip) {
-          profiler.reset_counts();
-          to_skip = 0;
-          next_check = 1 << 22;
-        }
-        if (max && to_skip == 0 && profiler.instructions() >= max) {
-          stop = true;
-          return;
-        }
-        profiler.instruction();
-        break;
-      case TraceEvent::Kind::Load:
-        profiler.access(e->address, e->size, AccessKind::Load);
-        break;
-      case TraceEvent::Kind::Store:
-        profiler.access(e->address, e->size, AccessKind::Store);
-        break;
-      case TraceEvent::Kind::Modify:
-        profiler.access(e->address, e->size, AccessKind::Modify);
-        break;
-    }
-  };
-  while (!stop) {
-    const ssize_t n = ::read(child.fd(), buf.data(), buf.size());
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw RunError(std::string("reading the trace: ") + std::strerror(errno));
-    }
-    if (n == 0) break;
-    if (static_cast<std::size_t>(n) < drained) ::nanosleep(&pause, nullptr);
-    std::string_view chunk(buf.data(), static_cast<std::size_t>(n));
-    std::size_t begin = 0;
-    if (!carry.empty()) {
-      const auto nl = chunk.find('\n');
-      if (nl == std::string_view::npos) {
-        carry.append(chunk);
-        continue;
-      }
-      carry.append(chunk.substr(0, nl));
-      handle(carry);
-      carry.clear();
-      begin = nl + 1;
-    }
-    while (!stop) {
-      const auto nl = chunk.find('\n', begin);
-      if (nl == std::string_view::npos) {
-        carry.assign(chunk.substr(begin));
-        break;
-      }
-      handle(chunk.substr(begin, nl - begin));
-      begin = nl + 1;
-    }
-    if (progress && profiler.instructions() >= next_check) {
-      next_check = profiler.instructions() + (1 << 22);
-      const auto now = std::chrono::steady_clock::now();
-      if (now - last_report >= std::chrono::seconds(5)) {
-        last_report = now;
-        const double s = std::chrono::duration<double>(now - start).count();
-        char line[160];
-        std::snprintf(line, sizeof line, "profile: %.1f M instructions%s after %.0f s\n",
-                      static_cast<double>(profiler.instructions()) / 1e6,
-                      to_skip > 0 ? " skipped" : "", s);
-        *progress << line << std::flush;
-      }
-    }
-  }
-  if (!stop && !carry.empty()) handle(carry);
-  const int status = child.wait(stop);
+  Child child = start_lackey(valgrind, o.command);
+  TraceFeed feed(o, profiler);
+  read_trace(child, feed, profiler, start, progress);
+  const int status = child.wait(feed.stopped());
   run.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  run.bounded = stop;
-  const auto seconds = [](const timeval& t) {
-    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) / 1e6;
-  };
-  rusage usage{};
-  if (::getrusage(RUSAGE_SELF, &usage) == 0)
-    run.profiler_cpu_seconds = seconds(usage.ru_utime) + seconds(usage.ru_stime);
-  if (::getrusage(RUSAGE_CHILDREN, &usage) == 0)
-    run.tracer_cpu_seconds = seconds(usage.ru_utime) + seconds(usage.ru_stime);
+  run.bounded = feed.stopped();
+  record_cpu_times(run);
   profiler.finish();
-  if (!stop) {
-    if (WIFEXITED(status) && WEXITSTATUS(status) != 0)
-      throw RunError("'" + quoted_command(o.command) + "' failed under valgrind: exit status " +
-                     std::to_string(WEXITSTATUS(status)) + "; no profile written");
-    if (WIFSIGNALED(status))
-      throw RunError("'" + quoted_command(o.command) + "' was killed by signal " +
-                     std::to_string(WTERMSIG(status)) + " (" + ::strsignal(WTERMSIG(status)) +
-                     ") under valgrind; no profile written");
-  }
-  if (to_skip > 0)
-    throw RunError("'" + quoted_command(o.command) + "' ended after " +
-                   std::to_string(profiler.instructions()) + " instructions, before the " +
-                   std::to_string(o.skip_instructions) +
-                   " of --skip-instructions; no profile written");
-  if (profiler.instructions() == 0)
-    throw RunError("the trace of '" + quoted_command(o.command) +
-                   "' has no instructions: is it valgrind lackey's?");
+  check_trace_end(o, profiler, feed, status);
   return run;
 }
 

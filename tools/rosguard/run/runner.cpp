@@ -15,15 +15,15 @@
 
 #include "core/error.h"
 #include "load/files.h"
-#include "run/parallel.h"
-#include "run/progress.h"
 #include "results/precision.h"
 #include "results/results.h"
-#include "store/results_store.h"
-#include "store/run_manifest.h"
+#include "run/parallel.h"
+#include "run/progress.h"
 #include "run/stop_signal.h"
 #include "run/task_pool.h"
 #include "run/unregulated.h"
+#include "store/results_store.h"
+#include "store/run_manifest.h"
 
 namespace rosguard {
 namespace fs = std::filesystem;
@@ -794,6 +794,127 @@ int report_to_user(const RunOptions& opt, const InvocationReport& report, const 
   return 0;
 }
 
+// Point id -> sweep index: the canonical row order of points.csv.
+std::map<std::string, std::size_t> point_order(const LoadedScenario& loaded) {
+  std::map<std::string, std::size_t> order;
+  for (const auto& p : loaded.points)
+    order.emplace(p.sweep.id, p.sweep.index);
+  return order;
+}
+
+// How this invocation ended: failed (with the first error), interrupted or complete.
+void close_report(InvocationReport& report, const TaskRunner& runner, const Progress& progress) {
+  report.error = runner.failure();
+  report.status = !report.error.empty()  ? "failed"
+                  : runner.interrupted() ? "interrupted"
+                                         : "complete";
+  report.elapsed_s = progress.seconds();
+}
+
+// The rows every point has when the folder is complete: its repetitions, or with adaptive
+// rounds (hw.precision_pct) the least min_rounds of the points' rules.
+int rows_per_point(const LoadedScenario& loaded, const Backend& backend, bool adaptive) {
+  const Scenario& first = loaded.points.front().scenario;
+  if (!adaptive) return first.repetitions;
+  int min_rounds = rule_of(first, backend).min_rounds;
+  for (const auto& p : loaded.points)
+    min_rounds = std::min(min_rounds, rule_of(p.scenario, backend).min_rounds);
+  return min_rounds;
+}
+
+// The backend's setup for the whole run (hw: its own threads off the measured cores, the
+// measured CPUs timed): its warnings, new fallbacks, facts and manifest entries into the report.
+void prepare_backend_run(const LoadedScenario& loaded, const RunOptions& opt, Backend& backend,
+                         const ResultsStore::Opened& opened, InvocationReport& report) {
+  std::vector<const Scenario*> shard_points;
+  for (const auto& p : loaded.points)
+    if (in_shard(p, opt)) shard_points.push_back(&p.scenario);
+  RunSetup setup = backend.prepare_run(shard_points);
+  for (const auto& w : setup.warnings)
+    std::cerr << "warning: " << w << "\n";
+  for (const auto& [what, detail] : setup.fallbacks)
+    if (!opened.fallbacks.count({what, detail})) {
+      std::cerr << "warning: fallback (" << what << "): " << detail << "\n";
+      report.fallbacks.emplace_back(what, detail);
+    }
+  report.facts.insert(setup.facts.begin(), setup.facts.end());
+  report.warnings = std::move(setup.warnings);
+  report.manifest = std::move(setup.manifest);
+}
+
+// The manifest's unregulated_corun fact: whether and where the co-run is measured.
+std::string unregulated_corun_fact(const LoadedScenario& loaded, const RunOptions& opt) {
+  const bool elsewhere = std::any_of(
+      loaded.points.begin(), loaded.points.end(),
+      [](const LoadedPoint& p) { return UnregulatedCoruns::signalled_elsewhere(p.scenario); });
+  return !opt.unregulated ? "off (rosguard run --no-unregulated)"
+         : elsewhere      ? "not measured where an RT node is signalled by a topic (another "
+                            "program's jobs cannot run twice); elsewhere once per co-run "
+                            "(unregulated.json)"
+                          : "measured once per co-run of the nodes with policy none "
+                            "(unregulated.json)";
+}
+
+// Adaptive: the runs every point of this shard makes at least, and those of them the folder
+// already holds.
+std::pair<std::size_t, std::size_t> adaptive_minimum_runs(const LoadedScenario& loaded,
+                                                          const RunOptions& opt,
+                                                          const Backend& backend,
+                                                          const ResultsStore::Opened& opened,
+                                                          std::size_t scenario_points) {
+  std::size_t planned = 0, skipped = 0;
+  for (std::size_t i = 0; i < scenario_points; ++i) {
+    const LoadedPoint& p = loaded.points[i];
+    if (!in_shard(p, opt)) continue;
+    for (int r = 0; r < rule_of(p.scenario, backend).min_rounds; ++r)
+      opened.done.count({p.sweep.id, r}) ? ++skipped : ++planned;
+  }
+  return {planned, skipped};
+}
+
+// The executor of the run's tasks: worker processes on the task hosts, or in-process.
+std::unique_ptr<Executor> start_executor(const RunState& st, const RunOptions& opt,
+                                         const std::vector<std::unique_ptr<TaskHost>>& hosts) {
+  std::vector<TaskHost*> host_ptrs;
+  for (const auto& h : hosts)
+    host_ptrs.push_back(h.get());
+  return make_executor(st, st.backend->process_per_task(), worker_count(opt, *st.backend),
+                       host_ptrs);
+}
+
+// The fallbacks the manifest already has and this invocation reported: each is warned once.
+std::set<std::pair<std::string, std::string>> fallbacks_seen(const ResultsStore::Opened& opened,
+                                                             const InvocationReport& report) {
+  std::set<std::pair<std::string, std::string>> seen = opened.fallbacks;
+  for (const auto& f : report.fallbacks)
+    seen.insert(f);
+  return seen;
+}
+
+// Records each written row's node times into `times`, for the precision of the slowdowns.
+OnRow time_recorder(RunTimes& times, const RunState& st) {
+  return [&times, &st](const Task& t, const std::string& row) {
+    std::string line = row;
+    if (!line.empty() && line.back() == '\n') line.pop_back();
+    times[t.point][t.rep] =
+        row_node_times(st.header, csv_split(line), st.loaded->points[t.point].scenario);
+  };
+}
+
+// A run that threw still closes its manifest (status failed); the first error is the one
+// reported, but a manifest that could not be updated is said, as `rosguard status` cannot.
+void finish_after_error(ResultsStore& store, const InvocationReport& report,
+                        const LoadedScenario& loaded, const CorunPlan& corun_plan,
+                        const Backend& backend) {
+  try {
+    store.finish(report, row_refresher(loaded, corun_plan, store.dir()),
+                 point_refresher(loaded, backend));
+  } catch (const ManifestNotUpdatedError& m) {
+    std::cerr << "error: " << m.what() << "\n";
+  } catch (const std::exception&) {
+  }
+}
+
 }  // namespace
 
 LoadedScenario load_for_run(const RunOptions& opt, Loader& loader,
@@ -816,21 +937,11 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   loader.load_points(loaded, PointSelection::All, worker_threads(opt));
   std::unique_ptr<Backend> backend = make_backend(loaded, backends);
   const Scenario& first = loaded.points.front().scenario;
-  std::map<std::string, std::size_t> order;
-  for (const auto& p : loaded.points)
-    order.emplace(p.sweep.id, p.sweep.index);
-  // Adaptive rounds (hw.precision_pct): every point runs at least its rule's min_rounds.
   const bool adaptive = adaptive_run(loaded, *backend);
-  int min_rounds = first.repetitions;
-  if (adaptive) {
-    min_rounds = rule_of(first, *backend).min_rounds;
-    for (const auto& p : loaded.points)
-      min_rounds = std::min(min_rounds, rule_of(p.scenario, *backend).min_rounds);
-  }
 
   // 2. The results folder: new, resumed, or shared with other shards of the same scenario.
-  ResultsStore store(results_folder(opt, loaded), join(header_of(loaded), ","), order,
-                     adaptive ? min_rounds : first.repetitions, adaptive);
+  ResultsStore store(results_folder(opt, loaded), join(header_of(loaded), ","), point_order(loaded),
+                     rows_per_point(loaded, *backend, adaptive), adaptive);
   const std::string shard = std::to_string(opt.shard_index) + "/" + std::to_string(opt.shard_count);
   store.claim_shard(shard);  // one writer per shard: a second one would write its runs twice
   store.prepare(opt.overwrite, opt.resume || opt.shard_count > 1, scenario_hash(loaded));
@@ -854,22 +965,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   try {
     // The backend's setup for the whole run (hw: its own threads off the measured cores, the
     // measured CPUs timed).
-    if (!backend->process_per_task()) {
-      std::vector<const Scenario*> shard_points;
-      for (const auto& p : loaded.points)
-        if (in_shard(p, opt)) shard_points.push_back(&p.scenario);
-      RunSetup setup = backend->prepare_run(shard_points);
-      for (const auto& w : setup.warnings)
-        std::cerr << "warning: " << w << "\n";
-      for (const auto& [what, detail] : setup.fallbacks)
-        if (!opened.fallbacks.count({what, detail})) {
-          std::cerr << "warning: fallback (" << what << "): " << detail << "\n";
-          report.fallbacks.emplace_back(what, detail);
-        }
-      report.facts.insert(setup.facts.begin(), setup.facts.end());
-      report.warnings = std::move(setup.warnings);
-      report.manifest = std::move(setup.manifest);
-    }
+    if (!backend->process_per_task()) prepare_backend_run(loaded, opt, *backend, opened, report);
     // The co-run points are appended: `first` and other references into the points are stale.
     const Backend& be = *backend;
     corun_plan = add_corun_points(loaded, opt, [&](const Scenario& s) {
@@ -879,55 +975,28 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
     UnregulatedCoruns coruns = UnregulatedCoruns::read(store.dir());
     const TaskPlan plan =
         adaptive ? TaskPlan{} : plan_tasks(loaded, opt, opened, *backend, corun_plan, coruns);
-    const bool elsewhere = std::any_of(
-        loaded.points.begin(), loaded.points.end(),
-        [](const LoadedPoint& p) { return UnregulatedCoruns::signalled_elsewhere(p.scenario); });
-    report.facts["unregulated_corun"] =
-        !opt.unregulated ? "off (rosguard run --no-unregulated)"
-        : elsewhere      ? "not measured where an RT node is signalled by a topic (another "
-                           "program's jobs cannot run twice); elsewhere once per co-run "
-                           "(unregulated.json)"
-                         : "measured once per co-run of the nodes with policy none "
-                           "(unregulated.json)";
+    report.facts["unregulated_corun"] = unregulated_corun_fact(loaded, opt);
     // Adaptive: the runs every point makes at least, without those the folder holds.
     std::size_t planned_runs = plan.runs, skipped = plan.skipped;
-    if (adaptive) {
-      planned_runs = 0;
-      for (std::size_t i = 0; i < scenario_points; ++i) {
-        const LoadedPoint& p = loaded.points[i];
-        if (!in_shard(p, opt)) continue;
-        for (int r = 0; r < rule_of(p.scenario, *backend).min_rounds; ++r)
-          opened.done.count({p.sweep.id, r}) ? ++skipped : ++planned_runs;
-      }
-    }
+    if (adaptive)
+      std::tie(planned_runs, skipped) =
+          adaptive_minimum_runs(loaded, opt, *backend, opened, scenario_points);
     report.skipped_on_resume = skipped;
     if (skipped > 0 && !opt.quiet)
       std::cerr << "resume: " << skipped << " run(s) already in " << store.points_path().string()
                 << ", skipped\n";
     RunState st{&loaded,   backend.get(),     opened.baselines,
                 opt.trace, header_of(loaded), std::move(coruns)};
-    std::vector<TaskHost*> host_ptrs;
-    for (const auto& h : hosts)
-      host_ptrs.push_back(h.get());
-    auto exec =
-        make_executor(st, backend->process_per_task(), worker_count(opt, *backend), host_ptrs);
+    auto exec = start_executor(st, opt, hosts);
     StopSignalGuard signals;
     Progress progress(planned_runs, !opt.quiet);
-    std::set<std::pair<std::string, std::string>> fallbacks_seen = opened.fallbacks;
-    for (const auto& f : report.fallbacks)
-      fallbacks_seen.insert(f);
-    TaskRunner runner(loaded, corun_plan, *exec, progress, report, std::move(fallbacks_seen));
+    TaskRunner runner(loaded, corun_plan, *exec, progress, report, fallbacks_seen(opened, report));
     json trace_events = json::array();
     // The co-run times of this shard's runs, for the precision of the slowdowns.
     RunTimes times;
     if (backend->judges_precision() && !opened.done.empty())
       read_run_times(store.points_path(), loaded, scenario_points, opt, times);
-    const OnRow record = [&](const Task& t, const std::string& row) {
-      std::string line = row;
-      if (!line.empty() && line.back() == '\n') line.pop_back();
-      times[t.point][t.rep] =
-          row_node_times(st.header, csv_split(line), loaded.points[t.point].scenario);
-    };
+    const OnRow record = time_recorder(times, st);
     std::set<std::string> keys = plan.keys;
     const bool measured_after_rows =
         adaptive ? run_adaptive(loaded, opt, opened, *backend, corun_plan, st, store, runner,
@@ -945,21 +1014,11 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
       if (!precision.manifest.is_null()) report.manifest["precision"] = precision.manifest;
     }
     if (opt.trace && !trace_events.empty()) store.add_trace(trace_events);
-    report.error = runner.failure();
-    report.status = !report.error.empty()  ? "failed"
-                    : runner.interrupted() ? "interrupted"
-                                           : "complete";
-    report.elapsed_s = progress.seconds();
+    close_report(report, runner, progress);
   } catch (const std::exception& e) {
     report.status = "failed";
     report.error = e.what();
-    try {
-      store.finish(report, row_refresher(loaded, corun_plan, store.dir()),
-                   point_refresher(loaded, *backend));
-    } catch (const ManifestNotUpdatedError& m) {  // said, as `rosguard status` cannot say it
-      std::cerr << "error: " << m.what() << "\n";
-    } catch (const std::exception&) {  // the first error is the one to report
-    }
+    finish_after_error(store, report, loaded, corun_plan, *backend);
     throw;
   }
   store.finish(report,

@@ -167,21 +167,23 @@ std::string sbatch_script(const SbatchScriptInputs& in) {
   return s.str();
 }
 
-int submit_to_slurm(const RunOptions& run, const SlurmOptions& slurm, Loader& loader,
-                    const BackendRegistry& backends) {
-  // 1. Everything the tasks will check, checked here first: nothing is written on an error.
-  const LoadedScenario loaded = load_for_run(run, loader, backends);
-  const Scenario& first = loaded.points.front().scenario;
-  const std::size_t points = loaded.points.size();
+namespace {
+
+// The array tasks: --array, else one per point up to kDefaultSlurmShards.
+int shard_count(const SlurmOptions& slurm, std::size_t points, const std::string& scenario_file) {
   if (slurm.array > 0 && static_cast<std::size_t>(slurm.array) > points)
     throw InputError("", "",
                      "--array " + std::to_string(slurm.array) + " exceeds the " +
-                         plural(points, "point") + " of " + run.scenario_file +
+                         plural(points, "point") + " of " + scenario_file +
                          " (a shard holds whole points); choose at most " + std::to_string(points));
-  const int shards = slurm.array > 0 ? slurm.array
-                                     : static_cast<int>(std::min<std::size_t>(
-                                           points, static_cast<std::size_t>(kDefaultSlurmShards)));
-  for (const auto& arg : slurm.sbatch_args) {
+  return slurm.array > 0 ? slurm.array
+                         : static_cast<int>(std::min<std::size_t>(
+                               points, static_cast<std::size_t>(kDefaultSlurmShards)));
+}
+
+// Each --sbatch-arg is one sbatch option the script may carry (not the array: rosguard's).
+void check_sbatch_args(const std::vector<std::string>& sbatch_args) {
+  for (const auto& arg : sbatch_args) {
     check_sbatch_word("--sbatch-arg", arg, false);
     const std::string name = arg.substr(0, arg.find('='));
     if (arg.front() != '-')
@@ -194,6 +196,35 @@ int submit_to_slurm(const RunOptions& run, const SlurmOptions& slurm, Loader& lo
                        "--sbatch-arg " + arg +
                            ": rosguard sets the array itself (one task per shard: use --array N)");
   }
+}
+
+// Submits the script; returns sbatch --parsable's answer, "JOB" or "JOB;CLUSTER".
+std::string sbatch_submit(const fs::path& sbatch, const fs::path& script_path) {
+  const Captured sub = run_captured({sbatch.string(), "--parsable", script_path.string()}, false);
+  if (sub.exit_code != 0)
+    throw RunError("sbatch refused the job (exit " + std::to_string(sub.exit_code) +
+                   "; its message is above); the script is " + script_path.string());
+  const std::string reply = trimmed(sub.out);
+  const std::string job_id = reply.substr(0, reply.find(';'));
+  long long id_number = 0;
+  const auto [end, parse_ec] =
+      std::from_chars(job_id.data(), job_id.data() + job_id.size(), id_number);
+  if (job_id.empty() || parse_ec != std::errc() || end != job_id.data() + job_id.size())
+    throw RunError("sbatch --parsable answered '" + reply + "', not a job id; the script is " +
+                   script_path.string());
+  return reply;
+}
+
+}  // namespace
+
+int submit_to_slurm(const RunOptions& run, const SlurmOptions& slurm, Loader& loader,
+                    const BackendRegistry& backends) {
+  // 1. Everything the tasks will check, checked here first: nothing is written on an error.
+  const LoadedScenario loaded = load_for_run(run, loader, backends);
+  const Scenario& first = loaded.points.front().scenario;
+  const std::size_t points = loaded.points.size();
+  const int shards = shard_count(slurm, points, run.scenario_file);
+  check_sbatch_args(slurm.sbatch_args);
   std::error_code ec;
   const fs::path out = fs::absolute(results_folder(run, loaded), ec).lexically_normal();
   check_sbatch_word("results folder", out.string(), true);
@@ -244,18 +275,8 @@ int submit_to_slurm(const RunOptions& run, const SlurmOptions& slurm, Loader& lo
   fs::permissions(script_path, fs::perms::owner_exec | fs::perms::group_exec, fs::perm_options::add,
                   ec);
 
-  const Captured sub = run_captured({sbatch->string(), "--parsable", script_path.string()}, false);
-  if (sub.exit_code != 0)
-    throw RunError("sbatch refused the job (exit " + std::to_string(sub.exit_code) +
-                   "; its message is above); the script is " + script_path.string());
-  const std::string reply = trimmed(sub.out);
+  const std::string reply = sbatch_submit(*sbatch, script_path);
   const std::string job_id = reply.substr(0, reply.find(';'));
-  long long id_number = 0;
-  const auto [end, parse_ec] =
-      std::from_chars(job_id.data(), job_id.data() + job_id.size(), id_number);
-  if (job_id.empty() || parse_ec != std::errc() || end != job_id.data() + job_id.size())
-    throw RunError("sbatch --parsable answered '" + reply + "', not a job id; the script is " +
-                   script_path.string());
   json job{{"job_id", job_id},
            {"shards", shards},
            {"script", script_path.string()},

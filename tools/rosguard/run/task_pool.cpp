@@ -25,10 +25,10 @@
 
 #include "core/error.h"
 #include "results/results.h"
-#include "store/results_store.h"
 #include "run/stop_signal.h"
-#include "store/trace_writer.h"
 #include "run/unregulated.h"
+#include "store/results_store.h"
+#include "store/trace_writer.h"
 
 namespace rosguard {
 using json = nlohmann::json;
@@ -419,6 +419,148 @@ bool write_all(int fd, const std::string& payload) {
   ::_exit(write_all(result_fd, payload) ? 0 : 3);
 }
 
+// The host's loop: tasks in from the runner's socket, a forked worker each (at most `limit` at
+// once), each worker's end reported back as an Exit frame.
+class HostLoop {
+ public:
+  HostLoop(int sock, int sfd, const TaskFunction& run)
+      : sock_(sock), sfd_(sfd), run_(run), self_(::getpid()), reader_(sock) {}
+
+  // Serves tasks until the runner closes the socket (or is gone), then stops what still runs
+  // and reaps it.
+  void serve() {
+    while (open_) {
+      pollfd pfds[2] = {{sock_, POLLIN, 0}, {sfd_, POLLIN, 0}};
+      if (::poll(pfds, 2, -1) < 0) {
+        if (errno == EINTR) continue;
+        break;
+      }
+      if (pfds[1].revents) {
+        signalfd_siginfo info;
+        while (::read(sfd_, &info, sizeof info) > 0) {
+        }
+        reap(false);
+        start_queued();
+      }
+      if (!pfds[0].revents) continue;
+      open_ = reader_.receive();
+      while (auto frame = reader_.next())
+        handle(frame->first, frame->second);
+      start_queued();
+    }
+    stop_workers();
+    open_ = false;
+    reap(true);
+  }
+
+ private:
+  // Tasks wait here while `limit_` workers run (the runner keeps a few more in flight than it
+  // has workers, so that a worker that ends is followed at once, without a round trip through
+  // the runner); they start in the order they came.
+  struct Queued {
+    Task task;
+    int fd;
+    std::uint64_t seq;
+  };
+
+  void reap(bool block) {
+    while (!workers_.empty()) {
+      int status = 0;
+      const pid_t pid = ::waitpid(-1, &status, block ? 0 : WNOHANG);
+      if (pid < 0 && errno == EINTR) continue;
+      if (pid <= 0) return;
+      const auto it = workers_.find(pid);
+      if (it == workers_.end()) continue;
+      if (open_) open_ = send_frame(sock_, {Frame::Exit, 0, it->second, status});
+      workers_.erase(it);
+    }
+  }
+
+  void stop_workers() {
+    for (const auto& w : workers_)
+      ::kill(w.first, SIGTERM);
+  }
+
+  void start_queued() {
+    while (open_ && !queued_.empty() && workers_.size() < limit_) {
+      Queued q = std::move(queued_.front());
+      queued_.pop_front();
+      const pid_t pid = ::fork();
+      if (pid == 0) {
+        ::close(sock_);
+        ::close(sfd_);
+        for (int other : reader_.fds())
+          ::close(other);
+        for (const auto& other : queued_)  // other tasks' pipes: their EOF must not wait on this
+          ::close(other.fd);
+        worker_main(q.fd, q.task, inputs_, run_, self_);
+      }
+      ::close(q.fd);
+      if (pid > 0)
+        workers_[pid] = q.seq;
+      else
+        open_ = send_frame(sock_, {Frame::Failed, 0, q.seq, 0},
+                           std::string("fork: ") + std::strerror(errno));
+    }
+  }
+
+  void handle(const Frame& f, const std::string& payload) {
+    if (f.type == Frame::Stop) {
+      stop_workers();
+      for (const auto& q : queued_) {  // never started: no result, the runner is told
+        ::close(q.fd);
+        if (open_) open_ = send_frame(sock_, {Frame::Failed, 0, q.seq, 0}, "stopped before it ran");
+      }
+      queued_.clear();
+    } else if (f.type == Frame::Baselines || f.type == Frame::Header) {
+      if (f.type == Frame::Header)
+        limit_ = static_cast<std::size_t>(std::max<std::int64_t>(1, f.value));
+      try {
+        const json doc = json::parse(payload);
+        if (f.type == Frame::Baselines) {
+          inputs_.baselines = baselines_from_json(doc.at("baselines"));
+          inputs_.coruns = UnregulatedCoruns::from_json(doc.at("coruns"));
+        } else {
+          inputs_.header = doc.get<std::vector<std::string>>();
+        }
+      } catch (const std::exception&) {
+        ::_exit(6);  // the runner sees the socket close
+      }
+    } else if (f.type == Frame::Task) {
+      queue_task(f.seq, payload);
+    }
+  }
+
+  void queue_task(std::uint64_t seq, const std::string& payload) {
+    const int fd = reader_.take_fd();
+    std::string why;
+    Task task;
+    try {
+      task = decode_task(payload);
+    } catch (const std::exception& e) {
+      why = std::string("bad task: ") + e.what();
+    }
+    if (why.empty() && fd < 0) why = "no pipe came with the task";
+    if (!why.empty()) {
+      if (fd >= 0) ::close(fd);
+      open_ = send_frame(sock_, {Frame::Failed, 0, seq, 0}, why);
+    } else {
+      queued_.push_back({std::move(task), fd, seq});
+    }
+  }
+
+  const int sock_;
+  const int sfd_;
+  const TaskFunction& run_;
+  const pid_t self_;
+  FrameReader reader_;
+  TaskInputs inputs_;
+  std::map<pid_t, std::uint64_t> workers_;  // pid -> seq
+  std::deque<Queued> queued_;
+  std::size_t limit_ = 1;  // concurrent workers: the runner's --jobs (Header frame)
+  bool open_ = true;
+};
+
 // The host's life: serve tasks until the runner closes the socket, then stop the workers.
 [[noreturn]] void host_main(int sock, const std::function<void()>& warm_up, const TaskFunction& run,
                             pid_t runner) {
@@ -441,121 +583,7 @@ bool write_all(int fd, const std::string& payload) {
   // Free heap pages go back to the kernel: every fork copies the page table entries of what
   // stays mapped.
   ::malloc_trim(0);
-  const pid_t self = ::getpid();
-  FrameReader reader(sock);
-  TaskInputs inputs;
-  std::map<pid_t, std::uint64_t> workers;  // pid -> seq
-  bool open = true;
-  const auto reap = [&](bool block) {
-    while (!workers.empty()) {
-      int status = 0;
-      const pid_t pid = ::waitpid(-1, &status, block ? 0 : WNOHANG);
-      if (pid < 0 && errno == EINTR) continue;
-      if (pid <= 0) return;
-      const auto it = workers.find(pid);
-      if (it == workers.end()) continue;
-      if (open) open = send_frame(sock, {Frame::Exit, 0, it->second, status});
-      workers.erase(it);
-    }
-  };
-  const auto stop_workers = [&] {
-    for (const auto& w : workers)
-      ::kill(w.first, SIGTERM);
-  };
-  // Tasks wait here while `limit` workers run (the runner keeps a few more in flight than it
-  // has workers, so that a worker that ends is followed at once, without a round trip through
-  // the runner); they start in the order they came.
-  struct Queued {
-    Task task;
-    int fd;
-    std::uint64_t seq;
-  };
-  std::deque<Queued> queued;
-  std::size_t limit = 1;  // concurrent workers: the runner's --jobs (Header frame)
-  const auto start_queued = [&] {
-    while (open && !queued.empty() && workers.size() < limit) {
-      Queued q = std::move(queued.front());
-      queued.pop_front();
-      const pid_t pid = ::fork();
-      if (pid == 0) {
-        ::close(sock);
-        ::close(sfd);
-        for (int other : reader.fds())
-          ::close(other);
-        for (const auto& other : queued)  // other tasks' pipes: their EOF must not wait on this
-          ::close(other.fd);
-        worker_main(q.fd, q.task, inputs, run, self);
-      }
-      ::close(q.fd);
-      if (pid > 0)
-        workers[pid] = q.seq;
-      else
-        open = send_frame(sock, {Frame::Failed, 0, q.seq, 0},
-                          std::string("fork: ") + std::strerror(errno));
-    }
-  };
-  while (open) {
-    pollfd pfds[2] = {{sock, POLLIN, 0}, {sfd, POLLIN, 0}};
-    if (::poll(pfds, 2, -1) < 0) {
-      if (errno == EINTR) continue;
-      break;
-    }
-    if (pfds[1].revents) {
-      signalfd_siginfo info;
-      while (::read(sfd, &info, sizeof info) > 0) {
-      }
-      reap(false);
-      start_queued();
-    }
-    if (!pfds[0].revents) continue;
-    open = reader.receive();
-    while (auto frame = reader.next()) {
-      const auto& [f, payload] = *frame;
-      if (f.type == Frame::Stop) {
-        stop_workers();
-        for (const auto& q : queued) {  // never started: no result, the runner is told
-          ::close(q.fd);
-          if (open) open = send_frame(sock, {Frame::Failed, 0, q.seq, 0}, "stopped before it ran");
-        }
-        queued.clear();
-      } else if (f.type == Frame::Baselines || f.type == Frame::Header) {
-        if (f.type == Frame::Header)
-          limit = static_cast<std::size_t>(std::max<std::int64_t>(1, f.value));
-        try {
-          const json doc = json::parse(payload);
-          if (f.type == Frame::Baselines) {
-            inputs.baselines = baselines_from_json(doc.at("baselines"));
-            inputs.coruns = UnregulatedCoruns::from_json(doc.at("coruns"));
-          } else {
-            inputs.header = doc.get<std::vector<std::string>>();
-          }
-        } catch (const std::exception&) {
-          ::_exit(6);  // the runner sees the socket close
-        }
-      } else if (f.type == Frame::Task) {
-        const int fd = reader.take_fd();
-        std::string why;
-        Task task;
-        try {
-          task = decode_task(payload);
-        } catch (const std::exception& e) {
-          why = std::string("bad task: ") + e.what();
-        }
-        if (why.empty() && fd < 0) why = "no pipe came with the task";
-        if (!why.empty()) {
-          if (fd >= 0) ::close(fd);
-          open = send_frame(sock, {Frame::Failed, 0, f.seq, 0}, why);
-        } else {
-          queued.push_back({std::move(task), fd, f.seq});
-        }
-      }
-    }
-    start_queued();
-  }
-  // The runner closed the socket (or is gone): stop what still runs, reap it, leave.
-  stop_workers();
-  open = false;
-  reap(true);
+  HostLoop(sock, sfd, run).serve();
   ::_exit(0);
 }
 

@@ -124,6 +124,84 @@ struct Case {
   std::string label;  // "path=value ..."
 };
 
+// Where a point of a batch belongs: its setting (index into the batch's settings), its case,
+// and how many nodes it has.
+struct BatchPoint {
+  std::size_t setting = 0;
+  std::string case_key;
+  std::size_t rt = 0, nrt = 0;
+};
+
+// One point's slowdowns, gathered over its rows (repetitions) and nodes.
+struct PointSlowdowns {
+  double rt = -kInf;  // the worst
+  bool rt_missing = false;
+  double nrt_sum = 0;
+  std::size_t nrt_n = 0;
+  std::size_t nrt_missing = 0;
+};
+
+// The rows of a batch's points.csv: worst RT and the sum of nRT slowdowns per point over nodes
+// and repetitions.
+std::map<std::string, PointSlowdowns> read_slowdowns(
+    const fs::path& points_csv, const std::map<std::string, BatchPoint>& points) {
+  const auto lines = split_lines(read_file(points_csv));
+  if (lines.empty()) throw RunError(points_csv.string() + " is empty");
+  const auto header = csv_split(lines[0]);
+  std::map<std::string, std::size_t> col;
+  for (std::size_t i = 0; i < header.size(); ++i)
+    col[header[i]] = i;
+  std::map<std::string, PointSlowdowns> acc;
+  const auto cell = [&](const std::vector<std::string>& row, const std::string& c) {
+    const auto it = col.find(c);
+    if (it == col.end() || it->second >= row.size() || row[it->second].empty()) return kNaN;
+    return std::strtod(row[it->second].c_str(), nullptr);
+  };
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    const auto row = csv_split(lines[i]);
+    const std::string id = row.at(col.at("point"));
+    const auto w = points.find(id);
+    if (w == points.end()) continue;
+    PointSlowdowns& a = acc[id];
+    for (std::size_t n = 0; n < w->second.rt; ++n) {
+      const double v = cell(row, n == 0 ? "rt_slowdown" : "rt" + std::to_string(n) + "_slowdown");
+      if (std::isnan(v))
+        a.rt_missing = true;
+      else
+        a.rt = std::max(a.rt, v);
+    }
+    for (std::size_t n = 0; n < w->second.nrt; ++n) {
+      const double v = cell(row, n == 0 ? "nrt_slowdown" : "nrt" + std::to_string(n) + "_slowdown");
+      if (std::isnan(v)) {
+        ++a.nrt_missing;
+      } else {
+        a.nrt_sum += v;
+        ++a.nrt_n;
+      }
+    }
+  }
+  return acc;
+}
+
+// Each setting's worst RT and mean nRT slowdown over its cases, and whether it meets the bound.
+void score_settings(const std::vector<json>& settings, double rt_slowdown_max,
+                    std::map<std::string, Eval>& into) {
+  for (const auto& s : settings) {
+    Eval& e = into[s.dump()];
+    double worst = -kInf, sum = 0;
+    bool rt_missing = e.cases.empty(), nrt_missing_case = e.cases.empty();
+    for (const auto& [k, r] : e.cases) {
+      rt_missing = rt_missing || std::isnan(r.rt);
+      nrt_missing_case = nrt_missing_case || std::isnan(r.nrt);
+      worst = std::max(worst, r.rt);
+      sum += r.nrt;
+    }
+    e.rt = rt_missing ? kNaN : worst;
+    e.nrt = nrt_missing_case ? kNaN : sum / static_cast<double>(e.cases.size());
+    e.feasible = !std::isnan(e.rt) && e.rt <= rt_slowdown_max;
+  }
+}
+
 // Mutes std::cout while a batch runs (run_scenario's summary line is not tune's output).
 class MuteStdout {
  public:
@@ -158,7 +236,19 @@ class Tuner {
   };
 
   void load_source();
+  // Paths and value tuples of the swept regulation keys: the dimensions of the space.
+  using Dims = std::vector<std::pair<std::vector<std::string>, json>>;
+  // The space: base document, cases, threshold ladder, configurations, the unregulated setting.
   void build_space();
+  void prepare_base();
+  Dims split_sweep(std::optional<json>& threshold_values, std::optional<json>& budget_values);
+  void build_ladder(const std::optional<json>& threshold_values,
+                    const std::optional<json>& budget_values);
+  Dims default_space();
+  json resolve_config(const std::map<std::string, json>& swept) const;
+  void enumerate_configs(const Dims& dims);
+  void keep_valid_configs();
+  void find_unregulated();
   void prepare_folder();
   // The scenario of one batch: `settings` (rows of the setting key) x every case.
   json batch_document(const std::vector<json>& settings, const std::string& backend) const;
@@ -170,6 +260,8 @@ class Tuner {
   // interrupted) and adds the evaluations.
   int run_batch(const std::string& name, json doc, const std::vector<json>& settings,
                 const fs::path& out, std::map<std::string, Eval>& into);
+  // Which setting and case each point of a batch is (new cases are added to cases_).
+  std::map<std::string, BatchPoint> locate_points(const LoadedScenario& batch);
   // run_batch into probes/<name> as a batch of the search (merged into DIR at the end).
   int run_probe(const std::string& name, json doc, const std::vector<json>& settings,
                 std::map<std::string, Eval>& into);
@@ -255,8 +347,29 @@ void Tuner::load_source() {
 }
 
 void Tuner::build_space() {
-  const std::string& file = opt_.scenario_file;
-  const fs::path base_dir = fs::absolute(fs::path(file)).parent_path();
+  prepare_base();
+  // Sweep keys: regulation keys bound the space, the others are cases.
+  std::optional<json> threshold_values, budget_values;
+  Dims dims = split_sweep(threshold_values, budget_values);
+  build_ladder(threshold_values, budget_values);
+  // The configurations: the swept regulation keys, else the default space.
+  if (dims.empty()) dims = default_space();
+  config_paths_ = {kPolicy, kSampling, kSamplingPeriod, kRegulationPeriod};
+  for (const auto& [paths, tuples] : dims)
+    for (const auto& p : paths)
+      if (std::find(config_paths_.begin(), config_paths_.end(), p) == config_paths_.end())
+        config_paths_.push_back(p);
+  for (const auto& p : config_paths_)
+    setting_key_ += p + "+";
+  setting_key_ += kThreshold;
+  enumerate_configs(dims);
+  keep_valid_configs();
+  find_unregulated();
+}
+
+// The given document without its sweep, its file references rebased onto the scenario's folder.
+void Tuner::prepare_base() {
+  const fs::path base_dir = fs::absolute(fs::path(opt_.scenario_file)).parent_path();
   base_ = src_.given;
   base_.erase("sweep");
   base_.erase("$schema");
@@ -271,10 +384,15 @@ void Tuner::build_space() {
         "the scenario's regulation.budget_mbps is left out: tune expresses a budget as "
         "threshold_pct (budget = threshold x reference_mbps)");
   }
+}
 
-  // Sweep keys: regulation keys bound the space, the others are cases.
-  std::vector<std::pair<std::vector<std::string>, json>> dims;  // paths, value tuples
-  std::optional<json> threshold_values, budget_values;
+// The sweep keys: the threshold or budget values apart, the other regulation keys as dimensions
+// of the space (returned), the rest as cases (case_keys_).
+Tuner::Dims Tuner::split_sweep(std::optional<json>& threshold_values,
+                               std::optional<json>& budget_values) {
+  const std::string& file = opt_.scenario_file;
+  const fs::path base_dir = fs::absolute(fs::path(file)).parent_path();
+  Dims dims;
   for (const std::string& key : src_.sweep_keys) {
     const std::vector<std::string> paths = split_sweep_key(key);
     const json& values = src_.expanded["sweep"][key];
@@ -312,8 +430,13 @@ void Tuner::build_space() {
       tuples.push_back(paths.size() == 1 ? json::array({v}) : v);
     dims.emplace_back(paths, tuples);
   }
+  return dims;
+}
 
-  // The threshold ladder.
+// The threshold ladder: --thresholds, else the swept thresholds or budgets, else the default.
+void Tuner::build_ladder(const std::optional<json>& threshold_values,
+                         const std::optional<json>& budget_values) {
+  const std::string& file = opt_.scenario_file;
   if (threshold_values && budget_values)
     throw InputError(file, "/sweep",
                      "the sweep has both regulation.threshold_pct and regulation.budget_mbps: "
@@ -352,57 +475,53 @@ void Tuner::build_space() {
   std::sort(ladder_.begin(), ladder_.end());
   ladder_.erase(std::unique(ladder_.begin(), ladder_.end()), ladder_.end());
   if (ladder_.empty()) throw InputError(file, "/sweep", "no threshold to search");
+}
 
-  // The configurations: the swept regulation keys, else the default space.
-  const bool default_space = dims.empty();
-  if (default_space) {
-    // Every policy that throttles, with each sampling mode its traits say it runs with, at the
-    // default period pairs and at its own default pair (e.g. MemPol's microsecond polling).
-    json tuples = json::array();
-    for (const auto& p : policies_.all()) {
-      if (!p.traits.regulates || !p.traits.throttles) continue;
-      auto periods = kDefaultPeriods;
-      const auto own = std::make_pair(p.traits.default_sampling_period_us,
-                                      p.traits.default_regulation_period_us);
-      if (own.first > 0 && own.second > 0 &&
-          std::find(periods.begin(), periods.end(), own) == periods.end())
-        periods.push_back(own);
-      for (Sampling s : p.traits.samplings)
-        for (const auto& [sp, rp] : periods)
-          tuples.push_back(json::array({p.name, std::string(to_string(s)), sp, rp}));
-    }
-    dims = {{{kPolicy, kSampling, kSamplingPeriod, kRegulationPeriod}, tuples}};
-    note(
-        "the scenario sweeps no regulation key but the threshold: the default space is "
-        "searched (every registered policy that throttles x each sampling mode it runs with x "
-        "sampling / regulation periods 100/1000, 500/2500, 1000/5000 us and the policy's own "
-        "default pair)");
+// Every policy that throttles, with each sampling mode its traits say it runs with, at the
+// default period pairs and at its own default pair (e.g. MemPol's microsecond polling).
+Tuner::Dims Tuner::default_space() {
+  json tuples = json::array();
+  for (const auto& p : policies_.all()) {
+    if (!p.traits.regulates || !p.traits.throttles) continue;
+    auto periods = kDefaultPeriods;
+    const auto own =
+        std::make_pair(p.traits.default_sampling_period_us, p.traits.default_regulation_period_us);
+    if (own.first > 0 && own.second > 0 &&
+        std::find(periods.begin(), periods.end(), own) == periods.end())
+      periods.push_back(own);
+    for (Sampling s : p.traits.samplings)
+      for (const auto& [sp, rp] : periods)
+        tuples.push_back(json::array({p.name, std::string(to_string(s)), sp, rp}));
   }
-  config_paths_ = {kPolicy, kSampling, kSamplingPeriod, kRegulationPeriod};
-  for (const auto& [paths, tuples] : dims)
-    for (const auto& p : paths)
-      if (std::find(config_paths_.begin(), config_paths_.end(), p) == config_paths_.end())
-        config_paths_.push_back(p);
-  for (const auto& p : config_paths_)
-    setting_key_ += p + "+";
-  setting_key_ += kThreshold;
+  note(
+      "the scenario sweeps no regulation key but the threshold: the default space is "
+      "searched (every registered policy that throttles x each sampling mode it runs with x "
+      "sampling / regulation periods 100/1000, 500/2500, 1000/5000 us and the policy's own "
+      "default pair)");
+  return {{{kPolicy, kSampling, kSamplingPeriod, kRegulationPeriod}, tuples}};
+}
 
-  // Every config path's value in a configuration (`swept`: the values its dimensions set):
-  // where no dimension sets it, the scenario's, else what a run of that setting resolves it to
-  // (the policy's own sampling mode and periods, else the generic ones: apply_policy_defaults).
-  // So each row of a generated sweep is a complete setting, whichever paths a joined key sets.
-  const auto resolve = [&](const std::map<std::string, json>& swept) {
-    json doc = {{"regulation", src_.expanded.value("regulation", json::object())}};
-    for (const auto& [path, value] : swept)
-      doc[json::json_pointer(to_json_pointer(parse_sweep_path(path)))] = value;
-    apply_policy_defaults(doc["regulation"]);
-    json config = json::array();
-    for (const auto& p : config_paths_) {
-      const json::json_pointer ptr(to_json_pointer(parse_sweep_path(p)));
-      config.push_back(doc.contains(ptr) ? doc.at(ptr) : json(nullptr));
-    }
-    return config;
-  };
+// Every config path's value in a configuration (`swept`: the values its dimensions set):
+// where no dimension sets it, the scenario's, else what a run of that setting resolves it to
+// (the policy's own sampling mode and periods, else the generic ones: apply_policy_defaults).
+// So each row of a generated sweep is a complete setting, whichever paths a joined key sets.
+json Tuner::resolve_config(const std::map<std::string, json>& swept) const {
+  json doc = {{"regulation", src_.expanded.value("regulation", json::object())}};
+  for (const auto& [path, value] : swept)
+    doc[json::json_pointer(to_json_pointer(parse_sweep_path(path)))] = value;
+  apply_policy_defaults(doc["regulation"]);
+  json config = json::array();
+  for (const auto& p : config_paths_) {
+    const json::json_pointer ptr(to_json_pointer(parse_sweep_path(p)));
+    config.push_back(doc.contains(ptr) ? doc.at(ptr) : json(nullptr));
+  }
+  return config;
+}
+
+// The configurations of the space (searches_): every combination of the dimensions' values,
+// resolved; those of policies that do not throttle left out, and the regulation period of
+// those that ignore it collapsed.
+void Tuner::enumerate_configs(const Dims& dims) {
   std::vector<std::map<std::string, json>> assigned = {{}};
   for (const auto& [paths, tuples] : dims) {
     std::vector<std::map<std::string, json>> next;
@@ -419,7 +538,7 @@ void Tuner::build_space() {
   std::set<std::string> dropped_policies;
   std::set<std::string> collapsed;  // the regulation periods the policies that ignore it run at
   for (auto& a : assigned) {
-    json config = resolve(a);
+    json config = resolve_config(a);
     const std::string policy = config[0].get<std::string>();
     const PolicyInfo* info = policies_.find(policy);
     if (!info || !info->traits.regulates || !info->traits.throttles) {
@@ -429,7 +548,7 @@ void Tuner::build_space() {
     if (!info->traits.periodic_windows) {  // the regulation period is not used by the policy
       auto unswept = a;
       unswept.erase(kRegulationPeriod);
-      const json period = resolve(unswept)[3];
+      const json period = resolve_config(unswept)[3];
       if (config[3] != period) {
         config[3] = period;
         collapsed.insert(value_text(period));
@@ -448,9 +567,12 @@ void Tuner::build_space() {
     note("policies with one budget per RT run ignore the regulation period: they are run at " +
          periods + " us (the scenario's regulation_period_us, else the policy's default)");
   }
+}
 
-  // Each configuration must be a valid scenario in every case (policy rules, backend checks):
-  // those that are not are left out, with the reason.
+// Each configuration must be a valid scenario in every case (policy rules, backend checks):
+// those that are not are left out, with the reason.
+void Tuner::keep_valid_configs() {
+  const std::string& file = opt_.scenario_file;
   std::vector<Search> valid;
   std::string tmpl = (fs::temp_directory_path() / "rosguard-tune-XXXXXX").string();
   if (!::mkdtemp(tmpl.data()))
@@ -501,9 +623,11 @@ void Tuner::build_space() {
       throw InputError(file, e.json_path(), "--confirm hw: on this machine " + e.message());
     }
   }
+}
 
-  // Unregulated: the policy that does not regulate, a setting of the policy alone (its batch
-  // has no setting key: unregulated_document).
+// Unregulated: the policy that does not regulate, a setting of the policy alone (its batch
+// has no setting key: unregulated_document).
+void Tuner::find_unregulated() {
   for (const auto& p : policies_.all())
     if (!p.traits.regulates) {
       unregulated_setting_ = json::array({p.name});
@@ -597,6 +721,31 @@ int Tuner::run_probe(const std::string& name, json doc, const std::vector<json>&
   return rc;
 }
 
+std::map<std::string, BatchPoint> Tuner::locate_points(const LoadedScenario& batch) {
+  std::map<std::string, BatchPoint> where;
+  for (const auto& p : batch.points) {
+    BatchPoint w;
+    std::string key, label;
+    for (const auto& q : p.sweep.params) {
+      if (q.key == setting_key_) {
+        w.setting = q.value_index;
+        continue;
+      }
+      if (q.component == 0) key += (key.empty() ? "" : ",") + std::to_string(q.value_index);
+      label += (label.empty() ? "" : " ") + q.path + "=" + value_text(q.value);
+    }
+    w.case_key = key;
+    w.rt = p.scenario.nodes.rt.size();
+    w.nrt = p.scenario.nodes.nrt.size();
+    where[p.sweep.id] = w;
+    if (!case_by_key_.count(key)) {
+      case_by_key_[key] = {key, label.empty() ? "the scenario" : label};
+      cases_.push_back(case_by_key_[key]);
+    }
+  }
+  return where;
+}
+
 int Tuner::run_batch(const std::string& name, json doc, const std::vector<json>& settings,
                      const fs::path& out, std::map<std::string, Eval>& into) {
   const std::string backend = doc.at("backend").get<std::string>();
@@ -619,76 +768,9 @@ int Tuner::run_batch(const std::string& name, json doc, const std::vector<json>&
   if (rc == 1) throw RunError(name + " failed (" + (out / "manifest.json").string() + " says why)");
   if (rc != 0) return rc;
 
-  // Which setting and case each point is, and how many nodes it has.
-  struct Where {
-    std::size_t setting = 0;
-    std::string case_key;
-    std::size_t rt = 0, nrt = 0;
-  };
-  std::map<std::string, Where> where;
-  for (const auto& p : batch.points) {
-    Where w;
-    std::string key, label;
-    for (const auto& q : p.sweep.params) {
-      if (q.key == setting_key_) {
-        w.setting = q.value_index;
-        continue;
-      }
-      if (q.component == 0) key += (key.empty() ? "" : ",") + std::to_string(q.value_index);
-      label += (label.empty() ? "" : " ") + q.path + "=" + value_text(q.value);
-    }
-    w.case_key = key;
-    w.rt = p.scenario.nodes.rt.size();
-    w.nrt = p.scenario.nodes.nrt.size();
-    where[p.sweep.id] = w;
-    if (!case_by_key_.count(key)) {
-      case_by_key_[key] = {key, label.empty() ? "the scenario" : label};
-      cases_.push_back(case_by_key_[key]);
-    }
-  }
+  const std::map<std::string, BatchPoint> where = locate_points(batch);
   // The rows: worst RT and mean nRT slowdown per point over nodes and repetitions.
-  const auto lines = split_lines(read_file(out / "points.csv"));
-  if (lines.empty()) throw RunError((out / "points.csv").string() + " is empty");
-  const auto header = csv_split(lines[0]);
-  std::map<std::string, std::size_t> col;
-  for (std::size_t i = 0; i < header.size(); ++i)
-    col[header[i]] = i;
-  struct Acc {
-    double rt = -kInf;
-    bool rt_missing = false;
-    double nrt_sum = 0;
-    std::size_t nrt_n = 0;
-    std::size_t nrt_missing = 0;
-  };
-  std::map<std::string, Acc> acc;
-  const auto cell = [&](const std::vector<std::string>& row, const std::string& c) {
-    const auto it = col.find(c);
-    if (it == col.end() || it->second >= row.size() || row[it->second].empty()) return kNaN;
-    return std::strtod(row[it->second].c_str(), nullptr);
-  };
-  for (std::size_t i = 1; i < lines.size(); ++i) {
-    const auto row = csv_split(lines[i]);
-    const std::string id = row.at(col.at("point"));
-    const auto w = where.find(id);
-    if (w == where.end()) continue;
-    Acc& a = acc[id];
-    for (std::size_t n = 0; n < w->second.rt; ++n) {
-      const double v = cell(row, n == 0 ? "rt_slowdown" : "rt" + std::to_string(n) + "_slowdown");
-      if (std::isnan(v))
-        a.rt_missing = true;
-      else
-        a.rt = std::max(a.rt, v);
-    }
-    for (std::size_t n = 0; n < w->second.nrt; ++n) {
-      const double v = cell(row, n == 0 ? "nrt_slowdown" : "nrt" + std::to_string(n) + "_slowdown");
-      if (std::isnan(v)) {
-        ++a.nrt_missing;
-      } else {
-        a.nrt_sum += v;
-        ++a.nrt_n;
-      }
-    }
-  }
+  const std::map<std::string, PointSlowdowns> acc = read_slowdowns(out / "points.csv", where);
   // An RT slowdown not measured in some run cannot be shown to meet the bound (NaN); an nRT
   // slowdown not measured in some runs (hw: the node did not get through its isolation work
   // while the RT node ran) leaves the mean of the others, with a note.
@@ -701,7 +783,7 @@ int Tuner::run_batch(const std::string& name, json doc, const std::vector<json>&
     CaseResult r;
     r.point = id;
     if (it != acc.end()) {
-      const Acc& a = it->second;
+      const PointSlowdowns& a = it->second;
       r.rt = a.rt_missing || a.rt == -kInf ? kNaN : a.rt;
       r.nrt = a.nrt_n == 0 ? kNaN : a.nrt_sum / static_cast<double>(a.nrt_n);
       nrt_missing += a.nrt_missing;
@@ -715,20 +797,7 @@ int Tuner::run_batch(const std::string& name, json doc, const std::vector<json>&
          " node run(s) (the node did not get through its isolation work); the means are over "
          "the others (" +
          (out / "points.csv").string() + ")");
-  for (const auto& s : settings) {
-    Eval& e = into[s.dump()];
-    double worst = -kInf, sum = 0;
-    bool rt_missing = e.cases.empty(), nrt_missing_case = e.cases.empty();
-    for (const auto& [k, r] : e.cases) {
-      rt_missing = rt_missing || std::isnan(r.rt);
-      nrt_missing_case = nrt_missing_case || std::isnan(r.nrt);
-      worst = std::max(worst, r.rt);
-      sum += r.nrt;
-    }
-    e.rt = rt_missing ? kNaN : worst;
-    e.nrt = nrt_missing_case ? kNaN : sum / static_cast<double>(e.cases.size());
-    e.feasible = !std::isnan(e.rt) && e.rt <= opt_.rt_slowdown_max;
-  }
+  score_settings(settings, opt_.rt_slowdown_max, into);
   simulated_points_ += where.size();
   return 0;
 }

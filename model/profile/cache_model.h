@@ -1,4 +1,4 @@
-// Cache models behind `rosguard profile` (tools/rosguard/profile.*): a set-associative LRU
+// Cache models behind `rosguard profile` (tools/rosguard/host/profile.*): a set-associative LRU
 // cache (write-back, write-allocate), the private L1 + L2 of one core built from two of them,
 // and Mattson's LRU stack distances for the miss-ratio curve of the L2 miss stream.
 //

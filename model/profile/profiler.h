@@ -3,7 +3,7 @@
 // rates are merged into phases (sim/workload/profile.h's shape: refills and write-backs per
 // kilo-instruction, with the L2 miss stream's miss-ratio curve over L3 capacities).
 //
-// Contract: single-threaded; the host (tools/rosguard/profile.cpp) parses the trace and calls
+// Contract: single-threaded; the host (tools/rosguard/host/profile.cpp) parses the trace and calls
 // `instruction()` / `access()`; `finish()` once at the end. No I/O here.
 #pragma once
 

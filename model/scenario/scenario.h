@@ -1,6 +1,6 @@
 // Typed, validated scenarios: what both backends run.
 //
-// Contract: Scenario objects are built by the loader (tools/rosguard/loader.h) from documents
+// Contract: Scenario objects are built by the loader (tools/rosguard/load/loader.h) from documents
 // that already passed their JSON Schema and carry every default; build_scenario() adds the
 // checks a schema cannot express (cores that exist, one application node per core, sampling
 // period <= regulation period, ...). Immutable once built; safe to share between threads.

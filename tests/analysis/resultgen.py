@@ -1,7 +1,7 @@
 """Writes small, realistic results folders for the analysis tests.
 
 The folders follow docs/design.md section 6 exactly as model/results/results.cpp and
-tools/rosguard/runner.cpp write them: points.csv with the fixed columns, the extra columns
+tools/rosguard/run/runner.cpp write them: points.csv with the fixed columns, the extra columns
 and one ``param:`` column per sweep key; samples.csv; manifest.json. Values come from a
 toy model of regulation (lower threshold: RT closer to isolation, nRT slower; monolithic
 penalises nRT more; self-sampling costs ~59 us per sample, external ~2 us) with a little
@@ -37,7 +37,7 @@ EXTRA_COLUMNS = ["platform", "nrt_mode", "rt_jobs", "nrt_runs", "reference_mbps"
                  "rt_isolation_cv", "nrt_isolation_n", "nrt_isolation_cv",
                  "rt_response_p99_us", "rt_response_max_us", "rt_deadline_misses",
                  "signal_latency_p50_us", "signal_to_thr_p50_us"]
-# The unregulated co-run (tools/rosguard/unregulated.h): written unless write_results gets
+# The unregulated co-run (tools/rosguard/run/unregulated.h): written unless write_results gets
 # unregulated=False (a folder of an older rosguard, or rosguard run --no-unregulated).
 UNREGULATED_COLUMNS = ["rt_unregulated_time_us", "rt_unregulated_slowdown",
                        "nrt_unregulated_time_us", "nrt_unregulated_slowdown"]

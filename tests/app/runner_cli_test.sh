@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runner mechanics through the real CLI (main.cpp) with the fake backend (app/fake/):
+# Runner mechanics through the real CLI (tools/rosguard/commands/) with the fake backend (app/fake/):
 # determinism over --jobs and shards, crash safety, SIGINT, resume, failures, folders, list.
 # Usage: runner_cli_test.sh ROSGUARD_FAKE CASE   (from the source root)
 set -u
@@ -93,7 +93,7 @@ kill9)
   [[ $(status "$tmp/k") == complete ]] || fail "manifest after resume should say complete"
   ;;
 containment)
-  # Sim tasks run in workers forked by a task host (tools/rosguard/task_pool.h). A worker that
+  # Sim tasks run in workers forked by a task host (tools/rosguard/run/task_pool.h). A worker that
   # dies by a signal fails the run with that signal named; the runner killed alone (SIGKILL, not
   # its group) takes the host and its workers with it; a run that ends leaves no process behind.
   alive() { [[ -e /proc/$1 ]] && [[ $(awk '{print $3}' "/proc/$1/stat" 2>/dev/null) != Z ]]; }
@@ -622,7 +622,7 @@ assert "precision" not in json.load(open(f"{sys.argv[1]}/manifest.json"))
 PY
   ;;
 unregulated)
-  # The unregulated co-run (tools/rosguard/unregulated.h): measured once per co-run key, not
+  # The unregulated co-run (tools/rosguard/run/unregulated.h): measured once per co-run key, not
   # per threshold or policy (sim: once; hw: as the baselines, 3 times), written into every
   # row; a policy-none point carries its own values; kept over a resume; off with
   # --no-unregulated.

@@ -7,7 +7,7 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 
-#include "files.h"
+#include "load/files.h"
 
 using namespace rosguard;
 namespace fs = std::filesystem;

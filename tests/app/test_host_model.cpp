@@ -5,8 +5,8 @@
 
 #include "calibration/measurements.h"
 #include "core/error.h"
-#include "host_facts.h"
-#include "host_model.h"
+#include "load/host_facts.h"
+#include "load/host_model.h"
 
 using namespace rosguard;
 using json = nlohmann::json;

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "loader.h"
+#include "load/loader.h"
 
 using namespace rosguard;
 namespace fs = std::filesystem;

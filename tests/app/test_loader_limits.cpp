@@ -12,7 +12,7 @@
 #include <string>
 
 #include "core/error.h"
-#include "loader.h"
+#include "load/loader.h"
 
 using namespace rosguard;
 namespace fs = std::filesystem;

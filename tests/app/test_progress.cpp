@@ -3,7 +3,7 @@
 #include <catch2/catch.hpp>
 #include <sstream>
 
-#include "progress.h"
+#include "run/progress.h"
 
 using namespace rosguard;
 

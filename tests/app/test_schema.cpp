@@ -5,9 +5,9 @@
 #include <set>
 #include <string>
 
-#include "loader.h"
+#include "load/loader.h"
 #include "policy/policy.h"
-#include "schema.h"
+#include "load/schema.h"
 
 using namespace rosguard;
 using json = nlohmann::json;

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "tune.h"
+#include "tune/tune.h"
 
 using namespace rosguard;
 

@@ -11,7 +11,7 @@
 
 #include "core/error.h"
 #include "results/results.h"
-#include "unregulated.h"
+#include "run/unregulated.h"
 
 using namespace rosguard;
 namespace fs = std::filesystem;

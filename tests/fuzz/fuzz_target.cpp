@@ -6,7 +6,8 @@
 #include <fstream>
 #include <memory>
 
-#include "commands.h"
+#include "backends.h"
+#include "commands/check.h"
 #include "core/error.h"
 
 namespace rosguard::fuzz {

@@ -15,7 +15,7 @@
 #include "hw/backend.h"
 #include "hw/common/clock.h"
 #include "hw/common/sys.h"
-#include "loader.h"
+#include "load/loader.h"
 #include "results/results.h"
 
 using namespace rosguard;

@@ -18,7 +18,7 @@
 #include "backend/backend.h"
 #include "hw_test_files.h"
 #include "results/results.h"
-#include "results_store.h"
+#include "store/results_store.h"
 
 namespace fs = std::filesystem;
 using rosguard::test::lines_of;

@@ -15,7 +15,7 @@
 #include "hw/host_probe.h"
 #include "hw/pmc_source/perf_events.h"
 #include "hw_test_files.h"
-#include "loader.h"
+#include "load/loader.h"
 
 using namespace rosguard;
 using namespace rosguard::hw;

@@ -5,7 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include "calibration/measurements.h"
-#include "host_facts.h"
+#include "load/host_facts.h"
 #include "hw/host_probe.h"
 
 using namespace rosguard;

@@ -9,7 +9,7 @@
 #include "hw/backend.h"
 #include "hw/common/sys.h"
 #include "hw/point_rig.h"
-#include "loader.h"
+#include "load/loader.h"
 
 using namespace rosguard;
 using namespace rosguard::hw;

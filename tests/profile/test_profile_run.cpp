@@ -10,9 +10,9 @@
 #include <string>
 #include <utility>
 
-#include "files.h"
-#include "profile.h"
-#include "schema.h"
+#include "load/files.h"
+#include "host/profile.h"
+#include "load/schema.h"
 
 namespace fs = std::filesystem;
 using namespace rosguard;

@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "backend.h"
-#include "loader.h"
+#include "load/loader.h"
 #include "results/results.h"
 
 #ifndef ROSGUARD_TEST_SOURCE_DIR

@@ -12,9 +12,9 @@
 
 #include "calibration/fit.h"
 #include "core/error.h"
-#include "loader.h"
+#include "load/loader.h"
 #include "platform/sim_platform.h"
-#include "schema.h"
+#include "load/schema.h"
 #include "sim_test_util.h"
 
 using namespace rosguard;

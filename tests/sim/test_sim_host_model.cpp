@@ -7,7 +7,7 @@
 #include <fstream>
 
 #include "calibration/measurements.h"
-#include "host_facts.h"
+#include "load/host_facts.h"
 #include "sim_test_util.h"
 
 using namespace rosguard;

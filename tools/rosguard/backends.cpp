@@ -1,5 +1,5 @@
 // The backends compiled into this build (ROSGUARD_WITH_SIM / ROSGUARD_WITH_HW).
-#include "commands.h"
+#include "backends.h"
 
 #ifdef ROSGUARD_WITH_SIM
 #include "sim/register.h"

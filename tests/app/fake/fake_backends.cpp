@@ -18,7 +18,7 @@
 #include <random>
 #include <thread>
 
-#include "commands.h"
+#include "backends.h"
 #include "core/error.h"
 
 namespace rosguard {

@@ -1,0 +1,37 @@
+// `rosguard platform probe | model`: this machine as a platform, and whether the installed host
+// model was measured on it (load/host_model.h).
+#include "commands/command.h"
+#include "load/host_model.h"
+#include "load/schema.h"
+
+namespace rosguard {
+
+CommandHandler setup_platform(CLI::App& sub) {
+  auto out = std::make_shared<std::string>();
+  sub.require_subcommand(1);
+  auto* probe = sub.add_subcommand(
+      "probe",
+      "Probe this machine (usable CPUs, clusters sharing a last-level cache, caches, frequency, "
+      "the PMU events that open, SCHED_FIFO) and print it as a platform JSON: what \"platform\": "
+      "\"host\" uses on the hw backend.");
+  probe->add_option("--out", *out, "Write the platform JSON to this file (atomically)");
+  probe->footer(
+      "Reference, memory model and costs come from the installed host model (rosguard calibrate "
+      "--install) when there is one; otherwise the reference bandwidth is measured now "
+      "(bandwidth_read, under a second) and there is no memory model, so the sim backend "
+      "cannot run the result. Notes on what is missing or not usable go to stderr.");
+  auto* model_cmd = sub.add_subcommand(
+      "model",
+      "Say whether the installed host model (rosguard calibrate --install) was measured on this "
+      "machine: its CPU model, usable CPUs, caches and kernel against this machine's.");
+  model_cmd->footer(
+      "Exit status 0 when it was; 3 when no model is installed, the model was measured on another "
+      "machine (what differs is printed), or it does not record its machine (calibrated before "
+      "rosguard wrote \"measured_on\"). make validate recalibrates then.");
+  return [out, probe](const CommandContext& c) {
+    const SchemaSet schemas(c.loader.home().schemas());
+    return *probe ? platform_probe_command(schemas, *out) : platform_model_command(schemas);
+  };
+}
+
+}  // namespace rosguard

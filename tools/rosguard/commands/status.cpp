@@ -1,0 +1,20 @@
+// `rosguard status DIR`: how far a run or a tune is (store/status.h).
+#include "store/status.h"
+
+#include "commands/command.h"
+
+namespace rosguard {
+
+CommandHandler setup_status(CLI::App& sub) {
+  auto dir = std::make_shared<std::string>();
+  sub.add_option("results", *dir, "Results folder of a run or a tune (its --out)")->required();
+  sub.footer(
+      "Reads DIR/manifest.json, DIR/points.csv and, after --slurm, DIR/slurm/job.json "
+      "and squeue. A tune's folder (DIR/tune.json or DIR/probes/): one row per batch "
+      "(probes/unregulated, probes/step-NN, confirm-hw) with its points, runs and state, the "
+      "tune's state (running, between batches, stopped: run it again with --overwrite, "
+      "finished) and, finished, its best setting. Exit 0; 2 when DIR is not a results folder.");
+  return [dir](const CommandContext&) { return results_status(*dir); };
+}
+
+}  // namespace rosguard

@@ -1,0 +1,269 @@
+#include "host/calibrate.h"
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <utility>
+
+#include "calibration/measurements.h"
+#include "core/error.h"
+#include "load/files.h"
+#include "load/host_model.h"
+#include "load/schema.h"
+#include "run/progress.h"
+#include "run/stop_signal.h"
+#include "store/analysis.h"
+#include "version.h"
+
+#if ROSGUARD_WITH_SIM
+#include "sim/calibration/fit.h"
+#endif
+#if ROSGUARD_WITH_HW
+#include "hw/calibration/suite.h"
+#include "hw/host_probe.h"
+#endif
+
+namespace rosguard {
+// The measuring and the documents below all serve the fit: without the sim backend,
+// calibrate_host only refuses.
+#if ROSGUARD_WITH_SIM
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string fmt(double v, int prec = 3) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", prec, v);
+  return buf;
+}
+
+// The measurements of an earlier calibration: a calibration.json (its "measurements") or a
+// bare measurements document.
+calibration::Measurements read_measurements(const std::string& file) {
+  const json doc = read_json_file(file, file);
+  if (doc.is_object() && doc.contains("measurements"))
+    return calibration::measurements_from_json(doc.at("measurements"), file, "/measurements");
+  return calibration::measurements_from_json(doc, file);
+}
+
+// Runs the suite on this host; `notes` gets its fallbacks and decisions, `probe` the host as
+// probed.
+calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::string>& notes,
+                                  json& probe_record) {
+#if ROSGUARD_WITH_HW
+  // The reference bandwidth is not needed: the suite measures bandwidth_read itself.
+  const hw::HostProbe probe = hw::probe_host({.measure_reference = false});
+  probe_record = hw::to_json(probe);
+  hw::SuiteOptions suite;
+  suite.host = hw::host_facts(probe);
+  suite.quick = opt.quick;
+  suite.transport = opt.transport;
+  std::atomic<bool> stop{false};
+  suite.stop = &stop;
+  // The suite calls progress between its timed windows, from this thread: the place to see a
+  // SIGINT / SIGTERM that the handler recorded.
+  // "[step/steps steps] %, elapsed, ETA, what" (a step: one timed window, or a cost block): on a
+  // terminal one line rewritten in place, otherwise (a pipe, a log) a line every 5 s and the
+  // last. The suite lowers `steps` as measurements reach their precision before their cap, so
+  // the ETA is re-estimated as it goes (from the most windows left: an upper bound).
+  std::optional<Progress> bar;
+  std::pair<int, int> last{0, 0};  // the last step and steps reported
+  suite.progress = [&](int step, int steps, const std::string& what) {
+    if (stop_signal()) stop = true;
+    if (opt.quiet) return;
+    if (!bar) {
+      bar.emplace(static_cast<std::size_t>(steps), true);
+      bar->set_unit("steps");
+    }
+    bar->set_total(static_cast<std::size_t>(steps));
+    // The suite names a step as it begins it: step - 1 are done (the ETA's rate).
+    bar->update(static_cast<std::size_t>(step - 1), what);
+    last = {step, steps};
+  };
+  suite.planned = [&](const hw::SuitePlan& plan) {
+    if (opt.quiet) return;
+    std::cerr << "calibrate: " << plan.configurations << " measurements, at most "
+              << plan.max_windows << " timed windows (fewer where a measurement reaches its "
+              << "precision early), buffers of " << fmt(plan.peak_mb / 1024.0, 3)
+              << " GB at the peak; at most about "
+              << (plan.seconds < 120.0 ? fmt(plan.seconds, 2) + " s"
+                                       : fmt(plan.seconds / 60.0, 2) + " min")
+              << "\n";
+  };
+  std::cerr << "calibrate: measuring " << suite.host.hostname << " (" << suite.host.cpus
+            << " CPUs, " << (opt.quick ? "quick" : "full") << " suite)\n";
+  hw::SuiteResult result = hw::run_suite(suite);
+  if (bar) {
+    if (!result.stopped && last.first == last.second)
+      bar->update(static_cast<std::size_t>(last.second), "");  // the last step, done
+    bar->finish();
+  }
+  notes = std::move(result.notes);
+  return std::move(result.measurements);
+#else
+  (void)opt;
+  (void)notes;
+  (void)probe_record;
+  throw InputError("", "",
+                   "this rosguard was built without the hw backend: it cannot measure the host "
+                   "(use --from CALIBRATION.json to refit earlier measurements)");
+#endif
+}
+
+json calibration_document(const calibration::Measurements& m, const std::vector<std::string>& notes,
+                          const json& probe, const std::string& status) {
+  return json{{"rosguard", kVersion}, {"revision", kGitRevision}, {"status", status},
+              {"host_probe", probe},  {"suite_notes", notes},     {"measurements", m}};
+}
+
+// Fits the model; a refused fit is recorded in cal_file, beside the measurements it keeps.
+calibration::FitReport fit_or_record(const calibration::Measurements& m,
+                                     const std::vector<std::string>& notes, const json& probe,
+                                     const fs::path& cal_file, bool strict) {
+  try {
+    calibration::FitOptions fit_options;
+    fit_options.strict = strict;
+    return calibration::fit(m, fit_options);
+  } catch (const RunError& e) {
+    json doc = calibration_document(m, notes, probe, "fit refused");
+    doc["error"] = e.what();
+    write_file_atomic(cal_file, doc.dump(2) + "\n");
+    throw RunError(std::string(e.what()) + " (the measurements are kept in " + cal_file.string() +
+                   ")");
+  }
+}
+
+// The uncertainty band: one platform per prior-dominated parameter and side.
+using Band = std::vector<std::pair<std::string, json>>;
+
+// Writes the band into folder, replacing an earlier calibration's (none: the folder goes).
+void write_band(const fs::path& folder, const Band& band) {
+  std::error_code ec;
+  fs::remove_all(folder, ec);
+  if (band.empty()) return;
+  fs::create_directories(folder, ec);
+  for (const auto& [variant, variant_doc] : band)
+    write_file_atomic(folder / (variant + ".json"), variant_doc.dump(2) + "\n");
+}
+
+// The fit's summary: residual, parameters, notes and the machine measured.
+void print_fit(const calibration::FitReport& report,
+               const calibration::MachineIdentity& measured_on, const fs::path& cal_file) {
+  std::size_t used = 0;
+  for (const auto& r : report.runs)
+    used += r.used ? 1 : 0;
+  std::cout << "fit converged (" << report.lm_status_text << ") in " << report.iterations
+            << " iterations: RMS residual " << fmt(100.0 * (std::exp(report.rms_residual) - 1.0))
+            << " % over " << used << " of " << report.runs.size() << " measurements\n";
+  std::vector<std::string> prior_dominated;
+  for (const auto& p : report.parameters) {
+    std::cout << "  " << p.name << " = " << fmt(p.value, 4)
+              << (p.fitted ? " +- " + fmt(p.std_error, 2) : " (" + p.how + ")")
+              << (p.prior_dominated ? "  [prior-dominated]" : "") << "\n";
+    if (p.prior_dominated) prior_dominated.push_back(p.name);
+  }
+  for (const auto& note : report.notes)
+    std::cout << "  note: " << note << "\n";
+  std::cout << "measured on " << calibration::describe(measured_on)
+            << (measured_on.hostname.empty() ? "" : " (" + measured_on.hostname + ")") << "\n";
+  if (measured_on.kernel.empty())
+    std::cout << "  note: the measurements do not record their kernel (made before rosguard "
+                 "recorded it): a run with \"platform\": \"host\" on this model will say that "
+                 "its machine cannot be shown to match\n";
+  if (!prior_dominated.empty()) {
+    std::cerr << "warning: " << prior_dominated.size()
+              << " parameter(s) rest mostly on their priors, not on this host's runs:";
+    for (const auto& name : prior_dominated)
+      std::cerr << " " << name;
+    std::cerr << " (their uncertainty is in " << cal_file.string()
+              << "; --strict refuses such a fit)\n";
+  }
+}
+
+// Saves the platform (and its band) as this host's model.
+void install_model(const json& platform, const Band& band) {
+  std::error_code ec;
+  const fs::path target = host_model_path();
+  fs::create_directories(target.parent_path(), ec);
+  write_file_atomic(target, platform.dump(2) + "\n");
+  write_band(target.parent_path() / "band", band);
+  std::cout << "installed as this host's model: " << target.string()
+            << " (\"platform\": \"host\" uses it in sim)"
+            << (band.empty()
+                    ? ""
+                    : "; its uncertainty band: " + (target.parent_path() / "band").string() + "/")
+            << "\n";
+}
+
+}  // namespace
+#endif
+
+int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
+#if !ROSGUARD_WITH_SIM
+  (void)opt;
+  (void)loader;
+  throw InputError("", "",
+                   "this rosguard was built without the sim backend: there is no model to fit");
+#else
+  const fs::path dir = opt.out.empty() ? fs::path("results/calibration") : fs::path(opt.out);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw InputError("", "",
+                     "--out " + dir.string() + ": cannot create the folder (" + ec.message() + ")");
+
+  StopSignalGuard signals;
+  std::vector<std::string> notes;
+  json probe = nullptr;  // null: refitted from a file, nothing probed
+  const calibration::Measurements m =
+      opt.from.empty() ? measure(opt, notes, probe) : read_measurements(opt.from);
+  if (const int sig = stop_signal()) {
+    std::cerr << "calibrate: interrupted; nothing written\n";
+    return 128 + sig;
+  }
+  const fs::path cal_file = dir / "calibration.json";
+  write_file_atomic(cal_file, calibration_document(m, notes, probe, "measured").dump(2) + "\n");
+
+  const calibration::FitReport report = fit_or_record(m, notes, probe, cal_file, opt.strict);
+
+  // The platform must be one the loader accepts and the sim can run.
+  json platform = calibration::fitted_platform(m, report, opt.name);
+  // The machine the measurements come from (not the one refitting them: --from may run
+  // anywhere): "platform": "host" compares it with the machine it runs on.
+  const calibration::MachineIdentity measured_on = calibration::machine_identity(m.host);
+  platform["measured_on"] = calibration::identity_to_json(measured_on);
+  const fs::path platform_file = dir / "platform.json";
+  SchemaSet(loader.home().schemas())
+      .validate(platform, SchemaKind::Platform, platform_file.string());
+  json doc = calibration_document(m, notes, probe, "fitted");
+  doc["fit"] = calibration::to_json(report);
+  write_file_atomic(platform_file, platform.dump(2) + "\n");
+  write_file_atomic(cal_file, doc.dump(2) + "\n");
+  // The uncertainty band: one platform per prior-dominated parameter and side, in band/ beside
+  // platform.json (replacing an earlier calibration's).
+  const Band band = calibration::band_platforms(platform, report);
+  write_band(dir / "band", band);
+
+  print_fit(report, measured_on, cal_file);
+
+  const int plot = run_analysis(loader.home(), {"calibration", dir.string()});
+  if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";
+
+  std::cout << "wrote " << platform_file.string() << ", " << cal_file.string() << ", "
+            << (dir / "figures").string() << "/"
+            << (band.empty()
+                    ? ""
+                    : ", " + (dir / "band").string() + "/ (" + std::to_string(band.size()) +
+                          " platforms: the uncertainty band)")
+            << "\n";
+  if (opt.install) install_model(platform, band);
+  return 0;
+#endif
+}
+
+}  // namespace rosguard

@@ -1,0 +1,28 @@
+// `rosguard calibrate`: measure this host with the hw backend's microbenchmark suite
+// (hw/calibration/suite.h), fit the sim platform model to the measurements
+// (sim/calibration/fit.h), and write DIR/platform.json, DIR/calibration.json and figures;
+// `--install` makes the result the model `"platform": "host"` uses in sim.
+#pragma once
+
+#include <string>
+
+#include "load/loader.h"
+
+namespace rosguard {
+
+struct CalibrateOptions {
+  bool quick = false;    // the short suite (a few sizes, fewer repetitions)
+  std::string out;       // output folder (default: results/calibration)
+  bool install = false;  // also save platform.json as this host's model
+  std::string from;      // refit the measurements of an earlier calibration.json, measure nothing
+  bool quiet = false;    // no progress
+  std::string name = "host";  // the fitted platform's name
+  bool strict = false;        // refuse a fit with a prior-dominated parameter (else: written)
+  std::string transport = "inproc";  // message costs over inproc rings or DDS (hw.transport)
+};
+
+// Exit code 0 on success; throws InputError (bad options or --from file) or RunError (the suite
+// failed, or the fit did not converge: calibration.json keeps the measurements and the reason).
+int calibrate_host(const CalibrateOptions& options, Loader& loader);
+
+}  // namespace rosguard

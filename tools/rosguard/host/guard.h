@@ -1,0 +1,19 @@
+// `rosguard guard CONFIG.json`: the deployed regulator (hw/guard/guard.h), run until SIGINT /
+// SIGTERM (exit 0, every core nominal), reloading CONFIG.json on SIGHUP.
+#pragma once
+
+#include <string>
+
+#include "policy/policy.h"
+#include "load/schema.h"
+
+namespace rosguard {
+
+struct GuardArgs {
+  std::string config;
+  bool check = false;  // validate and print the settings; nothing runs
+};
+
+int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyRegistry& policies);
+
+}  // namespace rosguard

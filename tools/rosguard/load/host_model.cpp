@@ -1,0 +1,206 @@
+#include "load/host_model.h"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+
+#include "core/error.h"
+#include "load/files.h"
+#include "load/host_facts.h"
+#include "load/loader.h"
+
+#ifdef ROSGUARD_WITH_HW
+#include "hw/host_probe.h"
+#endif
+
+namespace rosguard {
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+std::string env(const char* name) {
+  const char* v = std::getenv(name);
+  return v ? v : "";
+}
+
+std::string join(const std::vector<std::string>& parts, const std::string& sep) {
+  std::string s;
+  for (const auto& p : parts)
+    s += (s.empty() ? "" : sep) + p;
+  return s;
+}
+
+}  // namespace
+
+ModelMachineCheck check_model_machine(const json& doc, const std::string& origin,
+                                      const calibration::MachineIdentity& current) {
+  ModelMachineCheck c;
+  c.record = json{{"measured_on", nullptr},
+                  {"this_machine", calibration::identity_to_json(current)},
+                  {"differences", json::array()}};
+  const std::string fix = "`rosguard calibrate --install` measures this machine and replaces it";
+  if (!doc.is_object() || !doc.contains("measured_on")) {
+    c.warning = "the host model " + origin +
+                " does not record the machine it was measured on (calibrated before rosguard "
+                "wrote \"measured_on\"): whether it describes this machine (" +
+                calibration::describe(current) + ") is unknown; " + fix;
+    c.record["matches"] = nullptr;  // unknown
+    return c;
+  }
+  const calibration::MachineIdentity model =
+      calibration::identity_from_json(doc.at("measured_on"), origin, "/measured_on");
+  c.known = true;
+  c.record["measured_on"] = doc.at("measured_on");
+  c.differences = calibration::identity_differences(model, current);
+  c.matches = c.differences.empty();
+  c.record["differences"] = c.differences;
+  c.record["matches"] = c.matches;
+  if (!c.matches) {
+    std::string where = model.hostname;
+    if (!model.date.empty()) where += (where.empty() ? "" : ", ") + model.date;
+    c.warning = "the host model " + origin + " was measured on another machine" +
+                (where.empty() ? "" : " (" + where + ")") + ": " + join(c.differences, "; ") +
+                "; its numbers describe that machine, not this one; " + fix;
+  }
+  return c;
+}
+
+fs::path host_model_path() {
+  if (const auto explicit_path = env("ROSGUARD_HOST_MODEL"); !explicit_path.empty())
+    return explicit_path;
+  fs::path data = env("XDG_DATA_HOME");
+  if (data.empty() || data.is_relative()) {  // the XDG spec ignores a relative XDG_DATA_HOME
+    const auto home = env("HOME");
+    if (home.empty())
+      throw RunError(
+          "cannot locate the host model: HOME is not set (set ROSGUARD_HOST_MODEL to its file)");
+    data = fs::path(home) / ".local" / "share";
+  }
+  return data / "rosguard" / "host" / "platform.json";
+}
+
+std::optional<HostPlatform> installed_host_model(const SchemaSet& schemas) {
+  const fs::path path = host_model_path();
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return std::nullopt;
+  const std::string shown = display_path(path);
+  json doc = read_json_file(path, shown);
+  schemas.validate(doc, SchemaKind::Platform, shown);
+  schemas.apply_defaults(doc, SchemaKind::Platform);
+  ModelMachineCheck machine = check_model_machine(doc, shown, this_machine());
+  json record{{"backend", "sim"},
+              {"model", path.string()},
+              {"how",
+               "the installed calibrated model of this host "
+               "(rosguard calibrate --install; ROSGUARD_HOST_MODEL overrides "
+               "where it is looked for)"},
+              {"machine", machine.record}};
+  return HostPlatform{doc, shown, record, std::move(machine)};
+}
+
+HostPlatform probed_host_platform(const SchemaSet& schemas) {
+#ifdef ROSGUARD_WITH_HW
+  const auto installed = installed_host_model(schemas);
+  const hw::HostProbe probe = hw::probe_host({.measure_reference = !installed});
+  std::optional<hw::InstalledModel> model;
+  if (installed) model = hw::InstalledModel{installed->doc, installed->origin};
+  json doc = hw::host_platform_document(probe, model);
+  const std::string shown = "host platform probed on " + probe.hostname;
+  // The probe builds the document; a schema failure here is rosguard's bug, not the user's.
+  if (auto err = schemas.first_error(doc, SchemaKind::Platform))
+    throw ContractError("the probed host platform does not validate at " + err->first + ": " +
+                        err->second);
+  schemas.apply_defaults(doc, SchemaKind::Platform);
+  json record{{"backend", "hw"},
+              {"how", installed ? "probed at load time; reference, memory and costs from the "
+                                  "installed model"
+                                : "probed at load time; reference bandwidth measured by the "
+                                  "probe (no installed model)"},
+              {"probe", hw::to_json(probe)}};
+  std::optional<ModelMachineCheck> machine;
+  if (installed) {
+    record["model"] = installed->record.at("model");
+    record["machine"] = installed->record.at("machine");
+    machine = installed->machine;
+  }
+  return {doc, shown + " at " + probe.date, record, machine};
+#else
+  (void)schemas;
+  throw RunError(
+      "this rosguard is built without the hw backend (ROSGUARD_WITH_HW=OFF): it cannot probe the "
+      "host");
+#endif
+}
+
+int platform_model_command(const SchemaSet& schemas) {
+  const auto installed = installed_host_model(schemas);
+  const calibration::MachineIdentity current = this_machine();
+  std::cout << "this machine: " << calibration::describe(current) << "\n";
+  if (!installed) {
+    std::cout << "no host model installed (looked for " << host_model_path().string()
+              << "): rosguard calibrate --install makes one\n";
+    return kNoModelOfThisMachine;
+  }
+  const ModelMachineCheck& c = *installed->machine;
+  if (c.known) {
+    const auto model = calibration::identity_from_json(installed->doc.at("measured_on"),
+                                                       installed->origin, "/measured_on");
+    std::cout << "host model:   " << installed->origin << ", measured on "
+              << calibration::describe(model)
+              << (model.hostname.empty() ? "" : " (" + model.hostname + ")")
+              << (model.date.empty() ? "" : " at " + model.date) << "\n";
+  } else {
+    std::cout << "host model:   " << installed->origin << "\n";
+  }
+  if (c.matches) {
+    std::cout << "the host model was measured on this machine\n";
+    return 0;
+  }
+  std::cout << c.warning << "\n";
+  return kNoModelOfThisMachine;
+}
+
+int platform_probe_command(const SchemaSet& schemas, const std::string& out) {
+  if (!out.empty()) {
+    // Refuse a bad destination before spending the probe's time.
+    const fs::path dest(out);
+    const fs::path dir = dest.parent_path().empty() ? fs::path(".") : dest.parent_path();
+    std::error_code ec;
+    if (fs::is_directory(dest, ec))
+      throw InputError(out, "", "--out names a folder; give the path of the JSON file to write");
+    if (!fs::is_directory(dir, ec))
+      throw InputError(out, "",
+                       "cannot write here: the folder " + dir.string() + " does not exist");
+    if (::access(dir.c_str(), W_OK) != 0)
+      throw InputError(out, "",
+                       "cannot write here: the folder " + dir.string() + " is not writable (" +
+                           std::strerror(errno) + ")");
+  }
+  const HostPlatform host = probed_host_platform(schemas);
+  for (const auto& note : host.record.at("probe").at("notes"))
+    std::cerr << "note: " << note.get<std::string>() << "\n";
+  // Its own output must be a valid platform file: checked again as a file would be read.
+  // The platform files' key order (nlohmann::json sorts keys).
+  nlohmann::ordered_json ordered;
+  for (const char* key :
+       {"name", "description", "cpu", "caches", "pmu", "reference", "memory", "costs"})
+    if (host.doc.contains(key)) ordered[key] = host.doc.at(key);
+  for (const auto& [key, value] : host.doc.items())
+    if (!ordered.contains(key)) ordered[key] = value;
+  const std::string text = ordered.dump(2) + "\n";
+  schemas.validate(parse_json_text(text, "platform probe output"), SchemaKind::Platform,
+                   "platform probe output");
+  if (out.empty()) {
+    std::cout << text;
+  } else {
+    write_file_atomic(out, text);
+    std::cerr << "wrote " << out << "\n";
+  }
+  return 0;
+}
+
+}  // namespace rosguard

@@ -482,32 +482,13 @@ json to_json(const HostProbe& p) {
   return j;
 }
 
-json host_platform_document(const HostProbe& p, const std::optional<InstalledModel>& installed) {
-  if (!installed && !p.reference)
-    throw ContractError(
-        "host_platform_document: no installed host model and no measured reference bandwidth");
-  const std::string where = "probed on " + p.hostname + " at " + p.date;
-  json doc;
-  doc["name"] = "host";
-  doc["description"] = "This machine (" + p.hostname + ", " + p.cpu_model + ", " +
-                       std::to_string(p.usable_cpus.size()) + " usable CPUs), " + where +
-                       " by rosguard platform probe" +
-                       (installed ? "; reference, memory model and costs from the calibrated "
-                                    "model " +
-                                        installed->path
-                                  : "; no calibrated model installed, so no memory model or "
-                                    "costs (the sim backend cannot run it)") +
-                       (p.notes.empty() ? "" : ". Notes: " + [&] {
-                         std::string s;
-                         for (const auto& n : p.notes)
-                           s += (s.empty() ? "" : "; ") + n;
-                         return s;
-                       }());
+namespace {
 
-  // Scenario cores are Linux CPU numbers on the hw backend. The platform is exact when the
-  // usable CPUs are 0..n-1 in equal clusters numbered in order; otherwise one cluster spanning
-  // CPU 0 to the highest usable CPU, so that a scenario can name every usable CPU (the hw backend
-  // refuses the others by name).
+// Scenario cores are Linux CPU numbers on the hw backend. The platform is exact when the
+// usable CPUs are 0..n-1 in equal clusters numbered in order; otherwise one cluster spanning
+// CPU 0 to the highest usable CPU, so that a scenario can name every usable CPU (the hw backend
+// refuses the others by name).
+json cpu_section(const HostProbe& p, const std::string& where) {
   const int n = static_cast<int>(p.usable_cpus.size());
   bool exact = p.usable_cpus.back() == n - 1 && !p.clusters.empty() &&
                n % static_cast<int>(p.clusters.size()) == 0;
@@ -538,8 +519,11 @@ json host_platform_document(const HostProbe& p, const std::optional<InstalledMod
                    "CPUs outside " +
                    cpu_list_text(p.usable_cpus) + ")") +
       "; freq_mhz: " + p.freq_source;
-  doc["cpu"] = cpu;
+  return cpu;
+}
 
+// The caches of the first usable CPU.
+json caches_section(const HostProbe& p, const std::string& where) {
   json caches{{"line_bytes", p.line_bytes}, {"l2_kb", p.l2_kb}};
   if (p.l1i_kb > 0) caches["l1i_kb"] = p.l1i_kb;
   if (p.l1d_kb > 0) caches["l1d_kb"] = p.l1d_kb;
@@ -548,10 +532,12 @@ json host_platform_document(const HostProbe& p, const std::optional<InstalledMod
                      std::to_string(p.usable_cpus.front()) + ": L1d " + kb_text(p.l1d_kb) +
                      ", L2 " + kb_text(p.l2_kb) + ", L3 " + kb_text(p.l3_kb_per_cluster) +
                      " per cluster, " + std::to_string(p.line_bytes) + "-byte lines";
-  doc["caches"] = caches;
+  return caches;
+}
 
-  // The events a metric may name: the hardware events that open with perf_event_open, and the
-  // two the instrumented source counts for the built-in kernels on any host.
+// The events a metric may name: the hardware events that open with perf_event_open, and the
+// two the instrumented source counts for the built-in kernels on any host.
+json pmu_section(const HostProbe& p, const std::string& where) {
   std::vector<std::string> events, opened;
   for (const auto& e : p.hardware_events)
     if (e.opens) opened.push_back(e.name);
@@ -567,7 +553,7 @@ json host_platform_document(const HostProbe& p, const std::optional<InstalledMod
       failed = e.detail;
       break;
     }
-  doc["pmu"] = {
+  return {
       {"events", events},
       {"counter_bits", 64},
       {"source",
@@ -576,7 +562,12 @@ json host_platform_document(const HostProbe& p, const std::optional<InstalledMod
            "; l2d_cache_refill and l2d_cache_wb are also counted by the hw backend's instrumented "
            "source (cache lines touched by the built-in kernels); 64-bit counts (perf accumulates "
            "into 64 bits)"}};
+}
 
+// The reference bandwidth and what the probe cannot measure (memory model, costs, kernels): from
+// the installed model of this host, else the reference measured at probe time.
+void model_sections(const HostProbe& p, const std::optional<InstalledModel>& installed,
+                    const std::string& where, json& doc) {
   if (installed) {
     doc["reference"] = installed->doc.at("reference");
     doc["reference"]["source"] =
@@ -604,6 +595,36 @@ json host_platform_document(const HostProbe& p, const std::optional<InstalledMod
                        " MB/s); one short measurement, so it carries the host's noise at that "
                        "moment; rosguard calibrate --install measures it properly"}};
   }
+}
+
+}  // namespace
+
+json host_platform_document(const HostProbe& p, const std::optional<InstalledModel>& installed) {
+  if (!installed && !p.reference)
+    throw ContractError(
+        "host_platform_document: no installed host model and no measured reference bandwidth");
+  const std::string where = "probed on " + p.hostname + " at " + p.date;
+  json doc;
+  doc["name"] = "host";
+  doc["description"] = "This machine (" + p.hostname + ", " + p.cpu_model + ", " +
+                       std::to_string(p.usable_cpus.size()) + " usable CPUs), " + where +
+                       " by rosguard platform probe" +
+                       (installed ? "; reference, memory model and costs from the calibrated "
+                                    "model " +
+                                        installed->path
+                                  : "; no calibrated model installed, so no memory model or "
+                                    "costs (the sim backend cannot run it)") +
+                       (p.notes.empty() ? "" : ". Notes: " + [&] {
+                         std::string s;
+                         for (const auto& n : p.notes)
+                           s += (s.empty() ? "" : "; ") + n;
+                         return s;
+                       }());
+
+  doc["cpu"] = cpu_section(p, where);
+  doc["caches"] = caches_section(p, where);
+  doc["pmu"] = pmu_section(p, where);
+  model_sections(p, installed, where, doc);
   return doc;
 }
 

@@ -325,6 +325,16 @@ class Suite {
                                double co_kb, int n);
   void record(const Config& c, const Corunner* co, const std::vector<double>& ns, int rounds);
   void measure_costs();
+  void run_on(int core, int priority, const std::string& name, std::function<void()> body);
+  std::unique_ptr<dds::Participant> message_transport();
+  std::vector<double> timed_topic(
+      dds::Participant* dds_participant, int nrt_core, int sub_core, const std::string& pub_name,
+      const std::string& sub_name,
+      const std::function<void(Topic<SampleMsg>&, std::size_t)>& publish_one);
+  void message_costs(CounterGroup& group, const MetricPlan& plan, int nrt_core, int far_core,
+                     dds::Participant* dds_participant);
+  std::vector<double> throttle_activations(int nrt_core, int far_core);
+  std::vector<double> external_reads(CounterGroup& group, std::size_t group_size, int far_core);
   std::vector<double> controller_callbacks(const MetricPlan& plan, int feed_core, int ctl_core);
   std::vector<double> timer_wakeups(int core, int count);
   void paced(const std::function<void(int)>& sample, int count);
@@ -505,6 +515,223 @@ void Suite::paced(const std::function<void(int)>& sample, int count) {
   }
 }
 
+void Suite::run_on(int core, int priority, const std::string& name, std::function<void()> body) {
+  RtThread t(ThreadSpec{name, core, SchedClass::Fifo, priority}, std::move(body));
+  notes_.sched(t.outcome());
+  t.join();
+  rethrow_if_failed(t);
+}
+
+// The participant the message costs publish through: none for inproc topics, one of Cyclone DDS
+// for dds (hw.transport dds).
+std::unique_ptr<dds::Participant> Suite::message_transport() {
+  std::unique_ptr<dds::Participant> dds_participant;
+  if (opt_.transport == "dds") {
+    dds_participant = std::make_unique<dds::Participant>();
+    notes_.add(
+        "message costs (publish, message_latency, local_message_latency) over Cyclone DDS "
+        "(hw.transport dds), domain " +
+        std::to_string(dds_participant->domain_id()));
+  } else if (opt_.transport != "inproc") {
+    throw RunError("calibration suite: unknown transport '" + opt_.transport + "'");
+  }
+  return dds_participant;
+}
+
+// Paced messages published from the nRT core (`publish_one`, at the PMC thread's priority) on a
+// topic (over `dds_participant` if any, else in-process) whose one subscriber (the controller's
+// priority, threads named `pub_name` and `sub_name`) sleeps on `sub_core`: each message's publish
+// -> subscriber awake, in us. The subscriber's core is busy meanwhile, as under regulation (an RT
+// job or an nRT node runs on the controller's core): on the nRT core the NCT streams; on another
+// core a spinner does, under SCHED_OTHER so that middleware threads (Cyclone's) still get that
+// core. An idle destination measures something else: waking a halted CPU (under KVM, a vCPU the
+// host descheduled), tens of us slower (25.4 against 9.4 us median on the development VM,
+// 2026-11-26).
+std::vector<double> Suite::timed_topic(
+    dds::Participant* dds_participant, int nrt_core, int sub_core, const std::string& pub_name,
+    const std::string& sub_name,
+    const std::function<void(Topic<SampleMsg>&, std::size_t)>& publish_one) {
+  const int n = shape_.cost_samples;
+  std::atomic<bool> spin_done{false};
+  std::optional<RtThread> spinner;
+  if (sub_core != nrt_core) {
+    spinner.emplace(ThreadSpec{"cal-busy", sub_core, SchedClass::Other, 0}, [&] {
+      while (!spin_done.load(std::memory_order_relaxed)) {
+      }
+    });
+    notes_.sched(spinner->outcome());
+  }
+  struct StopSpinner {
+    std::atomic<bool>& done;
+    std::optional<RtThread>& thread;
+    ~StopSpinner() {
+      done.store(true, std::memory_order_relaxed);
+      if (thread) thread->join();
+    }
+  } stop_spinner{spin_done, spinner};
+  std::unique_ptr<Topic<SampleMsg>> owned;
+  if (dds_participant)
+    owned = std::make_unique<DdsTopic<SampleMsg>>(
+        *dds_participant, "/rosguard_calibrate_" + std::to_string(::getpid()),
+        std::vector<DdsSlot>{{"cal", 0}});
+  else
+    owned = std::make_unique<InprocTopic<SampleMsg>>();
+  Topic<SampleMsg>& topic = *owned;
+  Waker sub_waker;
+  const std::size_t pub = topic.add_publisher();
+  const std::size_t sub = topic.subscribe(sub_waker);
+  std::vector<double> latency;
+  latency.reserve(static_cast<std::size_t>(n));
+  std::atomic<bool> done{false};
+  RtThread subscriber(ThreadSpec{sub_name, sub_core, SchedClass::Fifo, prio::kController}, [&] {
+    while (!done.load(std::memory_order_acquire)) {
+      const auto e = sub_waker.epoch();
+      if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
+      SampleMsg m;
+      bool got = false;
+      while (topic.take(sub, m)) {
+        latency.push_back(ns_to_us(now_ns() - m.t_published));
+        got = true;
+      }
+      if (!got) sub_waker.wait(e, -1);
+    }
+  });
+  notes_.sched(subscriber.outcome());
+  run_on(nrt_core, prio::kPmc, pub_name, [&] { paced([&](int) { publish_one(topic, pub); }, n); });
+  done.store(true, std::memory_order_release);
+  sub_waker.notify();
+  subscriber.join();
+  rethrow_if_failed(subscriber);
+  return latency;
+}
+
+// pmc_callback (the group read into a sample), publish (on the samples topic, subscriber asleep
+// on another core) and message_latency (publish -> the subscriber awake); then
+// local_message_latency: the same publish -> subscriber awake, with both on one core (the
+// controller sharing the nRT core, as it must on 2 CPUs): the subscriber (the controller's
+// priority) preempts the publisher (the PMC thread's) at once, no inter-processor wake-up.
+void Suite::message_costs(CounterGroup& group, const MetricPlan& plan, int nrt_core, int far_core,
+                          dds::Participant* dds_participant) {
+  const int n = shape_.cost_samples;
+  auto& costs = m_.costs_us;
+  if (!stopping()) {
+    step("costs: pmc_callback, publish, message_latency");
+    const std::size_t group_size = plan.group_events.size();
+    std::vector<double> cb, publish;
+    cb.reserve(static_cast<std::size_t>(n));
+    publish.reserve(static_cast<std::size_t>(n));
+    costs["message_latency"] =
+        timed_topic(dds_participant, nrt_core, far_core, "cal-pmc", "cal-sub",
+                    [&](Topic<SampleMsg>& topic, std::size_t pub) {
+                      SampleMsg msg;
+                      msg.count = static_cast<std::uint8_t>(plan.metric_events);
+                      const TimeNs t0 = now_ns();
+                      group.read(std::span(msg.counters.data(), group_size));
+                      const TimeNs t1 = now_ns();
+                      msg.t_published = t1;
+                      topic.publish(pub, msg);
+                      const TimeNs t2 = now_ns();
+                      cb.push_back(ns_to_us(t1 - t0));
+                      publish.push_back(ns_to_us(t2 - t1));
+                    });
+    costs["pmc_callback"] = std::move(cb);
+    costs["publish"] = std::move(publish);
+  }
+  if (!stopping()) {
+    step("costs: local_message_latency");
+    costs["local_message_latency"] =
+        timed_topic(dds_participant, nrt_core, nrt_core, "cal-lpub", "cal-lsub",
+                    [](Topic<SampleMsg>& topic, std::size_t pub) {
+                      SampleMsg msg;
+                      msg.t_published = now_ns();
+                      topic.publish(pub, msg);
+                    });
+  }
+}
+
+// throttle_activation: a command on the control topic wakes CFB, which wakes the waiting THR
+// (the zero-time timer) on the same core, where the NCT streams; from CFB taking the command to
+// THR entered (CFB > THR > NCT, as in an nRT node). The commands come from `far_core`.
+std::vector<double> Suite::throttle_activations(int nrt_core, int far_core) {
+  const int n = shape_.cost_samples;
+  InprocTopic<ControlMsg> control;
+  Waker cfb_waker, thr_waker;
+  const std::size_t pub = control.add_publisher();
+  const std::size_t sub = control.subscribe(cfb_waker);
+  std::atomic<bool> done{false}, throttled{false};
+  std::atomic<TimeNs> t_taken{0};
+  std::vector<double> act;
+  act.reserve(static_cast<std::size_t>(n));
+  RtThread thr(ThreadSpec{"cal-thr", nrt_core, SchedClass::Fifo, prio::kThr}, [&] {
+    while (!done.load(std::memory_order_acquire)) {
+      const auto e = thr_waker.epoch();
+      if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
+      if (throttled.exchange(false, std::memory_order_acq_rel))
+        act.push_back(ns_to_us(now_ns() - t_taken.load(std::memory_order_acquire)));
+      else
+        thr_waker.wait(e, -1);
+    }
+  });
+  notes_.sched(thr.outcome());
+  RtThread cfb(ThreadSpec{"cal-cfb", nrt_core, SchedClass::Fifo, prio::kCfb}, [&] {
+    while (!done.load(std::memory_order_acquire)) {
+      const auto e = cfb_waker.epoch();
+      if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
+      ControlMsg m;
+      bool got = false;
+      while (control.take(sub, m)) {
+        got = true;
+        // A command while THR has not entered yet for the previous one: that activation is
+        // still running (and will be recorded with its full delay), so this one is not timed.
+        if (throttled.load(std::memory_order_acquire)) continue;
+        t_taken.store(now_ns(), std::memory_order_release);
+        throttled.store(true, std::memory_order_release);
+        thr_waker.notify();
+      }
+      if (!got) cfb_waker.wait(e, -1);
+    }
+  });
+  notes_.sched(cfb.outcome());
+  run_on(far_core, prio::kController, "cal-ctl", [&] {
+    paced(
+        [&](int) {
+          ControlMsg m;
+          m.command = Command::Thr;
+          m.t_cause = now_ns();
+          control.publish(pub, m);
+        },
+        n);
+  });
+  sleep_until(now_ns() + 10 * kNsPerMs);  // the last activation
+  done.store(true, std::memory_order_release);
+  cfb_waker.notify();
+  thr_waker.notify();
+  cfb.join();
+  thr.join();
+  rethrow_if_failed(cfb);
+  rethrow_if_failed(thr);
+  return act;
+}
+
+// external_read: the controller's core reads the NCT's counters.
+std::vector<double> Suite::external_reads(CounterGroup& group, std::size_t group_size,
+                                          int far_core) {
+  const int n = shape_.cost_samples;
+  std::vector<double> reads;
+  reads.reserve(static_cast<std::size_t>(n));
+  std::array<CounterValue, kMaxGroupEvents> v{};
+  run_on(far_core, prio::kController, "cal-ext", [&] {
+    paced(
+        [&](int) {
+          const TimeNs t0 = now_ns();
+          group.read(std::span(v.data(), group_size));
+          reads.push_back(ns_to_us(now_ns() - t0));
+        },
+        n);
+  });
+  return reads;
+}
+
 // Middleware / OS costs, each on the hw backend's own pieces, with a bandwidth_read NCT streaming
 // on the nRT core (cores[0]) as in a run; the far end (controller) on cores[1].
 void Suite::measure_costs() {
@@ -535,211 +762,16 @@ void Suite::measure_costs() {
   target.pid = nct.tid();
   target.work = &nct.counters();
   auto group = source->open(plan.group_events, target);
-  const std::size_t group_size = plan.group_events.size();
+  const std::unique_ptr<dds::Participant> dds_participant = message_transport();
 
-  const auto run_on = [&](int core, int priority, const std::string& name,
-                          std::function<void()> body) {
-    RtThread t(ThreadSpec{name, core, SchedClass::Fifo, priority}, std::move(body));
-    notes_.sched(t.outcome());
-    t.join();
-    rethrow_if_failed(t);
-  };
-
-  std::unique_ptr<dds::Participant> dds_participant;
-  if (opt_.transport == "dds") {
-    dds_participant = std::make_unique<dds::Participant>();
-    notes_.add(
-        "message costs (publish, message_latency, local_message_latency) over Cyclone DDS "
-        "(hw.transport dds), domain " +
-        std::to_string(dds_participant->domain_id()));
-  } else if (opt_.transport != "inproc") {
-    throw RunError("calibration suite: unknown transport '" + opt_.transport + "'");
-  }
-
-  // Paced messages published from the nRT core (`publish_one`, at the PMC thread's priority) on a
-  // topic whose one subscriber (the controller's priority, threads named `pub_name` and
-  // `sub_name`) sleeps on `sub_core`: each message's publish -> subscriber awake, in us. The
-  // subscriber's core is busy meanwhile, as under regulation (an RT job or an nRT node runs on the
-  // controller's core): on the nRT core the NCT streams; on another core a spinner does, under
-  // SCHED_OTHER so that middleware threads (Cyclone's) still get that core. An idle destination
-  // measures something else: waking a halted CPU (under KVM, a vCPU the host descheduled), tens
-  // of us slower (25.4 against 9.4 us median on the development VM, 2026-11-26).
-  const auto timed_topic =
-      [&](int sub_core, const std::string& pub_name, const std::string& sub_name,
-          const std::function<void(Topic<SampleMsg>&, std::size_t)>& publish_one) {
-        std::atomic<bool> spin_done{false};
-        std::optional<RtThread> spinner;
-        if (sub_core != nrt_core) {
-          spinner.emplace(ThreadSpec{"cal-busy", sub_core, SchedClass::Other, 0}, [&] {
-            while (!spin_done.load(std::memory_order_relaxed)) {
-            }
-          });
-          notes_.sched(spinner->outcome());
-        }
-        struct StopSpinner {
-          std::atomic<bool>& done;
-          std::optional<RtThread>& thread;
-          ~StopSpinner() {
-            done.store(true, std::memory_order_relaxed);
-            if (thread) thread->join();
-          }
-        } stop_spinner{spin_done, spinner};
-        std::unique_ptr<Topic<SampleMsg>> owned;
-        if (dds_participant)
-          owned = std::make_unique<DdsTopic<SampleMsg>>(
-              *dds_participant, "/rosguard_calibrate_" + std::to_string(::getpid()),
-              std::vector<DdsSlot>{{"cal", 0}});
-        else
-          owned = std::make_unique<InprocTopic<SampleMsg>>();
-        Topic<SampleMsg>& topic = *owned;
-        Waker sub_waker;
-        const std::size_t pub = topic.add_publisher();
-        const std::size_t sub = topic.subscribe(sub_waker);
-        std::vector<double> latency;
-        latency.reserve(static_cast<std::size_t>(n));
-        std::atomic<bool> done{false};
-        RtThread subscriber(ThreadSpec{sub_name, sub_core, SchedClass::Fifo, prio::kController},
-                            [&] {
-                              while (!done.load(std::memory_order_acquire)) {
-                                const auto e = sub_waker.epoch();
-                                if (done.load(std::memory_order_acquire))
-                                  break;  // a stop notified before the epoch read
-                                SampleMsg m;
-                                bool got = false;
-                                while (topic.take(sub, m)) {
-                                  latency.push_back(ns_to_us(now_ns() - m.t_published));
-                                  got = true;
-                                }
-                                if (!got) sub_waker.wait(e, -1);
-                              }
-                            });
-        notes_.sched(subscriber.outcome());
-        run_on(nrt_core, prio::kPmc, pub_name,
-               [&] { paced([&](int) { publish_one(topic, pub); }, n); });
-        done.store(true, std::memory_order_release);
-        sub_waker.notify();
-        subscriber.join();
-        rethrow_if_failed(subscriber);
-        return latency;
-      };
-
-  // pmc_callback (the group read into a sample), publish (on the samples topic, subscriber
-  // asleep on another core) and message_latency (publish -> the subscriber awake).
-  if (!stopping()) {
-    step("costs: pmc_callback, publish, message_latency");
-    std::vector<double> cb, publish;
-    cb.reserve(static_cast<std::size_t>(n));
-    publish.reserve(static_cast<std::size_t>(n));
-    costs["message_latency"] =
-        timed_topic(far_core, "cal-pmc", "cal-sub", [&](Topic<SampleMsg>& topic, std::size_t pub) {
-          SampleMsg msg;
-          msg.count = static_cast<std::uint8_t>(plan.metric_events);
-          const TimeNs t0 = now_ns();
-          group->read(std::span(msg.counters.data(), group_size));
-          const TimeNs t1 = now_ns();
-          msg.t_published = t1;
-          topic.publish(pub, msg);
-          const TimeNs t2 = now_ns();
-          cb.push_back(ns_to_us(t1 - t0));
-          publish.push_back(ns_to_us(t2 - t1));
-        });
-    costs["pmc_callback"] = std::move(cb);
-    costs["publish"] = std::move(publish);
-  }
-
-  // local_message_latency: the same publish -> subscriber awake, with both on one core (the
-  // controller sharing the nRT core, as it must on 2 CPUs): the subscriber (the controller's
-  // priority) preempts the publisher (the PMC thread's) at once, no inter-processor wake-up.
-  if (!stopping()) {
-    step("costs: local_message_latency");
-    costs["local_message_latency"] =
-        timed_topic(nrt_core, "cal-lpub", "cal-lsub", [](Topic<SampleMsg>& topic, std::size_t pub) {
-          SampleMsg msg;
-          msg.t_published = now_ns();
-          topic.publish(pub, msg);
-        });
-  }
-
-  // throttle_activation: a command on the control topic wakes CFB, which wakes the waiting THR
-  // (the zero-time timer) on the same core, where the NCT streams; from CFB taking the command to
-  // THR entered (CFB > THR > NCT, as in an nRT node).
+  message_costs(*group, plan, nrt_core, far_core, dds_participant.get());
   if (!stopping()) {
     step("costs: throttle_activation");
-    InprocTopic<ControlMsg> control;
-    Waker cfb_waker, thr_waker;
-    const std::size_t pub = control.add_publisher();
-    const std::size_t sub = control.subscribe(cfb_waker);
-    std::atomic<bool> done{false}, throttled{false};
-    std::atomic<TimeNs> t_taken{0};
-    std::vector<double> act;
-    act.reserve(static_cast<std::size_t>(n));
-    RtThread thr(ThreadSpec{"cal-thr", nrt_core, SchedClass::Fifo, prio::kThr}, [&] {
-      while (!done.load(std::memory_order_acquire)) {
-        const auto e = thr_waker.epoch();
-        if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
-        if (throttled.exchange(false, std::memory_order_acq_rel))
-          act.push_back(ns_to_us(now_ns() - t_taken.load(std::memory_order_acquire)));
-        else
-          thr_waker.wait(e, -1);
-      }
-    });
-    notes_.sched(thr.outcome());
-    RtThread cfb(ThreadSpec{"cal-cfb", nrt_core, SchedClass::Fifo, prio::kCfb}, [&] {
-      while (!done.load(std::memory_order_acquire)) {
-        const auto e = cfb_waker.epoch();
-        if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
-        ControlMsg m;
-        bool got = false;
-        while (control.take(sub, m)) {
-          got = true;
-          // A command while THR has not entered yet for the previous one: that activation is
-          // still running (and will be recorded with its full delay), so this one is not timed.
-          if (throttled.load(std::memory_order_acquire)) continue;
-          t_taken.store(now_ns(), std::memory_order_release);
-          throttled.store(true, std::memory_order_release);
-          thr_waker.notify();
-        }
-        if (!got) cfb_waker.wait(e, -1);
-      }
-    });
-    notes_.sched(cfb.outcome());
-    run_on(far_core, prio::kController, "cal-ctl", [&] {
-      paced(
-          [&](int) {
-            ControlMsg m;
-            m.command = Command::Thr;
-            m.t_cause = now_ns();
-            control.publish(pub, m);
-          },
-          n);
-    });
-    sleep_until(now_ns() + 10 * kNsPerMs);  // the last activation
-    done.store(true, std::memory_order_release);
-    cfb_waker.notify();
-    thr_waker.notify();
-    cfb.join();
-    thr.join();
-    rethrow_if_failed(cfb);
-    rethrow_if_failed(thr);
-    costs["throttle_activation"] = std::move(act);
+    costs["throttle_activation"] = throttle_activations(nrt_core, far_core);
   }
-
-  // external_read: the controller's core reads the NCT's counters.
   if (!stopping()) {
     step("costs: external_read");
-    std::vector<double> reads;
-    reads.reserve(static_cast<std::size_t>(n));
-    std::array<CounterValue, kMaxGroupEvents> v{};
-    run_on(far_core, prio::kController, "cal-ext", [&] {
-      paced(
-          [&](int) {
-            const TimeNs t0 = now_ns();
-            group->read(std::span(v.data(), group_size));
-            reads.push_back(ns_to_us(now_ns() - t0));
-          },
-          n);
-    });
-    costs["external_read"] = std::move(reads);
+    costs["external_read"] = external_reads(*group, plan.group_events.size(), far_core);
   }
 
   // timer_wakeup: the core time of a thread woken by its own timer on a busy core (the timer
@@ -797,6 +829,133 @@ std::vector<double> Suite::timer_wakeups(int core, int count) {
 // commands it produces, back to sleep. Synthetic counters, 1 ms apart in engine time, that use
 // the budget of a 5 ms interval window in about 2.5 samples, so THR / REPLENISH commands flow.
 //
+// The controller engine as controller_callbacks() drives it: the interval policy regulating one RT
+// job's account over the planned metric, fed self-sampled counters that cross its budget in a few
+// samples; its commands are published on an in-process control topic and drained at once (nobody
+// sleeps on them). Its time is synthetic, so the regulation logic is the same on every host.
+class CallbackController {
+ public:
+  explicit CallbackController(const MetricPlan& plan)
+      : rc_(regulator_config(plan)),
+        per_sample_(lines_per_sample(rc_)),
+        driver_(driver_config(), std::make_unique<Regulator>(rc_, interval_policy()), &meter_),
+        pub_(control_.add_publisher()),
+        sub_(control_.subscribe(nrt_waker_)),
+        counters_(rc_.metric.events.size()) {}
+
+  // The RT job active: regulation on.
+  void start() {
+    driver_.rt_signal(t_, 0, true, out_);
+    drain();
+  }
+
+  // One sample 1 ms after the last: the engine's step (the sample, a wake-up due, or now and then
+  // an activation edge), its commands published and drained.
+  void on_sample() {
+    t_ += kNsPerMs;
+    for (auto& c : counters_) {
+      c.value += per_sample_;
+      c.time_enabled_ns += kNsPerMs;
+      c.time_running_ns += kNsPerMs;
+    }
+    meter_.bytes += static_cast<double>(per_sample_) * kLineBytes;
+    if (i_++ % 200 == 199) {  // an activation edge now and then
+      driver_.rt_signal(t_, 0, false, out_);
+      driver_.rt_signal(t_, 0, true, out_);
+    } else if (auto due = driver_.next_wakeup(); due && *due <= t_) {
+      driver_.wake(t_, out_);
+    } else {
+      driver_.sample(t_, 0, counters_, t_, out_);
+    }
+    for (const auto& c : out_.commands) {
+      ControlMsg m;
+      m.command = c.command;
+      m.t_cause = c.cause;
+      control_.publish(pub_, m);
+    }
+    drain();
+  }
+
+ private:
+  struct Meter : EntityMeter {
+    double bytes = 0.0;
+    EntityReading read(std::size_t, TimeNs) override { return {bytes, 0.0, 0.0}; }
+  };
+
+  static PolicyParams policy_params() {
+    PolicyParams params;
+    params.threshold_pct = 20.0;
+    params.reference_mbps = kReferenceMbps;
+    params.regulation_period_ns = 5 * kNsPerMs;
+    return params;
+  }
+  static RegulatorConfig regulator_config(const MetricPlan& plan) {
+    RegulatorConfig rc;
+    rc.rt_count = 1;
+    rc.account_of_entity = {0};
+    rc.metric = plan.spec;
+    return rc;
+  }
+  // Lines per sample: the budget of a regulation period crossed in 2.5 samples.
+  static std::uint64_t lines_per_sample(const RegulatorConfig& rc) {
+    const PolicyParams params = policy_params();
+    const double budget = params.threshold_pct / 100.0 * params.reference_mbps * kBytesPerMb *
+                          (static_cast<double>(params.regulation_period_ns) / 1e9);
+    double weights = 0.0;
+    for (const auto& e : rc.metric.events)
+      weights += e.weight;
+    return static_cast<std::uint64_t>(budget / 2.5 /
+                                      (weights * static_cast<double>(rc.metric.line_bytes)));
+  }
+  static ControllerDriverConfig driver_config() {
+    ControllerDriverConfig dc;
+    dc.sampling = Sampling::Self;
+    dc.sampling_period_ns = kNsPerMs;
+    return dc;
+  }
+  std::unique_ptr<Policy> interval_policy() {
+    register_builtin(policies_);
+    return policies_.make("interval", policy_params());
+  }
+  void drain() {
+    ControlMsg m;
+    while (control_.take(sub_, m)) {
+    }
+    out_.clear();
+  }
+
+  PolicyRegistry policies_;
+  RegulatorConfig rc_;
+  std::uint64_t per_sample_;
+  Meter meter_;
+  ControllerDriver driver_;
+  InprocTopic<ControlMsg> control_;
+  Waker nrt_waker_;  // nobody sleeps on it: the controller drains the ring itself
+  std::size_t pub_, sub_;
+  std::vector<CounterValue> counters_;
+  DriverOutput out_;
+  TimeNs t_ = kNsPerS;
+  int i_ = 0;
+};
+
+// Each wake-up's cost when the controller shares the feed's core: to the first publish return
+// after it (the publish it preempted), if within 1 ms; `unmatched` counts the others.
+std::vector<double> until_returned(const std::vector<TimeNs>& woke,
+                                   const std::vector<TimeNs>& returned, std::size_t& unmatched) {
+  std::vector<double> cb;
+  cb.reserve(woke.size());
+  std::size_t r = 0;
+  for (const TimeNs w : woke) {
+    while (r < returned.size() && returned[r] < w)
+      ++r;
+    if (r < returned.size() && returned[r] - w <= kNsPerMs)
+      cb.push_back(ns_to_us(returned[r] - w));
+    else
+      ++unmatched;
+  }
+  return cb;
+}
+
 // From another core (controller_callback): a spinner on the controller's core (an RT job's
 // priority, below the controller's) sees the whole cost as a gap in its own progress: switch in,
 // the engine step, publishing the commands, switch out. That gap is what the sim charges per
@@ -809,41 +968,7 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
                                                 int ctl_core) {
   const bool local = feed_core == ctl_core;
   const int n = shape_.cost_samples;
-  PolicyRegistry policies;
-  register_builtin(policies);
-  PolicyParams params;
-  params.threshold_pct = 20.0;
-  params.reference_mbps = kReferenceMbps;
-  params.regulation_period_ns = 5 * kNsPerMs;
-  RegulatorConfig rc;
-  rc.rt_count = 1;
-  rc.account_of_entity = {0};
-  rc.metric = plan.spec;
-  const double budget = params.threshold_pct / 100.0 * params.reference_mbps * kBytesPerMb *
-                        (static_cast<double>(params.regulation_period_ns) / 1e9);
-  double weights = 0.0;
-  for (const auto& e : rc.metric.events)
-    weights += e.weight;
-  const auto per_sample = static_cast<std::uint64_t>(
-      budget / 2.5 / (weights * static_cast<double>(rc.metric.line_bytes)));
-
-  struct Meter : EntityMeter {
-    double bytes = 0.0;
-    EntityReading read(std::size_t, TimeNs) override { return {bytes, 0.0, 0.0}; }
-  } meter;
-  ControllerDriverConfig dc;
-  dc.sampling = Sampling::Self;
-  dc.sampling_period_ns = kNsPerMs;
-  ControllerDriver driver(dc, std::make_unique<Regulator>(rc, policies.make("interval", params)),
-                          &meter);
-  InprocTopic<ControlMsg> control;
-  Waker nrt_waker;  // nobody sleeps on it: the controller drains the ring itself
-  const std::size_t pub = control.add_publisher();
-  const std::size_t sub = control.subscribe(nrt_waker);
-  std::vector<CounterValue> counters(rc.metric.events.size());
-  DriverOutput out;
-  TimeNs t = kNsPerS;  // the engine's time: synthetic, so the regulation logic is the same
-                       // on every host
+  CallbackController engine(plan);
 
   InprocTopic<SampleMsg> samples;
   Waker ctl_waker;
@@ -857,23 +982,7 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
   std::optional<GapSpinner> spinner;
   if (!local) spinner.emplace("cal-spin", ctl_core, static_cast<std::size_t>(n) * 8, notes_);
   RtThread controller(ThreadSpec{"cal-ctl", ctl_core, SchedClass::Fifo, prio::kController}, [&] {
-    const auto send = [&] {
-      for (const auto& c : out.commands) {
-        ControlMsg m;
-        m.command = c.command;
-        m.t_cause = c.cause;
-        control.publish(pub, m);
-      }
-    };
-    const auto drain = [&] {
-      ControlMsg m;
-      while (control.take(sub, m)) {
-      }
-      out.clear();
-    };
-    driver.rt_signal(t, 0, true, out);
-    drain();
-    int i = 0;
+    engine.start();
     while (!done.load(std::memory_order_acquire)) {
       const auto e = ctl_waker.epoch();
       if (done.load(std::memory_order_acquire)) break;  // a stop notified before the epoch read
@@ -882,23 +991,7 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
       while (samples.take(sample_sub, msg)) {
         if (!got) woke.push_back(now_ns());
         got = true;
-        t += kNsPerMs;
-        for (auto& c : counters) {
-          c.value += per_sample;
-          c.time_enabled_ns += kNsPerMs;
-          c.time_running_ns += kNsPerMs;
-        }
-        meter.bytes += static_cast<double>(per_sample) * kLineBytes;
-        if (i++ % 200 == 199) {  // an activation edge now and then
-          driver.rt_signal(t, 0, false, out);
-          driver.rt_signal(t, 0, true, out);
-        } else if (auto due = driver.next_wakeup(); due && *due <= t) {
-          driver.wake(t, out);
-        } else {
-          driver.sample(t, 0, counters, t, out);
-        }
-        send();
-        drain();
+        engine.on_sample();
       }
       if (!got) ctl_waker.wait(e, -1);
     }
@@ -925,24 +1018,11 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
   if (spinner) spinner->stop();
   rethrow_if_failed(controller);
 
-  std::vector<double> cb;
-  cb.reserve(woke.size());
   std::size_t unmatched = 0;
-  if (local) {
-    // Each wake-up's cost: to the first publish return after it (the publish it preempted).
-    std::size_t r = 0;
-    for (const TimeNs w : woke) {
-      while (r < returned.size() && returned[r] < w)
-        ++r;
-      if (r < returned.size() && returned[r] - w <= kNsPerMs)
-        cb.push_back(ns_to_us(returned[r] - w));
-      else
-        ++unmatched;
-    }
-  } else {
-    // Each wake-up's cost: the spinner's gap around it.
-    cb = spinner->gaps_at(woke, 20 * kNsPerUs, unmatched);
-  }
+  // Each wake-up's cost: local, to the feed's publish return after it; else the spinner's gap
+  // around it.
+  std::vector<double> cb = local ? until_returned(woke, returned, unmatched)
+                                 : spinner->gaps_at(woke, 20 * kNsPerUs, unmatched);
   if (unmatched)
     notes_.add(std::string(local ? "controller_callback_local: " : "controller_callback: ") +
                std::to_string(unmatched) + " of " + std::to_string(woke.size()) +

@@ -56,6 +56,36 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
       log_(log),
       activity_(s_.rt.size(), s_.max_active_ns) {
   // What a killed guard of this name left behind is undone before anything else happens.
+  const std::string record = repair_after_crash();
+  check_cores();
+  choose_source();
+  ThrottleNeeds needs;
+  needs.mode = s_.throttle;
+  needs.scenario_sched = SchedClass::Fifo;
+  needs.commands_only = true;  // processes: the freezer can hold them
+  needs.core = s_.nrt.front().core;
+  throttle_ = choose_throttle(needs);
+
+  auto errors = std::make_shared<ErrorSink>();
+  const RtThread::ErrorHandler on_error = [errors, this](const std::string& thread,
+                                                         std::exception_ptr e) {
+    const std::string what = exception_text(e);
+    std::lock_guard lock(errors->mutex);
+    errors->errors.push_back(thread + ": " + what);
+    notes_waker_.notify();
+  };
+
+  wire(on_error, record);
+  last_sample_t_.assign(s_.nrt.size(), 0);
+  sample_count_.assign(s_.nrt.size(), 0);
+  shown_state_.assign(s_.nrt.size(), NodeState::Off);
+  stats_.last_budget_bytes.assign(s_.nrt.size(), 0.0);
+  error_sink_ = errors;
+}
+
+// The crash record of this guard's name (empty without a state_dir): what a guard of that name
+// left changed when it was killed is repaired first.
+std::string Guard::repair_after_crash() {
   std::string record;
   if (!s_.state_dir.empty()) {
     std::error_code ec;
@@ -71,6 +101,11 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
         start_log_.push_back("repaired after a guard that did not stop cleanly: " + line);
     }
   }
+  return record;
+}
+
+// Every nRT core, and the controller's, must be usable here.
+void Guard::check_cores() const {
   const auto cpus = usable_cpus();
   for (std::size_t i = 0; i < s_.nrt.size(); ++i)
     if (std::find(cpus.begin(), cpus.end(), s_.nrt[i].core) == cpus.end())
@@ -80,8 +115,11 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
       std::find(cpus.begin(), cpus.end(), s_.controller_core) == cpus.end())
     throw InputError(s_.file, "/controller/core",
                      "core " + std::to_string(s_.controller_core) + " is not usable on this host");
+}
 
-  // How the cores are measured.
+// How the cores are measured: the hardware PMU's L2 refills and write-backs where perf provides
+// them (pmc_source perf, or auto), else the CPU time of the processes on each core (cputime).
+void Guard::choose_source() {
   perf_ = make_perf_source();
   const auto perf_why = perf_->unavailable_reason();
   const bool perf_ok =
@@ -112,23 +150,11 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
     metric_.counter_bits = 64;
     group_events_ = {"cpu_time"};
   }
+}
 
-  ThrottleNeeds needs;
-  needs.mode = s_.throttle;
-  needs.scenario_sched = SchedClass::Fifo;
-  needs.commands_only = true;  // processes: the freezer can hold them
-  needs.core = s_.nrt.front().core;
-  throttle_ = choose_throttle(needs);
-
-  auto errors = std::make_shared<ErrorSink>();
-  const RtThread::ErrorHandler on_error = [errors, this](const std::string& thread,
-                                                         std::exception_ptr e) {
-    const std::string what = exception_text(e);
-    std::lock_guard lock(errors->mutex);
-    errors->errors.push_back(thread + ": " + what);
-    notes_waker_.notify();
-  };
-
+// One nRT runner per core, measured by its own counter group, and the controller over them
+// (external sampling); the core tasks that the throttle holds, recorded in `record`.
+void Guard::wire(const RtThread::ErrorHandler& on_error, const std::string& record) {
   rt_pub_ = rt_topic_.add_publisher();
   std::vector<Topic<ControlMsg>*> control_ptrs;
   std::vector<CounterGroup*> groups;
@@ -191,11 +217,6 @@ Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySou
                                              engine_waker_, on_error, now_ns());
   controller_->set_groups(groups);
   tasks_ = std::make_unique<CoreTasks>(throttle_.kind, task_cores, record);
-  last_sample_t_.assign(s_.nrt.size(), 0);
-  sample_count_.assign(s_.nrt.size(), 0);
-  shown_state_.assign(s_.nrt.size(), NodeState::Off);
-  stats_.last_budget_bytes.assign(s_.nrt.size(), 0.0);
-  error_sink_ = errors;
 }
 
 Guard::~Guard() {

@@ -205,6 +205,10 @@ class Guard {
   void expire_activity();                     // main thread
   void release(const ActivityStates::Release& r, TimeNs now, const std::string& why);
   std::unique_ptr<Policy> make_policy(const GuardSettings& s) const;
+  std::string repair_after_crash();
+  void check_cores() const;
+  void choose_source();
+  void wire(const RtThread::ErrorHandler& on_error, const std::string& record);
   void drain();
   void rescan();
   struct ErrorSink;

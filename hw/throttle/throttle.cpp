@@ -299,6 +299,44 @@ ThrottleSched throttle_sched(ThrottleKind kind, SchedClass scenario_sched) {
   return {scenario_sched, scenario_sched};
 }
 
+namespace {
+
+// What the off / on cycles of measure_hold add up to.
+struct HoldTotals {
+  std::uint64_t thr_count = 0, nom_count = 0;  // worker iterations held, unthrottled
+  TimeNs thr_ns = 0;                           // time held (from the throttle taking the core)
+  TimeNs nom_ns = 0;                           // time unthrottled
+  TimeNs nom_cpu = 0;                          // the worker's CPU time unthrottled
+  TimeNs delay_ns = 0;                         // command to the throttle taking the core, summed
+  int engaged = 0;                             // windows where the throttle took the core
+};
+
+// The measurement's rates and hold fraction from the totals; the fraction NaN, with the reason in
+// detail, when the worker made no progress unthrottled or the throttle never took the core.
+void summarize(const HoldTotals& t, HoldMeasurement& m) {
+  m.nominal_us = ns_to_us(t.nom_ns);
+  m.throttled_us = ns_to_us(t.thr_ns);
+  m.windows = t.engaged;
+  m.activation_us = t.engaged > 0 ? ns_to_us(t.delay_ns) / t.engaged : 0.0;
+  m.nominal_cpu_share =
+      t.nom_ns > 0 ? static_cast<double>(t.nom_cpu) / static_cast<double>(t.nom_ns) : 0;
+  m.nominal_per_us = t.nom_ns > 0 ? static_cast<double>(t.nom_count) / ns_to_us(t.nom_ns) : 0.0;
+  const double thr_rate =
+      t.thr_ns > 0 ? static_cast<double>(t.thr_count) / ns_to_us(t.thr_ns) : 0.0;
+  if (m.nominal_per_us <= 0.0 || t.engaged == 0) {
+    m.hold_fraction = std::numeric_limits<double>::quiet_NaN();
+    m.detail += std::string(m.detail.empty() ? "" : "; ") +
+                (m.nominal_per_us <= 0.0
+                     ? "not measured: the worker made no progress unthrottled (the core is held "
+                       "by higher-priority work)"
+                     : "not measured: the throttle thread never took the core");
+    return;
+  }
+  m.hold_fraction = thr_rate / m.nominal_per_us;
+}
+
+}  // namespace
+
 HoldMeasurement measure_hold(ThrottleKind kind, int core, const HoldProbeOptions& opt) {
   std::optional<FreezerCgroup> cg;
   if (kind == ThrottleKind::Freezer) {
@@ -355,9 +393,7 @@ HoldMeasurement measure_hold(ThrottleKind kind, int core, const HoldProbeOptions
   };
   TimeNs t = now_ns() + 20 * kNsPerMs;  // the worker starts and settles
   sleep_until(t);
-  std::uint64_t thr_count = 0, nom_count = 0;
-  TimeNs thr_ns = 0, nom_ns = 0, nom_cpu = 0, delay_ns = 0;
-  int engaged = 0;
+  HoldTotals tot;
   for (int i = 0; i < opt.cycles; ++i) {
     const TimeNs t0 = now_ns();
     const std::uint64_t c0 = worker.count();
@@ -365,7 +401,7 @@ HoldMeasurement measure_hold(ThrottleKind kind, int core, const HoldProbeOptions
     sleep_until(t0 + static_cast<TimeNs>(opt.off_ms * 1e6));
     const TimeNs t1 = now_ns();
     const std::uint64_t c1 = worker.count();
-    nom_cpu += worker.cpu_ns() - cpu0;
+    tot.nom_cpu += worker.cpu_ns() - cpu0;
     engaged_t.store(-1, std::memory_order_release);
     set_held(true);
     sleep_until(t1 + static_cast<TimeNs>(opt.on_ms * 1e6));
@@ -374,35 +410,19 @@ HoldMeasurement measure_hold(ThrottleKind kind, int core, const HoldProbeOptions
     const TimeNs te = engaged_t.load(std::memory_order_acquire);
     const std::uint64_t ce = engaged_count.load(std::memory_order_relaxed);
     set_held(false);
-    nom_count += c1 - c0;
-    nom_ns += t1 - t0;
+    tot.nom_count += c1 - c0;
+    tot.nom_ns += t1 - t0;
     if (te >= t1 && te < t2 && ce <= c2) {
-      ++engaged;
-      thr_count += c2 - ce;
-      thr_ns += t2 - te;
-      delay_ns += te - t1;
+      ++tot.engaged;
+      tot.thr_count += c2 - ce;
+      tot.thr_ns += t2 - te;
+      tot.delay_ns += te - t1;
     }
   }
   stop.store(true, std::memory_order_release);
   wake.notify();
   thr.join();
-  m.nominal_us = ns_to_us(nom_ns);
-  m.throttled_us = ns_to_us(thr_ns);
-  m.windows = engaged;
-  m.activation_us = engaged > 0 ? ns_to_us(delay_ns) / engaged : 0.0;
-  m.nominal_cpu_share = nom_ns > 0 ? static_cast<double>(nom_cpu) / static_cast<double>(nom_ns) : 0;
-  m.nominal_per_us = nom_ns > 0 ? static_cast<double>(nom_count) / ns_to_us(nom_ns) : 0.0;
-  const double thr_rate = thr_ns > 0 ? static_cast<double>(thr_count) / ns_to_us(thr_ns) : 0.0;
-  if (m.nominal_per_us <= 0.0 || engaged == 0) {
-    m.hold_fraction = std::numeric_limits<double>::quiet_NaN();
-    m.detail += std::string(m.detail.empty() ? "" : "; ") +
-                (m.nominal_per_us <= 0.0
-                     ? "not measured: the worker made no progress unthrottled (the core is held "
-                       "by higher-priority work)"
-                     : "not measured: the throttle thread never took the core");
-    return m;
-  }
-  m.hold_fraction = thr_rate / m.nominal_per_us;
+  summarize(tot, m);
   return m;
 }
 

@@ -322,24 +322,21 @@ const char* const kTypicalMlpSource =
     "typical misses in flight of a streaming out-of-order core (its L1D miss buffers: 10-16 on "
     "Intel cores since Skylake, 22-24 on AMD Zen, 12-20 on Arm Cortex-A7x), a factor 3 either way";
 
-FitReport fit_once(const Measurements& m, const FitOptions& opt) {
-  const HostFacts& host = m.host;
-  if (host.freq_mhz <= 0 || host.l2_kb <= 0 || host.l3_kb_per_cluster <= host.l2_kb)
-    throw RunError(
-        "calibration: the host facts need freq_mhz, l2_kb and an l3_kb_per_cluster "
-        "above l2_kb (got " +
-        fmt("%g MHz, ", host.freq_mhz) + fmt("L2 %g KB, ", host.l2_kb) +
-        fmt("L3 %g KB)", host.l3_kb_per_cluster));
-  FitReport rep;
-  SimPlatform base = model_platform(host);
-
-  // Which runs the model covers, and what they can identify.
+// The runs the model covers, and what they can identify.
+struct RunSelection {
   std::vector<const KernelRun*> used;
   std::map<std::string, std::map<Level, std::vector<double>>> iso;  // kernel -> level -> ns
   // Co-runner counts of the bandwidth-latency curves: within the L3 (co-runners beyond the L2)
   // and beyond it (co-runners beyond the L3).
   std::set<std::size_t> l3_counts, dram_counts;
   std::map<std::string, bool> beyond_l3;  // kernel measured beyond the L3 (iso or co-run)
+};
+
+// Sorts the runs into those the model covers and those it does not: each in rep.runs, the latter
+// with the reason.
+RunSelection select_runs(const Measurements& m, int cores_per_cluster, FitReport& rep) {
+  const HostFacts& host = m.host;
+  RunSelection sel;
   for (std::size_t i = 0; i < m.runs.size(); ++i) {
     const KernelRun& r = m.runs[i];
     FittedRun fr;
@@ -354,105 +351,117 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
       fr.note =
           "not modelled: a kernel without a model (the fit knows bandwidth_read, "
           "bandwidth_write, latency)";
-    } else if (static_cast<int>(r.corunners.size()) >= base.cores_per_cluster) {
+    } else if (static_cast<int>(r.corunners.size()) >= cores_per_cluster) {
       fr.note = "not modelled: more co-runners than the cluster has other cores";
     } else if (lv == Level::L1) {
       fr.note = "not modelled: the working set fits the L1d (the model starts at the L2)";
     } else {
       fr.used = true;
-      used.push_back(&r);
-      if (r.corunners.empty()) iso[r.kernel][lv].push_back(r.ns_per_line);
-      if (lv == Level::Dram) beyond_l3[r.kernel] = true;
+      sel.used.push_back(&r);
+      if (r.corunners.empty()) sel.iso[r.kernel][lv].push_back(r.ns_per_line);
+      if (lv == Level::Dram) sel.beyond_l3[r.kernel] = true;
       std::size_t co_l3 = 0, co_dram = 0;
       for (const auto& c : r.corunners) {
         co_l3 += c.working_set_kb > host.l2_kb ? 1 : 0;
         co_dram += c.working_set_kb > host.l3_kb_per_cluster ? 1 : 0;
       }
-      if (lv == Level::L3 && co_l3 > 0) l3_counts.insert(co_l3);
-      if (lv == Level::Dram && co_dram > 0) dram_counts.insert(co_dram);
+      if (lv == Level::L3 && co_l3 > 0) sel.l3_counts.insert(co_l3);
+      if (lv == Level::Dram && co_dram > 0) sel.dram_counts.insert(co_dram);
     }
     rep.runs.push_back(fr);
   }
+  return sel;
+}
 
-  // What the data must contain: each kernel's own speed within the L2 and the L3 (no prior can
-  // stand in for those); every gap is named.
+// What the data must contain: each kernel's own speed within the L2 and the L3 (no prior can
+// stand in for those); every gap is named.
+void require_own_speeds(const RunSelection& sel, const HostFacts& host) {
   std::vector<std::string> missing;
   const auto l2s = fmt("%g KB", host.l2_kb), l3s = fmt("%g KB", host.l3_kb_per_cluster);
   for (const char* need : {"bandwidth_read", "latency"})
-    if (!iso.count(need)) missing.push_back(std::string("isolation runs of ") + need);
-  for (const auto& [k, levels] : iso) {
+    if (!sel.iso.count(need)) missing.push_back(std::string("isolation runs of ") + need);
+  for (const auto& [k, levels] : sel.iso) {
     if (!levels.count(Level::L2))
       missing.push_back("an isolation run of " + k + " within the L2 (<= " + l2s + ")");
     if (!levels.count(Level::L3))
       missing.push_back("an isolation run of " + k + " within the L3 (" + l2s + " .. " + l3s + ")");
   }
-  if (!missing.empty()) {
-    std::string msg = "calibration: insufficient measurements to fit the memory model; missing: ";
-    for (std::size_t i = 0; i < missing.size(); ++i)
-      msg += (i ? "; " : "") + missing[i];
-    throw RunError(msg);
-  }
-  // What the data do not show directly: named here; what then rests on its prior is named per
-  // parameter below (runs whose sets overflow the L3 together may still show it).
-  for (const auto& [k, levels] : iso)
-    if (k != "latency" && !beyond_l3.count(k))
+  if (missing.empty()) return;
+  std::string msg = "calibration: insufficient measurements to fit the memory model; missing: ";
+  for (std::size_t i = 0; i < missing.size(); ++i)
+    msg += (i ? "; " : "") + missing[i];
+  throw RunError(msg);
+}
+
+// What the data do not show directly: named here; what then rests on its prior is named per
+// parameter by report_parameters (runs whose sets overflow the L3 together may still show it).
+void note_unseen(const RunSelection& sel, const HostFacts& host, FitReport& rep) {
+  const auto l3s = fmt("%g KB", host.l3_kb_per_cluster);
+  for (const auto& [k, levels] : sel.iso)
+    if (k != "latency" && !sel.beyond_l3.count(k))
       rep.notes.push_back("no run of " + k + " beyond the L3 (> " + l3s + "): kernels." + k +
                           ".mlp is seen only where sets overflow the L3 "
                           "together, else its prior stands");
-  const bool dram_latency_measured = iso.at("latency").count(Level::Dram) > 0;
-  if (!dram_latency_measured)
+  if (sel.iso.at("latency").count(Level::Dram) == 0)
     rep.notes.push_back("no isolation run of latency beyond the L3 (> " + l3s +
                         "): dram.latency_ns is seen only where sets overflow the L3 together, "
                         "else its prior stands");
-  if (l3_counts.empty())
+  if (sel.l3_counts.empty())
     rep.notes.push_back(
         "no co-run within the L3 (a kernel within the L3 with a co-runner beyond the L2): "
         "l3.queue_ns and l3.bandwidth_mbps rest on their priors");
-  if (dram_counts.empty())
+  if (sel.dram_counts.empty())
     rep.notes.push_back(
         "no co-run beyond the L3 (a kernel and a co-runner beyond the L3): dram.queue_ns and "
         "dram.bandwidth_mbps are seen only where sets overflow the L3 together, else their "
         "priors stand");
+}
 
-  // Starting point and priors from the data directly where they show the parameter, else from
-  // typical values.
-  for (const auto& [k, levels] : iso) {
-    sim::KernelModel km;
-    km.ns_per_line_l2 = geomean(levels.at(Level::L2));
-    km.ns_per_line_l3 = geomean(levels.at(Level::L3));
-    base.kernels[k] = km;
-  }
-  const double lat_l3 = base.kernels.at("latency").ns_per_line_l3;
-  base.l3.latency_ns = lat_l3;
-  Prior dram_latency_prior;
-  if (dram_latency_measured) {
-    const double lat_dram = geomean(iso.at("latency").at(Level::Dram));
-    dram_latency_prior = {std::max(lat_dram - lat_l3, 0.5 * lat_dram), kLn2,
-                          "the latency kernel's isolation runs beyond the L3 less its L3 latency, "
-                          "a factor 2 either way"};
+// The priors that do not follow from one level's latency alone.
+struct Priors {
+  Prior dram_latency;
+  std::map<std::string, Prior> mlp;  // kernel -> its misses in flight (not the latency kernel)
+  Prior l3_bandwidth, dram_bandwidth;
+};
+
+// The DRAM latency's prior and each streaming kernel's mlp prior: from the runs beyond the L3
+// where there are some, else from typical values. Sets base's values to the priors' medians.
+Priors latency_priors(const RunSelection& sel, SimPlatform& base) {
+  Priors pr;
+  const double lat_l3 = base.l3.latency_ns;
+  const auto& latency_runs = sel.iso.at("latency");
+  if (const auto d = latency_runs.find(Level::Dram); d != latency_runs.end()) {
+    const double lat_dram = geomean(d->second);
+    pr.dram_latency = {std::max(lat_dram - lat_l3, 0.5 * lat_dram), kLn2,
+                       "the latency kernel's isolation runs beyond the L3 less its L3 latency, "
+                       "a factor 2 either way"};
   } else {
-    dram_latency_prior = {std::max(kTypicalDramNs - lat_l3, 0.5 * kTypicalDramNs), kLn2,
-                          kTypicalDramSource + std::string(", a factor 2 either way")};
+    pr.dram_latency = {std::max(kTypicalDramNs - lat_l3, 0.5 * kTypicalDramNs), kLn2,
+                       kTypicalDramSource + std::string(", a factor 2 either way")};
   }
-  base.dram.latency_ns = dram_latency_prior.median;
-  std::map<std::string, Prior> mlp_priors;
+  base.dram.latency_ns = pr.dram_latency.median;
   for (auto& [k, km] : base.kernels) {
     km.mlp = 1.0;
     if (k == "latency") continue;
-    const auto d = iso.at(k).find(Level::Dram);
-    const double extra = d == iso.at(k).end() ? 0.0 : geomean(d->second) - km.ns_per_line_l3;
+    const auto d = sel.iso.at(k).find(Level::Dram);
+    const double extra = d == sel.iso.at(k).end() ? 0.0 : geomean(d->second) - km.ns_per_line_l3;
     if (extra > 0)
-      mlp_priors[k] = {std::clamp(base.dram.latency_ns / extra, 1.0, 64.0), kLn3,
-                       "the DRAM latency over the extra ns per line of " + k +
-                           "'s isolation runs beyond the L3, a factor 3 either way"};
+      pr.mlp[k] = {std::clamp(base.dram.latency_ns / extra, 1.0, 64.0), kLn3,
+                   "the DRAM latency over the extra ns per line of " + k +
+                       "'s isolation runs beyond the L3, a factor 3 either way"};
     else
-      mlp_priors[k] = {kTypicalMlp, kLn3, kTypicalMlpSource};
-    km.mlp = mlp_priors[k].median;
+      pr.mlp[k] = {kTypicalMlp, kLn3, kTypicalMlpSource};
+    km.mlp = pr.mlp[k].median;
   }
-  // Bandwidths: the largest traffic a run shows at each level (every core beyond the L2 at the
-  // measured kernel's rate) is a floor; twice it, a factor 4 either way.
+  return pr;
+}
+
+// Bandwidths: the largest traffic a run shows at each level (every core beyond the L2 at the
+// measured kernel's rate) is a floor; twice it, a factor 4 either way.
+void bandwidth_priors(const RunSelection& sel, const HostFacts& host, const SimPlatform& base,
+                      Priors& pr) {
   double l3_peak = 0.0, dram_peak = 0.0;
-  for (const KernelRun* r : used) {
+  for (const KernelRun* r : sel.used) {
     const double rate = lines_moved(r->kernel) / r->ns_per_line;
     double l3_cores = r->working_set_kb > host.l2_kb ? 1.0 : 0.0;
     double dram_cores = r->working_set_kb > host.l3_kb_per_cluster ? 1.0 : 0.0;
@@ -470,23 +479,50 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
                        " MB/s: a floor), a factor 4 either way"};
     return Prior{typical, kLn4, typical_source + ", a factor 4 either way"};
   };
-  const Prior l3_bw_prior =
+  pr.l3_bandwidth =
       bandwidth_prior(l3_peak, kTypicalL3MbpsCore * base.cores_per_cluster,
                       "typical L3 bandwidth of 20 GB/s per core of the cluster (no run reached "
                       "the L3)");
-  const Prior dram_bw_prior =
+  pr.dram_bandwidth =
       bandwidth_prior(dram_peak, kTypicalDramMbps,
                       "typical DRAM bandwidth of two DDR4-3200 channels, 51.2 GB/s (no run "
                       "reached DRAM)");
-  base.l3.bandwidth_mbps = l3_bw_prior.median;
-  base.l3.queue_ns = lat_l3;
-  base.dram.bandwidth_mbps = dram_bw_prior.median;
+}
+
+// The starting point: the kernels' own speeds from their isolation runs, the rest at its prior's
+// median (a queue at its level's unloaded latency); the priors.
+Priors starting_point(const RunSelection& sel, const HostFacts& host, const FitOptions& opt,
+                      SimPlatform& base) {
+  for (const auto& [k, levels] : sel.iso) {
+    sim::KernelModel km;
+    km.ns_per_line_l2 = geomean(levels.at(Level::L2));
+    km.ns_per_line_l3 = geomean(levels.at(Level::L3));
+    base.kernels[k] = km;
+  }
+  base.l3.latency_ns = base.kernels.at("latency").ns_per_line_l3;
+  Priors pr = latency_priors(sel, base);
+  bandwidth_priors(sel, host, base, pr);
+  base.l3.bandwidth_mbps = pr.l3_bandwidth.median;
+  base.l3.queue_ns = base.l3.latency_ns;
+  base.dram.bandwidth_mbps = pr.dram_bandwidth.median;
   base.dram.queue_ns = base.dram.latency_ns;
   base.mshr.per_core = opt.mshr_per_core;
   base.mshr.per_cluster = opt.mshr_per_cluster;
+  return pr;
+}
 
-  std::vector<Slot> slots;
-  std::vector<FittedParameter> fixed_params;
+// The model's parameters: those the fit estimates, and those it holds (fixed by the caller, not
+// identified by the runs, or derived).
+struct Parameters {
+  std::vector<Slot> free;
+  std::vector<FittedParameter> held;
+};
+
+// The parameters the runs identify, each free unless the caller fixes it (then held at the
+// caller's value in base).
+Parameters free_parameters(const RunSelection& sel, const Priors& pr, const FitOptions& opt,
+                           SimPlatform& base, FitReport& rep) {
+  Parameters params;
   const auto add = [&](const std::string& name, std::function<double&(SimPlatform&)> ref,
                        const std::string& how, Prior prior) {
     if (const auto it = opt.fixed.find(name); it != opt.fixed.end()) {
@@ -497,11 +533,11 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
       p.name = name;
       p.value = it->second;
       p.how = "fixed by the caller";
-      fixed_params.push_back(p);
+      params.held.push_back(p);
       rep.notes.push_back(name + " fixed by the caller at " + fmt("%g", it->second));
       return;
     }
-    slots.push_back({name, std::move(ref), how, std::move(prior)});
+    params.free.push_back({name, std::move(ref), how, std::move(prior)});
   };
   for (const auto& [k, km] : base.kernels) {
     const std::string kk = k;
@@ -516,33 +552,37 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
     if (k != "latency")
       add(
           "kernels." + k + ".mlp", [kk](SimPlatform& p) -> double& { return p.kernels.at(kk).mlp; },
-          "runs of " + k + " beyond the L3, given the DRAM latency", mlp_priors.at(k));
+          "runs of " + k + " beyond the L3, given the DRAM latency", pr.mlp.at(k));
   }
   // A queue's prior is its level's unloaded latency (the delay doubles at half load): with one
   // co-runner count (a 2-core cluster) the runs show how much the latency grows, not how it
   // bends, so the queue and the bandwidth trade off and the prior decides between them.
   add("l3.queue_ns", [](SimPlatform& p) -> double& { return p.l3.queue_ns; },
-      "co-runs within the L3 at " + std::to_string(l3_counts.size()) + " co-runner count(s)",
-      {lat_l3, kLn3,
+      "co-runs within the L3 at " + std::to_string(sel.l3_counts.size()) + " co-runner count(s)",
+      {base.l3.latency_ns, kLn3,
        "the unloaded L3 latency (the delay doubles at half load), a factor 3 either way"});
   add(
       "l3.bandwidth_mbps", [](SimPlatform& p) -> double& { return p.l3.bandwidth_mbps; },
-      "co-runs within the L3", l3_bw_prior);
+      "co-runs within the L3", pr.l3_bandwidth);
   add(
       "dram.latency_ns", [](SimPlatform& p) -> double& { return p.dram.latency_ns; },
-      "the latency kernel (one load in flight) beyond the L3", dram_latency_prior);
+      "the latency kernel (one load in flight) beyond the L3", pr.dram_latency);
   add("dram.queue_ns", [](SimPlatform& p) -> double& { return p.dram.queue_ns; },
-      "co-runs beyond the L3 at " + std::to_string(dram_counts.size()) + " co-runner count(s)",
+      "co-runs beyond the L3 at " + std::to_string(sel.dram_counts.size()) + " co-runner count(s)",
       {base.dram.latency_ns, kLn3,
        "the unloaded DRAM latency's prior (the delay doubles at half load), a factor 3 either "
        "way"});
   add(
       "dram.bandwidth_mbps", [](SimPlatform& p) -> double& { return p.dram.bandwidth_mbps; },
-      "co-runs beyond the L3", dram_bw_prior);
-  // The misses-in-flight bounds: the suite's runs cannot tell a kernel's mlp from the core's
-  // buffers (nor, with at most one co-runner count, the cluster's), so both are held where they
-  // do not bind unless the caller fixes them. The runs that overflow the L3 together are
-  // predicted by the shared-LRU model, which has no parameter.
+      "co-runs beyond the L3", pr.dram_bandwidth);
+  return params;
+}
+
+// The misses-in-flight bounds: the suite's runs cannot tell a kernel's mlp from the core's
+// buffers (nor, with at most one co-runner count, the cluster's), so both are held where they
+// do not bind unless the caller fixes them. The runs that overflow the L3 together are
+// predicted by the shared-LRU model, which has no parameter. A pointer chase's mlp is 1.
+void hold_unidentified(const FitOptions& opt, SimPlatform& base, Parameters& params) {
   for (const auto& [name, value, ref] :
        {std::tuple{std::string("mshr.per_core"), base.mshr.per_core,
                    std::function<double&(SimPlatform&)>(
@@ -562,28 +602,28 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
               " (not identified: the runs cannot tell a kernel's misses in flight from the "
               "buffers' bound; this value does not bind)";
     }
-    fixed_params.push_back(p);
+    params.held.push_back(p);
   }
-  {
-    FittedParameter p;
-    p.name = "kernels.latency.mlp";
-    p.value = 1.0;
-    p.how = "fixed: a pointer chase has one load in flight";
-    fixed_params.push_back(p);
-  }
+  FittedParameter p;
+  p.name = "kernels.latency.mlp";
+  p.value = 1.0;
+  p.how = "fixed: a pointer chase has one load in flight";
+  params.held.push_back(p);
+}
 
-  const auto n = static_cast<Eigen::Index>(slots.size());
-  const auto mres = static_cast<Eigen::Index>(used.size());
-  Residuals fn{&base, &slots, &used};
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i)
-    x[i] = std::log(slots[static_cast<std::size_t>(i)].ref(base));
+std::string lm_status_message(const FitReport& rep) {
+  return " (Levenberg-Marquardt status " + std::to_string(rep.lm_status) + ": " +
+         rep.lm_status_text + ", " + std::to_string(rep.evaluations) + " evaluations)";
+}
 
-  // MAP: the weighted log residuals of the runs and, per parameter, (log value - log prior
-  // median) / prior log_sd scaled by the runs' noise (sigma), so that a prior counts as one
-  // measurement of the parameter with that spread. sigma is the runs' residual standard deviation
-  // (at least the repeatability floor), re-estimated until it settles.
-  const int dof = static_cast<int>(std::max<Eigen::Index>(1, mres - n));
+// The solve. MAP: the weighted log residuals of the runs and, per parameter, (log value - log
+// prior median) / prior log_sd scaled by the runs' noise (sigma), so that a prior counts as one
+// measurement of the parameter with that spread. sigma is the runs' residual standard deviation
+// (at least the repeatability floor), re-estimated until it settles. Moves x to the solution,
+// records the solver's status in rep and returns sigma^2; throws when the solver does not
+// converge.
+double solve_map(Residuals& fn, Eigen::VectorXd& x, const FitOptions& opt, int dof,
+                 FitReport& rep) {
   Eigen::LevenbergMarquardtSpace::Status status{};
   Eigen::Index iterations = 0;
   double s2 = kCvFloor * kCvFloor;
@@ -607,38 +647,49 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   rep.evaluations = fn.evaluations;
   rep.iterations = static_cast<int>(iterations);
   rep.converged = converged_status(rep.lm_status);
-  const std::string status_msg = " (Levenberg-Marquardt status " + std::to_string(rep.lm_status) +
-                                 ": " + rep.lm_status_text + ", " +
-                                 std::to_string(rep.evaluations) + " evaluations)";
-  if (!rep.converged) throw RunError("calibration: the fit did not converge" + status_msg);
+  if (!rep.converged)
+    throw RunError("calibration: the fit did not converge" + lm_status_message(rep));
+  return s2;
+}
 
-  // Residuals and the Jacobian (runs and priors) at the solution; the posterior covariance of
-  // the log parameters is s^2 (J^T J)^-1, full rank through the priors' rows.
-  Eigen::VectorXd f(mres + n);
-  fn(x, f);
+// The residuals (runs, then priors) at the solution and the posterior covariance of the log
+// parameters.
+struct Posterior {
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd cov;
+};
+
+// Residuals and the Jacobian (runs and priors) at the solution; the posterior covariance of the
+// log parameters is s^2 (J^T J)^-1, full rank through the priors' rows. Records the weighted RMS
+// residual of the runs and the objective in rep.
+Posterior posterior(const Residuals& fn, const Eigen::VectorXd& x, double s2, FitReport& rep) {
+  const auto n = x.size();
+  const auto mres = static_cast<Eigen::Index>(fn.runs->size());
+  Posterior post;
+  post.residuals.resize(mres + n);
+  fn(x, post.residuals);
   Eigen::MatrixXd jac(mres + n, n);
   fn.df(x, jac);
-  const double ssr = f.head(mres).squaredNorm();
+  const double ssr = post.residuals.head(mres).squaredNorm();
   double sum_w2 = 0.0;
-  for (const KernelRun* r : used)
+  for (const KernelRun* r : *fn.runs)
     sum_w2 += weight_of(*r) * weight_of(*r);
   rep.rms_residual = std::sqrt(ssr / sum_w2);  // weighted RMS of the log ratios
-  rep.objective = f.squaredNorm();
-  rep.dof = dof;
+  rep.objective = post.residuals.squaredNorm();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeThinV);
   const Eigen::VectorXd sv = svd.singularValues();
   const Eigen::MatrixXd v = svd.matrixV();
-  const Eigen::MatrixXd cov =
-      s2 * v * sv.array().square().inverse().matrix().asDiagonal() * v.transpose();
+  post.cov = s2 * v * sv.array().square().inverse().matrix().asDiagonal() * v.transpose();
+  return post;
+}
 
-  if (rep.rms_residual > opt.max_rms_residual)
-    throw RunError("calibration: the model cannot reproduce these measurements: RMS residual " +
-                   fmt("%.3f", rep.rms_residual) + " (log units) above the limit " +
-                   fmt("%.3f", opt.max_rms_residual) + status_msg);
-
-  rep.platform = fn.platform_at(x);
-  rep.platform.l3.latency_ns = rep.platform.kernels.at("latency").ns_per_line_l3;
-  for (Eigen::Index i = 0; i < n; ++i) {
+// The prior-dominance report: each fitted parameter with its standard error and how much the
+// runs narrowed its prior (noted where the prior dominates or the error is large), then the
+// held ones.
+void report_parameters(const std::vector<Slot>& slots, const Eigen::VectorXd& x,
+                       const Eigen::MatrixXd& cov, const FitOptions& opt,
+                       std::vector<FittedParameter> held, FitReport& rep) {
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
     const Slot& s = slots[static_cast<std::size_t>(i)];
     FittedParameter p;
     p.name = s.name;
@@ -663,28 +714,66 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
                           fmt("%.0f %%", 100.0 * p.log_std_error) + ")");
     rep.parameters.push_back(p);
   }
-  {
-    FittedParameter p;
-    p.name = "l3.latency_ns";
-    p.value = rep.platform.l3.latency_ns;
-    p.how =
-        "derived: = kernels.latency.ns_per_line_l3 (the pointer chase's load-to-use time within "
-        "the L3); the model only uses latencies above it, so no time measurement identifies it";
-    fixed_params.push_back(p);
-  }
-  for (auto& p : fixed_params)
-    rep.parameters.push_back(p);
+  FittedParameter p;
+  p.name = "l3.latency_ns";
+  p.value = rep.platform.l3.latency_ns;
+  p.how =
+      "derived: = kernels.latency.ns_per_line_l3 (the pointer chase's load-to-use time within "
+      "the L3); the model only uses latencies above it, so no time measurement identifies it";
+  held.push_back(p);
+  for (auto& h : held)
+    rep.parameters.push_back(h);
+}
 
+// Each used run's residual and predicted time; a note for each run the model does not cover.
+void report_runs(const Eigen::VectorXd& residuals, const std::vector<const KernelRun*>& used,
+                 FitReport& rep) {
   for (std::size_t k = 0; FittedRun & fr : rep.runs) {
     if (!fr.used) {
       rep.notes.push_back("run " + std::to_string(fr.index) + " (" + fr.label + ") " + fr.note);
       continue;
     }
-    fr.residual = f[static_cast<Eigen::Index>(k)] / weight_of(*used[k]);
+    fr.residual = residuals[static_cast<Eigen::Index>(k)] / weight_of(*used[k]);
     ++k;
     fr.predicted_ns = fr.measured_ns * std::exp(fr.residual);
   }
+}
 
+FitReport fit_once(const Measurements& m, const FitOptions& opt) {
+  const HostFacts& host = m.host;
+  if (host.freq_mhz <= 0 || host.l2_kb <= 0 || host.l3_kb_per_cluster <= host.l2_kb)
+    throw RunError(
+        "calibration: the host facts need freq_mhz, l2_kb and an l3_kb_per_cluster "
+        "above l2_kb (got " +
+        fmt("%g MHz, ", host.freq_mhz) + fmt("L2 %g KB, ", host.l2_kb) +
+        fmt("L3 %g KB)", host.l3_kb_per_cluster));
+  FitReport rep;
+  SimPlatform base = model_platform(host);
+  const RunSelection sel = select_runs(m, base.cores_per_cluster, rep);
+  require_own_speeds(sel, host);
+  note_unseen(sel, host, rep);
+  const Priors priors = starting_point(sel, host, opt, base);
+  Parameters params = free_parameters(sel, priors, opt, base, rep);
+  hold_unidentified(opt, base, params);
+
+  const auto n = static_cast<Eigen::Index>(params.free.size());
+  Residuals fn{&base, &params.free, &sel.used};
+  Eigen::VectorXd x(n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    x[i] = std::log(params.free[static_cast<std::size_t>(i)].ref(base));
+  const auto mres = static_cast<Eigen::Index>(sel.used.size());
+  rep.dof = static_cast<int>(std::max<Eigen::Index>(1, mres - n));
+  const double s2 = solve_map(fn, x, opt, rep.dof, rep);
+  const Posterior post = posterior(fn, x, s2, rep);
+  if (rep.rms_residual > opt.max_rms_residual)
+    throw RunError("calibration: the model cannot reproduce these measurements: RMS residual " +
+                   fmt("%.3f", rep.rms_residual) + " (log units) above the limit " +
+                   fmt("%.3f", opt.max_rms_residual) + lm_status_message(rep));
+
+  rep.platform = fn.platform_at(x);
+  rep.platform.l3.latency_ns = rep.platform.kernels.at("latency").ns_per_line_l3;
+  report_parameters(params.free, x, post.cov, opt, std::move(params.held), rep);
+  report_runs(post.residuals, sel.used, rep);
   for (const auto& [name, samples] : m.costs_us)
     if (!samples.empty()) rep.costs[name] = fit_cost(samples);
   return rep;
@@ -707,41 +796,34 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
   return rep;
 }
 
-json fitted_platform(const Measurements& m, const FitReport& rep, std::string name) {
-  const HostFacts& h = m.host;
-  const SimPlatform& p = rep.platform;
-  const std::string by =
-      "rosguard calibrate on " + (h.hostname.empty() ? "this host" : h.hostname) + " at " + h.date;
-  std::size_t used = 0;
-  for (const auto& r : rep.runs)
-    used += r.used ? 1 : 0;
-  const std::string residual = "RMS residual " + fmt("%.1f %%", 100.0 * rep.rms_residual) +
-                               " (log ratio predicted / measured ns per line) over " +
-                               std::to_string(used) + " runs";
+namespace {
+
+// "<key> <how it was found>" of each named parameter of rep, "; "-separated: for a platform
+// file's "source".
+std::string describe(const FitReport& rep, std::initializer_list<const char*> names) {
   const auto param = [&](const std::string& n) -> const FittedParameter& {
     for (const auto& q : rep.parameters)
       if (q.name == n) return q;
     throw RunError("calibration report has no parameter " + n);
   };
-  const auto describe = [&](std::initializer_list<const char*> names) {
-    std::string s;
-    for (const char* n : names) {
-      const FittedParameter& q = param(n);
-      const std::string key = std::string(n).substr(std::string(n).rfind('.') + 1);
-      s += (s.empty() ? "" : "; ") + key + " " +
-           (!q.fitted ? q.how
-            : q.prior_dominated
-                ? "PRIOR-DOMINATED +- " + fmt("%.2g", q.std_error) +
-                      " (the runs narrowed its "
-                      "prior by " +
-                      fmt("%.0f %%", 100.0 * q.data_share) + "; prior: " + q.prior_source + ")"
-                : "fitted +- " + fmt("%.2g", q.std_error) + " (" + q.how + ")");
-    }
-    return s;
-  };
+  std::string s;
+  for (const char* n : names) {
+    const FittedParameter& q = param(n);
+    const std::string key = std::string(n).substr(std::string(n).rfind('.') + 1);
+    s += (s.empty() ? "" : "; ") + key + " " +
+         (!q.fitted ? q.how
+          : q.prior_dominated
+              ? "PRIOR-DOMINATED +- " + fmt("%.2g", q.std_error) +
+                    " (the runs narrowed its "
+                    "prior by " +
+                    fmt("%.0f %%", 100.0 * q.data_share) + "; prior: " + q.prior_source + ")"
+              : "fitted +- " + fmt("%.2g", q.std_error) + " (" + q.how + ")");
+  }
+  return s;
+}
 
-  json doc;
-  doc["name"] = std::move(name);
+// The platform's name, description, cpu, caches and pmu: the host facts, as `by` saw them.
+void host_sections(const HostFacts& h, const SimPlatform& p, const std::string& by, json& doc) {
   doc["description"] = "This host as measured by rosguard calibrate" +
                        (h.hostname.empty() ? std::string() : " on " + h.hostname) + " at " +
                        h.date + " (" + std::to_string(h.cpus) + " CPUs" +
@@ -766,45 +848,59 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
                  "the events the sim's cores count for the built-in kernels' traffic "
                  "(and the hw backend's instrumented source provides); not probed "
                  "by rosguard calibrate"}};
+}
 
-  // Reference: Eq. 1 (MiB/s) of bandwidth_read over 2048 KB alone, measured if the suite ran it.
+// Reference: Eq. 1 (MiB/s) of bandwidth_read over 2048 KB alone, measured if the suite ran it,
+// else as the fitted model predicts it.
+json reference_section(const Measurements& m, const SimPlatform& p, const std::string& by) {
   const KernelRun* ref = nullptr;
   for (const auto& r : m.runs)
     if (r.kernel == "bandwidth_read" && r.working_set_kb == 2048.0 && r.corunners.empty()) ref = &r;
-  if (ref) {
-    doc["reference"] = {{"mbps", round_sig(mbps_of(1.0 / ref->ns_per_line), 6)},
-                        {"source",
-                         "bandwidth_read (2048 KB working set, one load per 64-byte line) alone, "
-                         "measured by " +
-                             by + ": median of " + std::to_string(ref->samples) + " runs, cv " +
-                             fmt("%.1f %%", 100.0 * ref->cv)}};
-  } else {
-    const double ns = predict_ns_per_line(p, {"bandwidth_read", 2048.0, {}, 0.0, 0.0, 0});
-    doc["reference"] = {
-        {"mbps", round_sig(mbps_of(1.0 / ns), 6)},
-        {"source", "bandwidth_read (2048 KB) alone as predicted by the model fitted by " + by +
-                       " (the suite did not measure 2048 KB)"}};
-  }
+  if (ref)
+    return {{"mbps", round_sig(mbps_of(1.0 / ref->ns_per_line), 6)},
+            {"source",
+             "bandwidth_read (2048 KB working set, one load per 64-byte line) alone, "
+             "measured by " +
+                 by + ": median of " + std::to_string(ref->samples) + " runs, cv " +
+                 fmt("%.1f %%", 100.0 * ref->cv)}};
+  const double ns = predict_ns_per_line(p, {"bandwidth_read", 2048.0, {}, 0.0, 0.0, 0});
+  return {{"mbps", round_sig(mbps_of(1.0 / ns), 6)},
+          {"source", "bandwidth_read (2048 KB) alone as predicted by the model fitted by " + by +
+                         " (the suite did not measure 2048 KB)"}};
+}
 
-  const auto sig = [](double v) { return round_sig(v, 5); };
+double sig(double v) {
+  return round_sig(v, 5);
+}
+
+// The fitted memory model and kernel models, each with how its parameters were found.
+void model_sections(const FitReport& rep, const std::string& by, json& doc) {
+  const SimPlatform& p = rep.platform;
+  std::size_t used = 0;
+  for (const auto& r : rep.runs)
+    used += r.used ? 1 : 0;
+  const std::string residual = "RMS residual " + fmt("%.1f %%", 100.0 * rep.rms_residual) +
+                               " (log ratio predicted / measured ns per line) over " +
+                               std::to_string(used) + " runs";
   doc["memory"] = {
       {"l3",
        {{"latency_ns", sig(p.l3.latency_ns)},
         {"queue_ns", sig(p.l3.queue_ns)},
         {"bandwidth_mbps", sig(p.l3.bandwidth_mbps)},
         {"source", "fitted by " + by + ", " + residual + ": " +
-                       describe({"l3.latency_ns", "l3.queue_ns", "l3.bandwidth_mbps"})}}},
+                       describe(rep, {"l3.latency_ns", "l3.queue_ns", "l3.bandwidth_mbps"})}}},
       {"dram",
        {{"latency_ns", sig(p.dram.latency_ns)},
         {"queue_ns", sig(p.dram.queue_ns)},
         {"bandwidth_mbps", sig(p.dram.bandwidth_mbps)},
-        {"source", "fitted by " + by + ", " + residual + ": " +
-                       describe({"dram.latency_ns", "dram.queue_ns", "dram.bandwidth_mbps"})}}},
+        {"source",
+         "fitted by " + by + ", " + residual + ": " +
+             describe(rep, {"dram.latency_ns", "dram.queue_ns", "dram.bandwidth_mbps"})}}},
       {"mshr",
        {{"per_core", sig(p.mshr.per_core)},
         {"per_cluster", sig(p.mshr.per_cluster)},
         {"source",
-         "not fitted by " + by + ": " + describe({"mshr.per_core", "mshr.per_cluster"})}}},
+         "not fitted by " + by + ": " + describe(rep, {"mshr.per_core", "mshr.per_cluster"})}}},
       {"core",
        {{"callback_ipc", 0.8},
         {"idle_loop_ipc", 1.0},
@@ -823,11 +919,14 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
                   {"ns_per_line_l3", sig(km.ns_per_line_l3)},
                   {"mlp", sig(km.mlp)},
                   {"source", "fitted by " + by + ": " +
-                                 describe({("kernels." + k + ".ns_per_line_l2").c_str(),
-                                           ("kernels." + k + ".ns_per_line_l3").c_str(),
-                                           ("kernels." + k + ".mlp").c_str()})}};
+                                 describe(rep, {("kernels." + k + ".ns_per_line_l2").c_str(),
+                                                ("kernels." + k + ".ns_per_line_l3").c_str(),
+                                                ("kernels." + k + ".mlp").c_str()})}};
   doc["kernels"] = kernels;
+}
 
+// The fit's quality: its RMS residual and the parameters that rest on their priors.
+json fit_section(const FitReport& rep, const std::string& by) {
   json dominated = json::array();
   for (const auto& q : rep.parameters)
     if (q.prior_dominated)
@@ -836,10 +935,13 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
                            {"log_std_error", round_sig(q.log_std_error, 3)},
                            {"data_share", round_sig(q.data_share, 3)},
                            {"prior_source", q.prior_source}});
-  doc["fit"] = {{"rms_residual", round_sig(rep.rms_residual, 4)},
-                {"prior_dominated", dominated},
-                {"source", "the fit of " + by + " (calibration.json has every parameter)"}};
+  return {{"rms_residual", round_sig(rep.rms_residual, 4)},
+          {"prior_dominated", dominated},
+          {"source", "the fit of " + by + " (calibration.json has every parameter)"}};
+}
 
+// The cost distributions fitted to the samples; throws when a required cost has none.
+json cost_section(const FitReport& rep, const std::string& by) {
   json costs = json::object();
   std::vector<std::string> missing;
   // The local variants are optional (older measurements, a suite on one core); the others are
@@ -868,7 +970,22 @@ json fitted_platform(const Measurements& m, const FitReport& rep, std::string na
       msg += " " + c;
     throw RunError(msg + "; the platform's \"costs\" needs every one of them");
   }
-  doc["costs"] = costs;
+  return costs;
+}
+
+}  // namespace
+
+json fitted_platform(const Measurements& m, const FitReport& rep, std::string name) {
+  const HostFacts& h = m.host;
+  const std::string by =
+      "rosguard calibrate on " + (h.hostname.empty() ? "this host" : h.hostname) + " at " + h.date;
+  json doc;
+  doc["name"] = std::move(name);
+  host_sections(h, rep.platform, by, doc);
+  doc["reference"] = reference_section(m, rep.platform, by);
+  model_sections(rep, by, doc);
+  doc["fit"] = fit_section(rep, by);
+  doc["costs"] = cost_section(rep, by);
   return doc;
 }
 

@@ -9,19 +9,22 @@ namespace {
 // Utilisations stay below this: latency(u) is finite, and the fixed point always has a root.
 constexpr double kMaxUtil = 0.999;
 
-// Root of an increasing function g on [0, kMaxUtil] (g(0) <= 0), by the Illinois variant of
-// regula falsi; kMaxUtil when g stays negative (demand beyond the bandwidth: saturated).
+// A root of an increasing function g, narrowed by the Illinois variant of regula falsi.
+struct RootBracket {
+  double lo;    // the bracket's low end, g(lo) <= 0: the side where g has not reached its root
+  double root;  // the estimate: the secant point of the bracket (g's root where g vanished there)
+};
+
+// Narrows [a, b], with g(a) = fa < 0 < fb = g(b), until g vanishes at the secant point or the
+// bracket is under 1e-13 wide; after 200 steps without either, the estimate is the midpoint.
 template <class G>
-double increasing_root(const G& g) {
-  double a = 0.0, fa = g(a);
-  if (fa >= 0.0) return 0.0;
-  double b = kMaxUtil, fb = g(b);
-  if (fb <= 0.0) return kMaxUtil;
+RootBracket narrow_root(const G& g, double a, double fa, double b, double fb) {
   int side = 0;
   for (int i = 0; i < 200; ++i) {
     const double c = (a * fb - b * fa) / (fb - fa);
+    if (b - a < 1e-13) return {a, c};
     const double fc = g(c);
-    if (fc == 0.0 || b - a < 1e-13) return c;
+    if (fc == 0.0) return {c, c};
     if (fc < 0.0) {
       a = c;
       fa = fc;
@@ -34,7 +37,18 @@ double increasing_root(const G& g) {
       side = 1;
     }
   }
-  return 0.5 * (a + b);
+  return {a, 0.5 * (a + b)};
+}
+
+// Root of an increasing function g on [0, kMaxUtil] (g(0) <= 0); kMaxUtil when g stays negative
+// (demand beyond the bandwidth: saturated).
+template <class G>
+double increasing_root(const G& g) {
+  const double fa = g(0.0);
+  if (fa >= 0.0) return 0.0;
+  const double fb = g(kMaxUtil);
+  if (fb <= 0.0) return kMaxUtil;
+  return narrow_root(g, 0.0, fa, kMaxUtil, fb).root;
 }
 
 }  // namespace
@@ -202,27 +216,12 @@ double ContentionModel::cluster_scale(std::span<const CoreDemand> demands,
     return sum;
   };
   const double bound = p_.mshr.per_cluster;
-  if (inflight(1.0) <= bound) return 1.0;
-  // Increasing in s, 0 at s = 0: the root of inflight(s) = bound in (0, 1).
-  double a = 0.0, fa = -bound, b = 1.0, fb = inflight(1.0) - bound;
-  int side = 0;
-  for (int i = 0; i < 200 && b - a > 1e-13; ++i) {
-    const double c = (a * fb - b * fa) / (fb - fa);
-    const double fc = inflight(c) - bound;
-    if (fc == 0.0) return c;
-    if (fc < 0.0) {
-      a = c;
-      fa = fc;
-      if (side == -1) fb *= 0.5;
-      side = -1;
-    } else {
-      b = c;
-      fb = fc;
-      if (side == 1) fa *= 0.5;
-      side = 1;
-    }
-  }
-  return a;  // the side where the bound holds
+  const double unscaled = inflight(1.0);
+  if (unscaled <= bound) return 1.0;
+  // Increasing in s, 0 at s = 0: the root of inflight(s) = bound in (0, 1), taken on the side
+  // where the bound holds.
+  const auto excess = [&](double s) { return inflight(s) - bound; };
+  return narrow_root(excess, 0.0, -bound, 1.0, unscaled - bound).lo;
 }
 
 double ContentionModel::l3_traffic(std::span<const CoreDemand> demands,

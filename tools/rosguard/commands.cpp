@@ -10,7 +10,10 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
+#include <utility>
 
 #include "core/error.h"
 #include "results/columns.h"
@@ -38,10 +41,62 @@ std::string seconds_text(double s) {
   return os.str();
 }
 
+// The least simulated seconds per run over the sim points (min, max), if there are any.
+std::optional<std::pair<double, double>> sim_time_range(const LoadedScenario& s) {
+  std::optional<std::pair<double, double>> range;
+  for (const auto& p : s.points)
+    if (const auto t = p.scenario.backend == "sim" ? min_simulated_seconds(p.scenario)
+                                                   : std::optional<double>())
+      range = range ? std::make_pair(std::min(range->first, *t), std::max(range->second, *t))
+                    : std::make_pair(*t, *t);
+  return range;
+}
+
+// `rosguard check --json`: what the text summary says, as one JSON object.
+nlohmann::json check_json(const LoadedScenario& s, const BackendRegistry& backends,
+                          bool list_points) {
+  const Scenario& first = s.points.front().scenario;
+  nlohmann::json j = {
+      {"file", s.file},
+      {"valid", true},
+      {"name", first.name},
+      {"backend", first.backend},
+      {"backend_built", backends.find(first.backend) != nullptr},
+      {"platform", {{"name", first.platform.name}, {"origin", first.platform.origin}}},
+      {"nodes",
+       {{"rt", first.nodes.rt.size()},
+        {"nrt", first.nodes.nrt.size()},
+        {"controller_core", first.nodes.controller_core}}},
+      {"sweep", nlohmann::json::array()},
+      {"points", s.point_count},
+      {"repetitions", first.repetitions},
+      {"runs", s.point_count * static_cast<std::uint64_t>(first.repetitions)},
+      {"points_checked", s.points.size()},
+      {"policy_defaults", nlohmann::json::array()},
+      {"warnings", s.warnings}};
+  for (const auto& key : s.sweep_keys)
+    j["sweep"].push_back({{"key", key}, {"values", s.expanded["sweep"][key].size()}});
+  const auto range = sim_time_range(s);
+  j["sim_seconds_min"] = range ? nlohmann::json(range->first) : nlohmann::json();
+  j["sim_seconds_max"] = range ? nlohmann::json(range->second) : nlohmann::json();
+  for (const auto& [what, points] : s.policy_defaults)
+    j["policy_defaults"].push_back({{"default", what}, {"points", points}});
+  if (list_points) {
+    j["point_list"] = nlohmann::json::array();
+    for (const auto& p : s.points) {
+      nlohmann::json params = nlohmann::json::object();
+      for (const auto& q : p.sweep.params)
+        params[q.path] = q.value;
+      j["point_list"].push_back({{"id", p.sweep.id}, {"parameters", params}});
+    }
+  }
+  return j;
+}
+
 }  // namespace
 
 int check_scenario(Loader& loader, const BackendRegistry& backends, const std::string& file,
-                   const std::optional<std::string>& backend, bool list_points) {
+                   const std::optional<std::string>& backend, bool list_points, bool json) {
   const LoadedScenario s =
       loader.load(file, backend, list_points ? PointSelection::All : PointSelection::Sample);
   const Scenario& first = s.points.front().scenario;
@@ -50,12 +105,15 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
     for (const auto& p : s.points)
       b->validate(p.scenario);
   }
-  for (const auto& w : s.warnings)
-    if (!loader.printed(w)) std::cerr << "warning: " << w << "\n";
+  loader.print_warnings(s);
   // "platform": "host" on hw: what the probe could not find or use.
   if (s.host_platform.contains("hw"))
     for (const auto& note : s.host_platform["hw"]["probe"]["notes"])
       std::cerr << "note: host: " << note.get<std::string>() << "\n";
+  if (json) {
+    std::cout << check_json(s, backends, list_points).dump(2) << "\n";
+    return 0;
+  }
 
   std::string sweep;
   for (const auto& key : s.sweep_keys)
@@ -71,16 +129,10 @@ int check_scenario(Loader& loader, const BackendRegistry& backends, const std::s
             << " nRT, controller on core " << first.nodes.controller_core << "\n"
             << "  sweep        " << (sweep.empty() ? "none" : sweep) << "\n"
             << "  repetitions  " << first.repetitions << " (" << runs << " runs)\n";
-  std::optional<double> lo, hi;
-  for (const auto& p : s.points)
-    if (const auto t = p.scenario.backend == "sim" ? min_simulated_seconds(p.scenario)
-                                                   : std::optional<double>()) {
-      lo = std::min(lo.value_or(*t), *t);
-      hi = std::max(hi.value_or(*t), *t);
-    }
-  if (lo)
-    std::cout << "  sim time     at least " << seconds_text(*lo)
-              << (*hi > *lo ? " to " + seconds_text(*hi) : std::string())
+  if (const auto range = sim_time_range(s))
+    std::cout << "  sim time     at least " << seconds_text(range->first)
+              << (range->second > range->first ? " to " + seconds_text(range->second)
+                                               : std::string())
               << " simulated per run (estimate: instructions / (base IPC x frequency), "
                  "without contention or isolation runs)\n";
   for (const auto& [what, points] : s.policy_defaults)
@@ -245,7 +297,7 @@ int run_analysis(const Home& home, const std::vector<std::string>& args) {
     ::setenv("PYTHONDONTWRITEBYTECODE", "1", 0);  // no __pycache__ inside the source tree
     ::execv(argv[0], argv.data());
     std::cerr << "error: cannot start " << python << ": " << std::strerror(errno)
-              << " (install python3-matplotlib and python3-numpy, or set ROSGUARD_PYTHON)\n";
+              << " (set ROSGUARD_PYTHON to a Python 3 with numpy, pandas, matplotlib and scipy)\n";
     ::_exit(1);
   }
   int status = 0;

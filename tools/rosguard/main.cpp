@@ -34,7 +34,13 @@ Start here:
   rosguard plot results/quickstart            draw its figures
   rosguard tune scenarios/examples/tune.json --rt-slowdown-max 1.2
                                               the setting that keeps RT within 1.2x
-Run 'rosguard <command> --help' for the options of a command.)";
+Run 'rosguard <command> --help' for the options of a command.
+Environment:
+  ROSGUARD_HOME=DIR      the data (scenarios/, analysis/): an install's share/rosguard or a
+                         source tree (default: ../share/rosguard beside the executable, else the
+                         source tree it was built from)
+  ROSGUARD_PYTHON=PATH   the Python that plot, compare and calibrate's figures run (default
+                         /usr/bin/python3); it needs numpy, pandas, matplotlib and scipy)";
 
 // "I/N" with 0 <= I < N <= INT_MAX, digits only; throws InputError otherwise.
 std::pair<int, int> parse_shard(const std::string& text) {
@@ -207,12 +213,17 @@ int main(int argc, char** argv) {
       "invalid input.");
 
   std::string check_file, check_backend;
-  bool check_points = false;
+  bool check_points = false, check_json = false;
   auto* check = app.add_subcommand("check", "Validate a scenario and print its number of points.");
   check->add_option("scenario", check_file, "Scenario JSON file")->required();
   check->add_option("--backend", check_backend, "Check as if run on this backend")
       ->check(CLI::IsMember({"sim", "hw"}));
   check->add_flag("--points", check_points, "List every point's id and parameters");
+  check->add_flag("--json", check_json,
+                  "Print the summary as one JSON object (keys: file, valid, name, backend, "
+                  "backend_built, platform, nodes, sweep, points, repetitions, runs, "
+                  "points_checked, sim_seconds_min, sim_seconds_max, policy_defaults, warnings; "
+                  "point_list with --points); an invalid scenario prints nothing on stdout");
 
   std::string status_dir;
   auto* status = app.add_subcommand(
@@ -222,6 +233,16 @@ int main(int argc, char** argv) {
       "folder, its batches and what it chose.");
   status->add_option("results", status_dir, "Results folder of a run or a tune (its --out)")
       ->required();
+  bool status_json = false;
+  status->add_flag(
+      "--json", status_json,
+      "Print it as one JSON object, \"kind\": \"run\" (folder, scenario_file, points, "
+      "repetitions, shards [shard, points_done, points_total, runs_done, runs_total, state, live], "
+      "points_done, runs_done, runs_total, state, rerun [shard, command], slurm_queue_error) or "
+      "\"tune\" (folder, command, batches [name, started, points_done, points, runs_done, "
+      "runs_total, state], points_done, points, runs_done, runs_total, state, stopped, finished, "
+      "and tune.json's rt_slowdown_max, best, closest, runner_up, unregulated: null before it is "
+      "written)");
   status->footer(
       "Reads DIR/manifest.json, DIR/points.csv and, after --slurm, DIR/slurm/job.json "
       "and squeue. A tune's folder (DIR/tune.json or DIR/probes/): one row per batch "
@@ -381,7 +402,7 @@ int main(int argc, char** argv) {
     Loader loader(Home::locate());
 
     if (*run) return run_command(run_args, joined_args(argc, argv), loader, backends);
-    if (*status) return results_status(status_dir);
+    if (*status) return results_status(status_dir, status_json);
     if (*tune) {
       tune_opt.confirm = tune_confirm;
       tune_opt.command_line = joined_args(argc, argv);
@@ -391,7 +412,7 @@ int main(int argc, char** argv) {
       return check_scenario(
           loader, backends, check_file,
           check_backend.empty() ? std::nullopt : std::optional<std::string>(check_backend),
-          check_points);
+          check_points, check_json);
     if (*guard_cmd) return guard_command(guard_args, SchemaSet(loader.home().schemas()), policies);
     if (*profile_cmd) return profile_command(prof, SchemaSet(loader.home().schemas()));
     if (*calibrate) return calibrate_host(cal, loader);

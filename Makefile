@@ -1,5 +1,6 @@
 # Thin wrapper over CMake. On a fresh Debian 12 machine:
-#   make run    installs what is missing, builds, runs the quickstart sweep in sim, plots it
+#   make run    installs what is missing, builds rosguard (not the tests), runs the quickstart
+#               sweep in sim, plots it
 #   make test   installs what is missing, builds, runs every test
 #   make install [PREFIX=/usr/local]   installs bin/rosguard, share/rosguard/, the CMake package
 #   make test-nosim   builds without the sim backend (no SystemC) in $(BUILD)-nosim, runs its tests
@@ -20,7 +21,7 @@ CMAKE_ARGS ?=
 PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
-.PHONY: all deps configure build test test-nosim test-aarch64 run install reproduce sensitivity validate \
+.PHONY: all deps configure build rosguard test test-nosim test-aarch64 run install reproduce sensitivity validate \
         validate-readme bench-parallel bench-large bench-soak bench-middleware bench format clean fit-table1
 
 all: build
@@ -33,6 +34,12 @@ configure: deps
 
 build: configure
 	@cmake --build $(BUILD) -j $(JOBS)
+
+# The rosguard executable and the libraries it links, nothing else (no tests, benchmarks, man
+# page): what run and the experiment targets below need. Same configure as build, so a later
+# make test compiles only what this did not.
+rosguard: configure
+	@cmake --build $(BUILD) -j $(JOBS) --target rosguard
 
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
@@ -59,7 +66,7 @@ test-aarch64:
 install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)
 
-run: build
+run: rosguard
 	$(ROSGUARD) run scenarios/quickstart.json --out results/quickstart --overwrite
 	$(ROSGUARD) plot results/quickstart --out results/quickstart/figures
 	@echo "Figures (PNG and PDF): results/quickstart/figures/   data: results/quickstart/points.csv"
@@ -73,7 +80,7 @@ fit-table1: build
 
 # Every experiment of the paper on the sim backend, plotted into results/paper/<experiment>/,
 # then the README gallery (docs/figures/) and the paper-vs-sim table regenerated from them.
-reproduce: build
+reproduce: rosguard
 	@tools/reproduce.sh $(ROSGUARD)
 
 # Each guessed number of scenarios/platforms/orin-agx.json ("guess, plausible range LOW-HIGH" in
@@ -85,7 +92,7 @@ sensitivity: build
 # The sim-vs-hw validation suite (scenarios/validation/, held out from the calibration): hw and
 # sim runs into results/validation/{hw,sim}/, then report.md / report.json and the
 # predicted-vs-measured figure. validate-readme puts the last report into README.md.
-validate: build
+validate: rosguard
 	@tools/validate.sh $(ROSGUARD)
 
 validate-readme:
@@ -98,24 +105,24 @@ bench: build
 # Parallel efficiency on scenarios/bench/sweep-10k.json (10,000 points; long: 2 x 5 whole
 # sweeps, alternating): --jobs 1 against --jobs $(JOBS). Take it on a quiet machine (it says
 # when other processes took more than 2 % of a run's CPU time).
-bench-parallel: build
+bench-parallel: rosguard
 	tests/bench/parallel_efficiency.sh $(BUILD) 5 $(JOBS)
 
 # A 100,000-point sweep (scenarios/bench/sweep-100k.json): time, the runner's peak memory per
 # point, and `rosguard status` on the result (long: some 10 minutes on 2 CPUs; 1.6 GB of
 # samples in a temporary folder).
-bench-large: build
+bench-large: rosguard
 	tests/bench/large_sweep.sh $(BUILD) $(JOBS)
 
 # The paper's experiments 1-3 on hw, transport inproc vs dds (scenarios/bench/hw-middleware.json),
 # and the README's middleware table from them.
-bench-middleware: build
+bench-middleware: rosguard
 	$(ROSGUARD) run scenarios/bench/hw-middleware.json --backend hw --out results/hw-middleware --overwrite
 	$(PYTHON) tools/middleware_table.py results/hw-middleware
 
 # rosguard guard under regulation for SOAK_S seconds (default 30 min): its memory and log growth.
 SOAK_S ?= 1800
-bench-soak: build
+bench-soak: rosguard
 	tests/bench/guard_soak.sh $(BUILD) $(SOAK_S) results/soak
 
 format:

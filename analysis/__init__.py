@@ -19,7 +19,19 @@ Entry points:
 Only the standard library and Debian's numpy, scipy, pandas and matplotlib are used.
 """
 
-from analysis.frame import load
-from analysis.results import InvalidInput, NotAResultsFolder, Results, load_results
+import importlib
 
-__all__ = ["InvalidInput", "NotAResultsFolder", "Results", "load", "load_results"]
+# Name -> the module that defines it, imported on first use (PEP 562): ``python3 -m analysis``
+# imports this package first, and checks for numpy, pandas, matplotlib and scipy before any of
+# them is loaded.
+_EXPORTS = {"InvalidInput": "analysis.results", "NotAResultsFolder": "analysis.results",
+            "Results": "analysis.results", "load": "analysis.frame",
+            "load_results": "analysis.results"}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'analysis' has no attribute {name!r}")

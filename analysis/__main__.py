@@ -5,15 +5,15 @@
 
 Exit codes: 0 success, 2 invalid input (usage, a folder that is not a results folder, two
 folders without a common point), 1 runtime failure (e.g. an output folder that cannot be
-written). Errors are one line on stderr, without a traceback.
+written, or a Python without numpy, pandas, matplotlib or scipy). Errors are one line on
+stderr, without a traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
-
-from analysis.results import InvalidInput
 
 DESCRIPTION = """\
 Figures and comparisons of rosguard results folders (what `rosguard run` writes:
@@ -36,8 +36,13 @@ examples:
   python3 -m analysis validate-table results/validation/report.json
       the README's validation block (markdown) on stdout
 
-exit codes: 0 success, 2 invalid input, 1 runtime failure
+exit codes: 0 success, 2 invalid input, 1 runtime failure (also: this Python lacks numpy,
+pandas, matplotlib or scipy; `rosguard plot|compare` run /usr/bin/python3, or $ROSGUARD_PYTHON)
 """
+
+# The third-party modules the subcommands import, with the Debian packages that hold them.
+MODULES = {"numpy": "python3-numpy", "pandas": "python3-pandas",
+           "matplotlib": "python3-matplotlib", "scipy": "python3-scipy"}
 
 PLOT_HELP = """\
 Draw every figure the results support: slowdown vs threshold, vs sampling period and vs
@@ -176,6 +181,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def missing_modules() -> list[str]:
+    """The names of MODULES that this interpreter cannot import."""
+    missing = []
+    for name in MODULES:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            missing.append(name)
+    return missing
+
+
 def main(argv=None) -> int:
     """Runs one subcommand; returns the exit code."""
     parser = build_parser()
@@ -183,8 +199,18 @@ def main(argv=None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2
+    # One line instead of a traceback when this interpreter lacks a module (e.g. a python3 of a
+    # virtual environment as ROSGUARD_PYTHON).
+    missing = missing_modules()
+    if missing:
+        print(f"error: {sys.executable} cannot import {', '.join(missing)} (Debian: apt-get "
+              f"install {' '.join(MODULES[m] for m in missing)}); rosguard runs the analysis "
+              "with /usr/bin/python3, or with ROSGUARD_PYTHON when set: point it at a Python "
+              f"that has {', '.join(MODULES)}", file=sys.stderr)
+        return 1
+    # Imported here so that --help, usage errors and the check above need none of them.
+    from analysis.results import InvalidInput
     try:
-        # Imported here so that --help and usage errors do not load matplotlib.
         if args.command == "plot":
             from analysis import plot
             return plot.run(args.results, args.out, rt_slowdown_max=args.rt_slowdown_max)

@@ -6,6 +6,8 @@ import csv
 import io
 import os
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -14,7 +16,7 @@ import resultgen
 from analysis import plot
 from analysis.__main__ import main
 from analysis.figures import REGISTRY
-from checks import assert_figure_files, run_cli
+from checks import ROOT, assert_figure_files, run_cli
 from test_figures import EXPECTED
 
 
@@ -171,3 +173,28 @@ def test_rosguard_plot_end_to_end(results_dir, tmp_path):
     assert_figure_files(tmp_path, "slowdown_vs_threshold")
     done = run_cli("compare", results_dir("threshold"), tmp_path / "none", command=[ROSGUARD])
     assert done.returncode == 2 and "no such folder" in done.stderr
+
+
+def test_missing_module_is_one_line_naming_the_interpreter(results_dir, tmp_path):
+    # A pandas that cannot be imported, ahead of the real one on the path: as on a Python
+    # without python3-pandas.
+    shadow = tmp_path / "shadow"
+    (shadow / "pandas").mkdir(parents=True)
+    (shadow / "pandas" / "__init__.py").write_text("raise ImportError('no pandas here')\n")
+    env = dict(os.environ, PYTHONPATH=f"{shadow}:{ROOT}", MPLBACKEND="Agg",
+               PYTHONDONTWRITEBYTECODE="1")
+    commands = [[sys.executable, "-m", "analysis"]]
+    if ROSGUARD:
+        env["ROSGUARD_PYTHON"] = sys.executable
+        commands.append([ROSGUARD])
+    for command in commands:
+        for args in (["plot", results_dir("threshold"), "--out", tmp_path / "figs"],
+                     ["compare", results_dir("threshold"), results_dir("threshold")]):
+            done = subprocess.run(command + [str(a) for a in args], env=env, capture_output=True,
+                                  text=True, timeout=300, check=False)
+            assert done.returncode == 1, (command, args, done.stderr)
+            lines = done.stderr.splitlines()
+            assert len(lines) == 1, done.stderr
+            assert lines[0].startswith(f"error: {sys.executable} cannot import pandas ")
+            assert "python3-pandas" in lines[0] and "ROSGUARD_PYTHON" in lines[0]
+    assert not (tmp_path / "figs").exists()

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runner mechanics through the real CLI (tools/rosguard/commands/) with the fake backend (app/fake/):
-# determinism over --jobs and shards, crash safety, SIGINT, resume, failures, folders, list.
+# determinism over --jobs and shards, crash safety, SIGINT, resume, failures, folders, list,
+# adjacent baselines, check --json and the loader's warnings in run.
 # Usage: runner_cli_test.sh ROSGUARD_FAKE CASE   (from the source root)
 set -u
 bin=$1
@@ -702,6 +703,50 @@ import csv, json, sys
 rows = list(csv.DictReader(open(f"{sys.argv[1]}/points.csv")))
 assert all(r["rt_unregulated_slowdown"] == "" for r in rows if r["policy"] != "none")
 assert json.load(open(f"{sys.argv[1]}/manifest.json"))["facts"]["unregulated_corun"].startswith("off")
+PY
+  ;;
+check_json)
+  # check --json: the text summary's numbers as one JSON object, every point with --points; an
+  # invalid scenario prints nothing on stdout.
+  "$bin" check $scenario > "$tmp/text" || fail "check"
+  "$bin" check $scenario --json > "$tmp/j.json" || fail "check --json"
+  "$bin" check $scenario --json --points > "$tmp/p.json" || fail "check --json --points"
+  /usr/bin/python3 - "$tmp/j.json" "$tmp/p.json" "$tmp/text" <<'PY' || fail "check --json"
+import json, sys
+j, p, text = json.load(open(sys.argv[1])), json.load(open(sys.argv[2])), open(sys.argv[3]).read()
+assert j["valid"] is True and j["name"] == "runner-test", j
+assert f"{j['points']} points" in text.splitlines()[-1], (j["points"], text)
+assert j["points"] == 12 and j["repetitions"] == 2 and j["runs"] == 24, j
+assert [(s["key"], s["values"]) for s in j["sweep"]] == \
+    [("regulation.threshold_pct", 6), ("regulation.policy", 2)], j["sweep"]
+assert j["nodes"] == {"rt": 1, "nrt": 1, "controller_core": 0}, j["nodes"]
+assert "point_list" not in j and len(p["point_list"]) == 12, p
+assert len({q["id"] for q in p["point_list"]}) == 12
+assert all(set(q["parameters"]) == {"regulation.threshold_pct", "regulation.policy"}
+           for q in p["point_list"]), p["point_list"][0]
+PY
+  echo '{"name": "x", "nodes": 1}' > "$tmp/bad.json"
+  "$bin" check "$tmp/bad.json" --json > "$tmp/bad.out" 2> "$tmp/bad.err"
+  [[ $? -eq 2 && ! -s "$tmp/bad.out" && -s "$tmp/bad.err" ]] ||
+    fail "an invalid scenario with --json: $(cat "$tmp/bad.out" "$tmp/bad.err")"
+  # The loader's warnings reach run's console as check's, and the manifest (a controller on
+  # the RT node's core).
+  sed 's/"controller": { "core": 0 }/"controller": { "core": 1 }/' $scenario \
+    > tests/app/fixtures/.shared-$$.json
+  trap 'rm -rf "$tmp" tests/app/fixtures/.shared-$$.json' EXIT
+  "$bin" check tests/app/fixtures/.shared-$$.json --json > "$tmp/w.json" 2> "$tmp/check.err" ||
+    fail "check of the shared core"
+  "$bin" run tests/app/fixtures/.shared-$$.json --out "$tmp/w" --quiet 2> "$tmp/run.err" ||
+    fail "run of the shared core"
+  warning="warning: the controller shares core 1 with node 'rt0'"
+  grep -qF "$warning" "$tmp/check.err" || fail "check does not warn: $(cat "$tmp/check.err")"
+  [[ $(grep -cF "$warning" "$tmp/run.err") -eq 1 ]] ||
+    fail "run does not warn once: $(cat "$tmp/run.err")"
+  /usr/bin/python3 - "$tmp/w.json" "$tmp/w/manifest.json" <<'PY' || fail "the warning's JSON"
+import json, sys
+j, m = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert any(w.startswith("the controller shares core 1 with node 'rt0'") for w in j["warnings"]), j
+assert m["warnings"] == j["warnings"], (m["warnings"], j["warnings"])
 PY
   ;;
 *)

@@ -18,7 +18,8 @@ Cases:
                 periods its key and policy give it; the unregulated co-run is policy none.
   status        `rosguard status` on a tune's folder: finished (its batches, the command, the
                 best setting), stopped (tune.json gone, the process ended: how to run it again),
-                interrupted, and while it runs (its process group stopped mid-search).
+                interrupted, and while it runs (its process group stopped mid-search);
+                --json of the finished and the stopped one.
   confirm-hw    --confirm hw on the 2-core example measures the winner and the unregulated
                 co-run on this machine (SKIPPED where the hw backend cannot run here).
 """
@@ -330,11 +331,24 @@ elif CASE == "status":
         fail(f"status: all points {every[1]}, tune.json simulated {t['simulated_points']}")
     if t["best"]["label"] not in text or "--rt-slowdown-max 1.5" not in text:
         fail("status of a finished tune does not give its best setting and its command")
+    # --json: the same batches, totals, state and choice.
+    code, text = cli("status", out, "--json", expect=0)
+    j = json.loads(text)
+    names = [b["name"] for b in j["batches"]]
+    if j["kind"] != "tune" or j["state"] != "finished" or not j["finished"] or j["stopped"] or \
+            names != [r[0] for r in table if r[0] != "all"] or \
+            not j["points_done"] == j["points"] == t["simulated_points"] or \
+            j["best"] != t["best"] or "--rt-slowdown-max 1.5" not in j["command"]:
+        fail(f"status --json of a finished tune:\n{text}")
     # tune.json gone and the tune's process ended: stopped, with how to run it again.
     os.remove(f"{out}/tune.json")
     text, _ = tune_status(out, "stopped after step-")
     if "--overwrite" not in text or "is gone without finishing" not in text:
         fail("status of a stopped tune does not say how to run it again:\n" + text)
+    j = json.loads(cli("status", out, "--json", expect=0)[1])
+    if not j["stopped"] or j["finished"] or not j["state"].startswith("stopped after step-") or \
+            j["best"] is not None:
+        fail(f"status --json of a stopped tune: {j}")
     # The last batch interrupted: its manifest says so and a row is missing.
     last = sorted(d for d in os.listdir(f"{out}/probes") if d.startswith("step-")
                   and not d.endswith(".json"))[-1]

@@ -54,7 +54,7 @@ std::string check_scenario_bytes(const std::uint8_t* data, std::size_t size) {
     out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   }
   try {
-    check_scenario(*s.loader, s.backends, file.string(), std::nullopt, false);
+    check_scenario(*s.loader, s.backends, file.string(), std::nullopt, false, false);
   } catch (const InputError& e) {
     if (e.file().empty()) return std::string("input error without a file: ") + e.what();
   } catch (const RunError& e) {

@@ -170,12 +170,30 @@ status)
   grep -qE '^  0/2 +0/6 +0/12 +not started$' "$tmp/out" || fail "the other shard is not 'not started'"
   grep -qE '^  all .* incomplete$' "$tmp/out" || fail "the folder is not incomplete"
   grep -q '^Re-run' "$tmp/out" || fail "no re-run commands"
+  # --json: the same shards, states and re-run commands.
+  "$bin" status "$tmp/k" --json >"$tmp/out.json" || fail "status --json exited $?"
+  /usr/bin/python3 - "$tmp/out.json" "$tmp/out" <<'PY' || fail "status --json: $(cat "$tmp/out.json")"
+import json, sys
+j, text = json.load(open(sys.argv[1])), open(sys.argv[2]).read()
+assert j["kind"] == "run" and j["state"] == "incomplete" and j["runs_total"] == 24, j
+shards = {s["shard"]: s for s in j["shards"]}
+assert set(shards) == {"0/2", "1/2"}, shards
+assert shards["0/2"]["state"] == "not started" and shards["0/2"]["runs_done"] == 0
+assert shards["1/2"]["state"].startswith("stopped: its process") and not shards["1/2"]["live"]
+assert j["runs_done"] == shards["1/2"]["runs_done"] > 0
+assert [r["shard"] for r in j["rerun"]] == ["0/2", "1/2"], j["rerun"]
+assert all("  here:     " + r["command"] in text for r in j["rerun"]), (j["rerun"], text)
+PY
   grep -oE 'rosguard run .* --resume$' "$tmp/out" | sed "s|^rosguard |$bin |" >"$tmp/rerun"
   [[ $(wc -l <"$tmp/rerun") -eq 2 ]] || fail "expected two re-run commands: $(cat "$tmp/rerun")"
   bash "$tmp/rerun" >/dev/null 2>&1 || fail "the printed commands failed"
   "$bin" status "$tmp/k" >"$tmp/out" || fail "status exited $?"
   grep -qE '^  all +12/12 +24/24 +complete$' "$tmp/out" || fail "not complete: $(cat "$tmp/out")"
   grep -q '^Re-run' "$tmp/out" && fail "a complete folder still lists re-runs"
+  "$bin" status "$tmp/k" --json >"$tmp/out.json" || fail "status --json exited $?"
+  /usr/bin/python3 -c 'import json, sys; j = json.load(open(sys.argv[1]))
+assert j["state"] == "complete" and j["rerun"] == [] and j["runs_done"] == 24, j' "$tmp/out.json" ||
+    fail "status --json of a complete folder: $(cat "$tmp/out.json")"
   [[ $(dups "$tmp/k") -eq 0 ]] || fail "duplicate rows after the re-run"
   "$bin" run $scenario --out "$tmp/local" --quiet || fail "local run"
   cmp "$tmp/local/points.csv" "$tmp/k/points.csv" || fail "points.csv differs from a local run"

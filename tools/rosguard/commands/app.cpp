@@ -54,7 +54,13 @@ Start here:
   rosguard plot results/quickstart            draw its figures
   rosguard tune scenarios/examples/tune.json --rt-slowdown-max 1.2
                                               the setting that keeps RT within 1.2x
-Run 'rosguard <command> --help' for the options of a command.)";
+Run 'rosguard <command> --help' for the options of a command.
+Environment:
+  ROSGUARD_HOME=DIR      the data (scenarios/, analysis/): an install's share/rosguard or a
+                         source tree (default: ../share/rosguard beside the executable, else the
+                         source tree it was built from)
+  ROSGUARD_PYTHON=PATH   the Python that plot, compare and calibrate's figures run (default
+                         /usr/bin/python3); it needs numpy, pandas, matplotlib and scipy)";
 
 std::string joined_args(int argc, char** argv) {
   std::string s;

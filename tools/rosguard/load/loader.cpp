@@ -774,8 +774,9 @@ void Loader::load_points(LoadedScenario& out, PointSelection selection, unsigned
       }
 }
 
-bool Loader::printed(const std::string& warning) const {
-  return printed_.count(warning) > 0;
+void Loader::print_warnings(const LoadedScenario& loaded) {
+  for (const auto& w : loaded.warnings)
+    if (printed_.insert(w).second) std::cerr << "warning: " << w << "\n";
 }
 
 std::vector<CatalogEntry> Loader::platforms() const {

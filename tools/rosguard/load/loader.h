@@ -104,9 +104,10 @@ class Loader {
 
   const Home& home() const { return home_; }
 
-  // Whether load_points printed `warning` already (a host model of another machine is said
-  // once per Loader, when the points are loaded; `check` need not say it again).
-  bool printed(const std::string& warning) const;
+  // Prints `loaded`'s warnings on stderr ("warning: ..."), each once per Loader: those
+  // load_points printed already (a host model of another machine) are not said again. `check`
+  // and `run` call it once the points are loaded.
+  void print_warnings(const LoadedScenario& loaded);
 
  private:
   // One point's scenario from its document (defaults applied here): schema, references, rules.

@@ -55,8 +55,6 @@ std::unique_ptr<Backend> make_backend(const LoadedScenario& loaded,
                    (known.empty() ? "none" : known) + ")");
   }
   std::unique_ptr<Backend> backend = info->make();
-  // The loader's warnings (e.g. a controller sharing a core) go to the manifest; the backend
-  // says what they mean for this run (as a fallback), so they are not printed twice.
   for (const auto& p : loaded.points)
     backend->validate(p.scenario);
   return backend;
@@ -1009,6 +1007,9 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
       start_task_hosts(loader, loaded, backends, opt.trace, requested_jobs(opt));
   loader.load_points(loaded, PointSelection::All, worker_threads(opt));
   std::unique_ptr<Backend> backend = make_backend(loaded, backends);
+  // The loader's warnings (e.g. budgets that act alike): on the console as `check` prints them,
+  // and in the manifest.
+  loader.print_warnings(loaded);
   const Scenario& first = loaded.points.front().scenario;
   const bool adaptive = adaptive_run(loaded, *backend);
 

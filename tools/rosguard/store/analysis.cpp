@@ -41,7 +41,7 @@ int run_analysis(const Home& home, const std::vector<std::string>& args) {
     ::setenv("PYTHONDONTWRITEBYTECODE", "1", 0);  // no __pycache__ inside the source tree
     ::execv(argv[0], argv.data());
     std::cerr << "error: cannot start " << python << ": " << std::strerror(errno)
-              << " (install python3-matplotlib and python3-numpy, or set ROSGUARD_PYTHON)\n";
+              << " (set ROSGUARD_PYTHON to a Python 3 with numpy, pandas, matplotlib and scipy)\n";
     ::_exit(1);
   }
   int status = 0;

@@ -378,27 +378,98 @@ std::string slowdowns(const json& setting) {
          " (mean)";
 }
 
+// The tune's own command, as each batch's manifest records it ("... (step-00)"), or "".
+std::string tune_command(const std::vector<Batch>& batches) {
+  for (const auto& b : batches)
+    if (b.started && !b.folder.command.empty()) {
+      std::string command = b.folder.command;
+      const std::string suffix = " (" + b.name + ")";
+      if (command.size() > suffix.size() &&
+          command.compare(command.size() - suffix.size(), suffix.size(), suffix) == 0)
+        command.erase(command.size() - suffix.size());
+      return command;
+    }
+  return "";
+}
+
+// The tune's state: finished (tune.json), a batch runs, or the tune's process (the last
+// started batch's manifest entry names it) is between batches, or gone (`stopped`).
+struct TuneState {
+  std::string state;
+  bool stopped = false;
+};
+
+TuneState tune_state(const std::vector<Batch>& batches, bool finished, Queue& queue) {
+  const Batch* judged = nullptr;
+  const Batch* running = nullptr;
+  for (const auto& b : batches) {
+    if (b.started && b.folder.shards.contains("0/1")) judged = &b;
+    if (b.view.live) running = &b;
+  }
+  TuneState t{"finished", false};
+  if (running) {
+    t.state = "running: " + running->name;
+  } else if (!finished && judged) {
+    ShardView v;
+    judge_running(v, judged->folder.shards["0/1"], queue, judged->dir);
+    t.stopped = !v.live;
+    if (v.live)
+      t.state = v.state + (judged == &batches.back() ? ", between batches"
+                                                     : ", starting " + batches.back().name);
+    else if (judged->state == "complete")  // v.state: "stopped: its process (pid N) is gone ..."
+      t.state = "stopped after " + judged->name + v.state.substr(std::string("stopped").size());
+    else
+      t.state = "stopped after " + judged->name + ": " + judged->state;
+  } else if (!finished) {
+    t.state = "no batch has run yet (starting, or stopped before its first batch)";
+  }
+  return t;
+}
+
+// `rosguard status --json` of a tune's folder: what tune_status prints, as one object.
+json tune_status_json(const fs::path& dir, const std::vector<Batch>& batches,
+                      const std::string& command, const TuneState& t, const json& tune,
+                      const Queue& queue) {
+  json j = {{"kind", "tune"},           {"folder", dir.string()},   {"command", command},
+            {"batches", json::array()}, {"points_done", 0},         {"points", 0},
+            {"runs_done", 0},           {"runs_total", 0},          {"state", t.state},
+            {"stopped", t.stopped},     {"finished", !tune.empty()}};
+  for (const auto& b : batches) {
+    j["batches"].push_back({{"name", b.name},
+                            {"started", b.started},
+                            {"points_done", b.view.points_done},
+                            {"points", b.folder.points},
+                            {"runs_done", b.view.runs_done},
+                            {"runs_total", b.view.runs_total},
+                            {"state", b.state}});
+    j["points_done"] = j["points_done"].get<std::size_t>() + b.view.points_done;
+    j["points"] = j["points"].get<std::size_t>() + b.folder.points;
+    j["runs_done"] = j["runs_done"].get<std::size_t>() + b.view.runs_done;
+    j["runs_total"] = j["runs_total"].get<std::size_t>() + b.view.runs_total;
+  }
+  // Once finished: tune.json's bound and choice (null where it has none).
+  for (const char* key : {"rt_slowdown_max", "best", "closest", "runner_up", "unregulated"})
+    j[key] = tune.value(key, json());
+  j["slurm_queue_error"] = queue.failed() ? json(queue.why()) : json();
+  return j;
+}
+
 // `rosguard status` of a tune's folder: what it searches, each batch's progress and state,
 // whether the tune runs, stopped or finished, and its choice once finished.
-int tune_status(const fs::path& dir) {
+int tune_status(const fs::path& dir, bool as_json) {
   Queue queue;
   const std::vector<Batch> batches = tune_batches(dir, queue);
   std::error_code ec;
   const bool finished = fs::is_regular_file(dir / "tune.json", ec);
   const json tune = finished ? read_json_or_throw(dir / "tune.json", dir) : json::object();
+  const std::string command = tune_command(batches);
+  const TuneState t = tune_state(batches, finished, queue);
+  if (as_json) {
+    std::cout << tune_status_json(dir, batches, command, t, tune, queue).dump(2) << "\n";
+    return 0;
+  }
 
   std::cout << dir.string() << ": rosguard tune, " << batches.size() << " batch(es)\n";
-  // The command: the tune's own, as each batch's manifest records it ("... (step-00)").
-  std::string command;
-  for (const auto& b : batches)
-    if (b.started && !b.folder.command.empty()) {
-      command = b.folder.command;
-      const std::string suffix = " (" + b.name + ")";
-      if (command.size() > suffix.size() &&
-          command.compare(command.size() - suffix.size(), suffix.size(), suffix) == 0)
-        command.erase(command.size() - suffix.size());
-      break;
-    }
   if (!command.empty()) std::cout << "  command      " << command << "\n";
   if (finished)
     std::cout << "  searched     " << tune.value("configurations", json::array()).size()
@@ -420,34 +491,8 @@ int tune_status(const fs::path& dir) {
     runs += b.view.runs_total;
   }
 
-  // The tune's state: finished (tune.json), a batch runs, or the tune's process (the last
-  // started batch's manifest entry names it) is between batches, or gone.
-  const Batch* judged = nullptr;
-  const Batch* running = nullptr;
-  for (const auto& b : batches) {
-    if (b.started && b.folder.shards.contains("0/1")) judged = &b;
-    if (b.view.live) running = &b;
-  }
-  std::string state = "finished";
-  bool stopped = false;
-  if (running) {
-    state = "running: " + running->name;
-  } else if (!finished && judged) {
-    ShardView v;
-    judge_running(v, judged->folder.shards["0/1"], queue, judged->dir);
-    stopped = !v.live;
-    if (v.live)
-      state = v.state + (judged == &batches.back() ? ", between batches"
-                                                   : ", starting " + batches.back().name);
-    else if (judged->state == "complete")  // v.state: "stopped: its process (pid N) is gone ..."
-      state = "stopped after " + judged->name + v.state.substr(std::string("stopped").size());
-    else
-      state = "stopped after " + judged->name + ": " + judged->state;
-  } else if (!finished) {
-    state = "no batch has run yet (starting, or stopped before its first batch)";
-  }
   std::printf("  %-24s %-13s %-13s %s\n", "all", fraction(points_done, points).c_str(),
-              fraction(runs_done, runs).c_str(), state.c_str());
+              fraction(runs_done, runs).c_str(), t.state.c_str());
   if (queue.failed()) std::cout << "note: Slurm's queue could not be read: " << queue.why() << "\n";
 
   if (finished) {
@@ -471,20 +516,66 @@ int tune_status(const fs::path& dir) {
     std::cout << "  results      " << (dir / "tune.json").string() << ", "
               << (dir / "points.csv").string() << " (rosguard plot " << dir.string() << ")\n";
   }
-  if (stopped)
+  if (t.stopped)
     std::cout << "A tune does not resume: run it again with --overwrite"
               << (command.empty() ? std::string(".") : ":\n  " + command + " --overwrite") << "\n";
   return 0;
 }
+// `rosguard run ... --shard INDEX/COUNT --resume` of a shard of the run in `dir`.
+std::string rerun_command(const fs::path& dir, const Folder& f, int index, int count) {
+  return "rosguard run " +
+         (f.scenario_file.empty() ? std::string("SCENARIO.json") : shell_quote(f.scenario_file)) +
+         " --out " + shell_quote(dir.string()) + " --shard " + std::to_string(index) + "/" +
+         std::to_string(count) + " --resume";
+}
+
+std::string run_state(const RunView& r) {
+  return r.complete ? "complete" : r.live ? "running" : "incomplete";
+}
+
+// `rosguard status --json` of a run's folder: what results_status prints, as one object; every
+// shard listed, and each shard to run again with its command.
+json run_status_json(const fs::path& dir, const Folder& f, const RunView& r, const Queue& queue) {
+  json j = {{"kind", "run"},
+            {"folder", dir.string()},
+            {"scenario_file", f.scenario_file},
+            {"points", f.points},
+            {"repetitions", f.repetitions},
+            {"shards", json::array()},
+            {"points_done", r.points_done},
+            {"runs_done", r.runs_done},
+            {"runs_total", r.runs_total},
+            {"state", run_state(r)},
+            {"rerun", json::array()},
+            {"slurm_queue_error", queue.failed() ? json(queue.why()) : json()}};
+  for (const auto& v : r.shards) {
+    const std::string key = std::to_string(v.index) + "/" + std::to_string(v.count);
+    j["shards"].push_back({{"shard", key},
+                           {"points_done", v.points_done},
+                           {"points_total", v.points_total},
+                           {"runs_done", v.runs_done},
+                           {"runs_total", v.runs_total},
+                           {"state", v.state},
+                           {"live", v.live}});
+    if (!v.live && v.runs_done < v.runs_total)
+      j["rerun"].push_back({{"shard", key}, {"command", rerun_command(dir, f, v.index, v.count)}});
+  }
+  return j;
+}
+
 }  // namespace
 
-int results_status(const fs::path& dir) {
-  if (is_tune_folder(dir)) return tune_status(dir);
+int results_status(const fs::path& dir, bool as_json) {
+  if (is_tune_folder(dir)) return tune_status(dir, as_json);
   const Folder f = read_folder(dir);
   const int job_shards = f.job.is_object() ? f.job.value("shards", 0) : 0;
   const fs::path script = f.job.is_object() ? fs::path(f.job.value("script", "")) : fs::path();
   Queue queue;
   const RunView r = assess(dir, f, queue);
+  if (as_json) {
+    std::cout << run_status_json(dir, f, r, queue).dump(2) << "\n";
+    return 0;
+  }
   const std::vector<ShardView>& views = r.shards;
 
   std::cout << dir.string() << ": " << (f.scenario_file.empty() ? "" : f.scenario_file + ", ")
@@ -508,10 +599,7 @@ int results_status(const fs::path& dir) {
   }
   if (unlisted > 0) std::printf("  (%zu complete shard(s) not listed)\n", unlisted);
   std::printf("  %-9s %-13s %-13s %s\n", "all", fraction(r.points_done, f.points).c_str(),
-              fraction(r.runs_done, r.runs_total).c_str(),
-              r.complete ? "complete"
-              : r.live   ? "running"
-                         : "incomplete");
+              fraction(r.runs_done, r.runs_total).c_str(), run_state(r).c_str());
   std::cout.flush();
   if (queue.failed()) std::cout << "note: Slurm's queue could not be read: " << queue.why() << "\n";
 
@@ -522,9 +610,6 @@ int results_status(const fs::path& dir) {
   if (rerun.empty()) return 0;
   std::cout << "Re-run the shards that did not finish (--resume: the runs already in points.csv "
                "are skipped, none is written twice):\n";
-  const std::string out = shell_quote(dir.string());
-  const std::string scenario =
-      f.scenario_file.empty() ? "SCENARIO.json" : shell_quote(f.scenario_file);
   std::error_code ec;
   for (const auto& [n, list] : rerun) {
     if (n == job_shards && fs::exists(script, ec)) {
@@ -536,8 +621,7 @@ int results_status(const fs::path& dir) {
     }
     constexpr std::size_t kShown = 4;
     for (std::size_t k = 0; k < list.size() && k < kShown; ++k)
-      std::cout << "  here:     rosguard run " << scenario << " --out " << out << " --shard "
-                << list[k] << "/" << n << " --resume\n";
+      std::cout << "  here:     " << rerun_command(dir, f, list[k], n) << "\n";
     if (list.size() > kShown)
       std::cout << "  (and " << list.size() - kShown << " more shard(s) of " << n
                 << " the same way)\n";

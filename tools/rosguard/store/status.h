@@ -17,7 +17,13 @@ namespace rosguard {
 // command, one row per batch (probes/unregulated, probes/step-NN, confirm-hw: points and runs
 // done / total, state), the tune's state (running a batch, between batches, stopped with how to
 // run it again, finished) and, once finished, what it searched and chose (tune.json). Returns
-// 0; throws InputError (exit 2) when `dir` is not a results folder.
-int results_status(const std::filesystem::path& dir);
+// 0; throws InputError (exit 2) when `dir` is not a results folder. `as_json`: the same as one
+// JSON object on stdout: "kind" "run" (folder, scenario_file, points, repetitions, shards (each:
+// shard, points_done, points_total, runs_done, runs_total, state, live), points_done,
+// runs_done, runs_total, state, rerun (each: shard, command), slurm_queue_error) or "tune"
+// (folder, command, batches (each: name, started, points_done, points, runs_done, runs_total,
+// state), points_done, points, runs_done, runs_total, state, stopped, finished, and tune.json's
+// rt_slowdown_max, best, closest, runner_up, unregulated: null until it is written).
+int results_status(const std::filesystem::path& dir, bool as_json);
 
 }  // namespace rosguard

@@ -1,6 +1,7 @@
 """Generated blocks in Markdown files.
 
-A generated block sits between two HTML comments that a Markdown renderer does not show:
+A generated block sits between two HTML comments that a Markdown renderer does not show, each
+at the start of a line (a marker quoted within a line is text, not a marker):
 
     <!-- NAME:begin -->            or, with an argument:   <!-- NAME:begin ARGUMENT -->
     ...generated text...
@@ -30,8 +31,8 @@ class Block:
 
 def _pattern(name: str) -> re.Pattern:
     name = re.escape(name)
-    return re.compile(rf"<!-- {name}:begin(?: (?P<argument>[^\n]*?))? -->"
-                      rf"(?P<content>.*?)<!-- {name}:end -->", re.DOTALL)
+    return re.compile(rf"^<!-- {name}:begin(?: (?P<argument>[^\n]*?))? -->"
+                      rf"(?P<content>.*?)^<!-- {name}:end -->", re.DOTALL | re.MULTILINE)
 
 
 def markers(name: str, argument: str = "") -> tuple[str, str]:
@@ -50,8 +51,8 @@ def replace_blocks(text: str, name: str, render: Callable[[str], str], where: st
 
     Raises InvalidInput naming ``where`` when a begin marker has no end marker (or the
     reverse): a half-written block would otherwise swallow or keep stale text silently."""
-    begins = text.count(f"<!-- {name}:begin")
-    ends = text.count(f"<!-- {name}:end -->")
+    begins = len(re.findall(rf"^<!-- {re.escape(name)}:begin", text, re.MULTILINE))
+    ends = len(re.findall(rf"^<!-- {re.escape(name)}:end -->", text, re.MULTILINE))
     found = len(_pattern(name).findall(text))
     if not begins == ends == found:
         raise InvalidInput(f"{where}: unbalanced <!-- {name}:begin --> / <!-- {name}:end --> "

@@ -40,6 +40,11 @@ def test_unbalanced_markers_are_refused():
         replace_blocks(half, "run", lambda arg: "x\n", "page.md")
 
 
+def test_a_marker_quoted_within_a_line_is_text():
+    quoted = "say `<!-- table:begin -->` and `<!-- table:end -->` here\n" + PAGE
+    assert splice(quoted, "table", "new\n", "page.md").startswith(quoted.split("old")[0])
+
+
 def test_markers():
     assert markers("columns") == ("<!-- columns:begin -->", "<!-- columns:end -->")
     assert markers("run", "rosguard list")[0] == "<!-- run:begin rosguard list -->"

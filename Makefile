@@ -93,8 +93,9 @@ validate-readme:
 	@tools/validate.sh --readme
 
 # Every `$ rosguard` transcript in README.md and docs/ run again and written between its
-# markers (tools/docs.py; a minute or two), then the pages' links and markers checked.
-docs: build
+# markers (tools/docs.py), then the pages' links and markers checked. Builds rosguard alone.
+docs: configure
+	@cmake --build $(BUILD) -j $(JOBS) --target rosguard
 	@$(PYTHON) tools/docs.py --rosguard $(ROSGUARD)
 
 bench: build

@@ -62,7 +62,9 @@ def run(command: str, rosguard: Path, root: Path, where: str) -> str:
         raise InvalidInput(f"{where}: transcript command must start with 'rosguard': {command}")
     env = dict(os.environ, ROSGUARD_HOME=str(root))
     start = time.monotonic()
-    done = subprocess.run([str(rosguard)] + argv[1:], cwd=root, env=env, capture_output=True,
+    # argv[0] "rosguard", as the page shows it: output that echoes the command (status on a
+    # tune's folder) then reads the same whichever build ran it
+    done = subprocess.run(argv, executable=rosguard, cwd=root, env=env, capture_output=True,
                           text=True)
     print(f"{where}: {command} ({time.monotonic() - start:.1f} s)", file=sys.stderr)
     if done.returncode != 0:

@@ -9,6 +9,7 @@
 #   make validate     runs scenarios/validation/ on hw and in sim, writes results/validation/report.md
 #   make fit-table1   refits the seven Table 1 workloads (base_ipc; measured profiles' rates scaled)
 #   make bench-middleware  the paper's experiments 1-3 on hw, transport inproc vs dds, as a table
+#   make docs         regenerates every command transcript in README.md and docs/ (tools/docs.py)
 BUILD ?= build
 JOBS ?= $(shell nproc)
 PREFIX ?= /usr/local
@@ -22,7 +23,7 @@ PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
 .PHONY: all deps configure build rosguard test test-nosim test-aarch64 run install reproduce sensitivity validate \
-        validate-readme bench-parallel bench-large bench-soak bench-middleware bench format clean fit-table1
+        validate-readme docs bench-parallel bench-large bench-soak bench-middleware bench format clean fit-table1
 
 all: build
 
@@ -79,15 +80,15 @@ fit-table1: build
 	$(PYTHON) tools/fit_table1.py --build $(BUILD) $(FIT_ARGS)
 
 # Every experiment of the paper on the sim backend, plotted into results/paper/<experiment>/,
-# then the README gallery (docs/figures/) and the paper-vs-sim table regenerated from them.
+# then the paper-vs-sim table and gallery (docs/paper-vs-sim.md, docs/figures/) regenerated.
 reproduce: rosguard
 	@tools/reproduce.sh $(ROSGUARD)
 
 # Each guessed number of scenarios/platforms/orin-agx.json ("guess, plausible range LOW-HIGH" in
 # its source) at both ends of its range: the paper's scenarios in sim on each variant into
-# results/sensitivity/, the paper checks re-run, the README's sensitivity table regenerated.
+# results/sensitivity/, the paper checks re-run, the table of docs/sensitivity.md regenerated.
 sensitivity: build
-	@$(PYTHON) tools/sensitivity.py --rosguard $(ROSGUARD) --jobs $(JOBS) --readme README.md
+	@$(PYTHON) tools/sensitivity.py --rosguard $(ROSGUARD) --jobs $(JOBS) --doc docs/sensitivity.md
 
 # The sim-vs-hw validation suite (scenarios/validation/, held out from the calibration): hw and
 # sim runs into results/validation/{hw,sim}/, then report.md / report.json and the
@@ -97,6 +98,11 @@ validate: rosguard
 
 validate-readme:
 	@tools/validate.sh --readme
+
+# Every `$ rosguard` transcript in README.md and docs/ run again and written between its
+# markers (tools/docs.py), then the pages' links and markers checked. Builds rosguard alone.
+docs: rosguard
+	@$(PYTHON) tools/docs.py --rosguard $(ROSGUARD)
 
 bench: build
 	$(BUILD)/tests/bench/rosguard_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
@@ -115,7 +121,7 @@ bench-large: rosguard
 	tests/bench/large_sweep.sh $(BUILD) $(JOBS)
 
 # The paper's experiments 1-3 on hw, transport inproc vs dds (scenarios/bench/hw-middleware.json),
-# and the README's middleware table from them.
+# and the middleware table of docs/middleware-costs.md from them (printed).
 bench-middleware: rosguard
 	$(ROSGUARD) run scenarios/bench/hw-middleware.json --backend hw --out results/hw-middleware --overwrite
 	$(PYTHON) tools/middleware_table.py results/hw-middleware

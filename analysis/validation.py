@@ -48,6 +48,7 @@ import numpy as np
 from analysis import compare, style
 from analysis.nodes import nodes_of
 from analysis.figures import validation as figure
+from analysis.markdown import splice
 from analysis.results import InvalidInput, Stat, load_results
 
 REPORT_SCHEMA_VERSION = 1
@@ -701,17 +702,6 @@ def _restore(value):
     return value
 
 
-README_BEGIN, README_END = "<!-- validation:begin -->", "<!-- validation:end -->"
-
-
-def replace_block(text: str, block: str, where: str) -> str:
-    """text with the part between README_BEGIN and README_END replaced by block."""
-    start, end = text.find(README_BEGIN), text.find(README_END)
-    if start < 0 or end < start:
-        raise InvalidInput(f"{where}: no {README_BEGIN} ... {README_END} block to replace")
-    return text[:start + len(README_BEGIN)] + "\n" + block + text[end:]
-
-
 def table(report_path, readme=None, figure_dir="docs/figures", stream=sys.stdout) -> int:
     """Prints the README block of a report.json; with ``readme``, writes it there between the
     markers and copies the figure (PNG and PDF) into figure_dir (README-relative link)."""
@@ -729,8 +719,8 @@ def table(report_path, readme=None, figure_dir="docs/figures", stream=sys.stdout
     link = Path(os.path.relpath(figure_dir.resolve(), readme.resolve().parent)) / \
         f"{FIGURE_STEM}.png"
     # Everything checked (markers included) before anything is written.
-    text = replace_block(readme.read_text(encoding="utf-8"),
-                         readme_section(report, link.as_posix()), str(readme))
+    text = splice(readme.read_text(encoding="utf-8"), "validation",
+                  readme_section(report, link.as_posix()), str(readme))
     figure_dir.mkdir(parents=True, exist_ok=True)
     for source in sources:
         (figure_dir / source.name).write_bytes(source.read_bytes())

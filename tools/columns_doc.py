@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Keep README.md's results-columns section equal to `rosguard list columns`.
+"""Keep docs/results.md's results-columns section equal to `rosguard list columns`.
 
 The column dictionary lives in model/results/columns.cpp (the same one every results folder
-gets as columns.json); the README shows it between <!-- columns:begin --> and
+gets as columns.json); docs/results.md shows it between <!-- columns:begin --> and
 <!-- columns:end -->:
     python3 tools/columns_doc.py build/rosguard            # rewrite the section
     python3 tools/columns_doc.py build/rosguard --check    # exit 1 if it is out of date
@@ -12,8 +12,13 @@ import subprocess
 import sys
 from pathlib import Path
 
-README = Path(__file__).resolve().parent.parent / "README.md"
-BEGIN, END = "<!-- columns:begin -->", "<!-- columns:end -->"
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from analysis.markdown import splice  # noqa: E402
+from analysis.results import InvalidInput  # noqa: E402
+
+PAGE = ROOT / "docs" / "results.md"
 
 
 def main():
@@ -23,19 +28,18 @@ def main():
     args = ap.parse_args()
     table = subprocess.run([args.rosguard, "list", "columns"], check=True, capture_output=True,
                            text=True).stdout
-    text = README.read_text()
-    head, begin, rest = text.partition(BEGIN)
-    current, end, tail = rest.partition(END)
-    if not begin or not end:
-        sys.exit(f"{README}: the markers {BEGIN} / {END} are missing")
-    fresh = "\n" + table
+    text = PAGE.read_text()
+    try:
+        fresh = splice(text, "columns", table, str(PAGE))
+    except InvalidInput as e:
+        sys.exit(str(e))
     if args.check:
-        if current != fresh:
-            print(f"{README}: the results-columns section is out of date; regenerate: "
+        if fresh != text:
+            print(f"{PAGE}: the results-columns section is out of date; regenerate: "
                   f"python3 tools/columns_doc.py {args.rosguard}")
             return 1
         return 0
-    README.write_text(head + BEGIN + fresh + END + tail)
+    PAGE.write_text(fresh)
     return 0
 
 

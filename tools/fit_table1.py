@@ -5,7 +5,7 @@
                         [--rates scaled|measured] [--check] [--strict]
 
 For each workload with a measured profile in scenarios/profiles/NAME.json (written by `rosguard
-profile`, see README "Profiling a program"), the workload's "sim" section is rebuilt from it
+profile`, see docs/profiling.md), the workload's "sim" section is rebuilt from it
 first: instructions, footprint_kb, l3_hit, the phases (fractions, L2 refill and write-back rates,
 mlp, mrc) as measured, base_ipc the profile's placeholder. The IsolBench workloads
 (bandwidth_read, bandwidth_write), which have no measured profile, keep their sim section.

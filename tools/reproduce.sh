@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # make reproduce: every scenario of scenarios/paper/ on the sim backend into
-# results/paper/<experiment>/, plotted; then the README's gallery (docs/figures/) and its
-# "paper vs sim" table regenerated from those results (tools/paper_table.py).
+# results/paper/<experiment>/, plotted; then the "paper vs sim" table and the gallery of
+# docs/paper-vs-sim.md (figures in docs/figures/) regenerated from them (tools/paper_table.py).
 # Usage: tools/reproduce.sh [ROSGUARD]   (from anywhere; default build/rosguard)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,5 +15,5 @@ for scenario in scenarios/paper/*.json; do
   "$rosguard" plot "$out" > "$out/plot.log"
   echo "$(grep -c '\.png' "$out/plot.log") figure(s) in $out/figures/"
 done
-/usr/bin/python3 tools/paper_table.py results/paper --gallery docs/figures --readme README.md
+/usr/bin/python3 tools/paper_table.py results/paper --gallery docs/figures --doc docs/paper-vs-sim.md
 echo "reproduced in $(($(date +%s) - start)) s"

@@ -14,10 +14,10 @@ range is listed as such and not swept.
 
     python3 tools/sensitivity.py [--platform scenarios/platforms/orin-agx.json]
         [--out results/sensitivity] [--rosguard build/rosguard]
-        [--calibrate build/sim/rosguard-sim-calibrate] [--jobs 2] [--readme README.md]
+        [--calibrate build/sim/rosguard-sim-calibrate] [--jobs 2] [--doc docs/sensitivity.md]
 
-The README's section between <!-- sensitivity:begin --> and <!-- sensitivity:end --> is replaced
-when --readme is given; the table also goes to OUT/sensitivity.md.
+With --doc, that page's block between <!-- sensitivity:begin --> and <!-- sensitivity:end --> is
+replaced (its markers checked before anything runs); the table also goes to OUT/sensitivity.md.
 """
 
 from __future__ import annotations
@@ -34,7 +34,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-BEGIN, END = "<!-- sensitivity:begin -->", "<!-- sensitivity:end -->"
+sys.path.insert(0, str(ROOT))
+
+from analysis.markdown import splice  # noqa: E402
+from analysis.results import InvalidInput  # noqa: E402
 GUESS = re.compile(r"(?:\b(?P<key>[a-z][a-z0-9_]*): )?guess, plausible range "
                    r"(?P<lo>\d+(?:\.\d+)?)-(?P<hi>\d+(?:\.\d+)?)")
 # The central value of a cost distribution and the fields that scale with it.
@@ -213,7 +216,8 @@ def main():
     ap.add_argument("--calibrate", type=Path,
                     default=ROOT / "build" / "sim" / "rosguard-sim-calibrate")
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--readme", type=Path, help="replace the section between the markers")
+    ap.add_argument("--doc", type=Path,
+                    help="replace this page's block between the sensitivity markers")
     ap.add_argument("--list", action="store_true", help="only list the guesses and exit")
     args = ap.parse_args()
     platform = json.loads(args.platform.read_text())
@@ -227,6 +231,12 @@ def main():
         for u in unranged:
             print(f"{u}: a guess without a range")
         return
+    doc_text = args.doc.read_text() if args.doc else None
+    if doc_text is not None:  # hours of runs would end in a page without its markers
+        try:
+            splice(doc_text, "sensitivity", "", str(args.doc))
+        except InvalidInput as e:
+            sys.exit(str(e))
     scenarios = sorted((ROOT / "scenarios" / "paper").glob("*.json"))
     start = time.monotonic()
     print(f"base ({len(guesses)} guesses to sweep)", flush=True)
@@ -247,13 +257,8 @@ def main():
                    time.monotonic() - start)
     (args.out / "sensitivity.md").write_text("# Sensitivity of the paper's findings to the "
                                              "platform's guesses\n\n" + table)
-    if args.readme:
-        text = args.readme.read_text()
-        if BEGIN not in text or END not in text:
-            sys.exit(f"{args.readme}: markers {BEGIN} / {END} not found")
-        head, rest = text.split(BEGIN, 1)
-        _, tail = rest.split(END, 1)
-        args.readme.write_text(head + BEGIN + "\n" + table + END + tail)
+    if doc_text is not None:
+        args.doc.write_text(splice(doc_text, "sensitivity", table, str(args.doc)))
     sys.stdout.write(table)
 
 

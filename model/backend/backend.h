@@ -1,6 +1,6 @@
 // The interface both backends implement, and what they return.
 //
-// Contract: the runner (tools/rosguard/runner.h) calls isolation() baseline_repetitions() times
+// Contract: the runner (tools/rosguard/run/runner.h) calls isolation() baseline_repetitions() times
 // per distinct (workload, core) of a run (each call one measurement), interleaved with
 // run_point() for every point and repetition (docs/design.md, section 5). A backend whose
 // process_per_task() is true gets each call in a fresh worker process (SystemC can elaborate

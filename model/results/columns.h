@@ -1,6 +1,6 @@
 // The dictionary of result columns: for every column of points.csv and every sample kind of
 // samples.csv, its unit and meaning. One source for `DIR/columns.json` (written into every
-// results folder), `rosguard list columns` and the README's results section.
+// results folder), `rosguard list columns` and the results section of docs/results.md.
 #pragma once
 
 #include <optional>

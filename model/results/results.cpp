@@ -171,7 +171,7 @@ std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
   for (const char* c :
        {"rt_name", "rt_core", "nrt_name", "nrt_core", "nrt_throttle_count", "nrt_throttled_us"})
     h.emplace_back(c);
-  // The point's unregulated co-run (filled by the runner: tools/rosguard/unregulated.h).
+  // The point's unregulated co-run (filled by the runner: tools/rosguard/run/unregulated.h).
   for (const char* c : {"rt_unregulated_time_us", "rt_unregulated_slowdown",
                         "nrt_unregulated_time_us", "nrt_unregulated_slowdown"})
     h.emplace_back(c);

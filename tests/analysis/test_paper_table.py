@@ -226,3 +226,17 @@ def test_exp4_fails_each_statement_that_the_numbers_contradict(tmp_path):
         return f
     rows = paper_table.exp4(results(tmp_path, "exp4", setpoint_points(), figures))
     assert verdicts(rows) == {"4a": False, "4b": False, "4c": False, "4d": False}
+
+
+# --- the gallery --------------------------------------------------------------------------
+
+def test_gallery_copies_one_figure_per_experiment_linked_from_its_page(tmp_path):
+    for folder, (figure, _) in paper_table.GALLERY.items():
+        (tmp_path / "results" / folder / "figures").mkdir(parents=True)
+        (tmp_path / "results" / folder / "figures" / figure).write_bytes(folder.encode())
+    out = tmp_path / "docs" / "figures"
+    text = paper_table.gallery(tmp_path / "results", out, tmp_path / "docs")
+    assert (out / "exp7-grid.png").read_bytes() == b"exp7-grid"
+    assert "![Exp. 7: RT x nRT grid at 20 %](figures/exp7-grid.png)" in text
+    assert text.count("](figures/") == len(paper_table.GALLERY)
+    assert "](docs/figures/table1.png)" in paper_table.gallery(tmp_path / "results", out, tmp_path)

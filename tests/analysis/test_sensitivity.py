@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import re
+import subprocess
 import sys
 from pathlib import Path
 
@@ -95,3 +96,14 @@ def test_a_variant_scenario_names_the_refitted_workload_files():
     assert s["nodes"]["nrt"][0]["workload"] == "own.json"          # not a refitted one: kept
     assert s["sweep"]["nodes.nrt[0].workload"] == ["/v/sift.json", "/v/mser.json", "latency"]
     assert s["sweep"]["regulation.threshold_pct"] == [20, 30]
+
+
+def test_a_page_without_markers_is_refused_before_anything_runs(tmp_path):
+    page = tmp_path / "sensitivity.md"
+    page.write_text("no markers\n")
+    done = subprocess.run([sys.executable, str(ROOT / "tools" / "sensitivity.py"), "--doc",
+                           str(page), "--rosguard", str(tmp_path / "no-rosguard"),
+                           "--out", str(tmp_path / "out")], capture_output=True, text=True)
+    assert done.returncode == 1
+    assert f"{page}: expected one <!-- sensitivity:begin -->" in done.stderr
+    assert not (tmp_path / "out").exists() and page.read_text() == "no markers\n"

@@ -1,4 +1,4 @@
-// The scenario loader (tools/rosguard/loader.h): schema defaults, the platform's reference
+// The scenario loader (tools/rosguard/load/loader.h): schema defaults, the platform's reference
 // bandwidth, sweep order and error attribution, workload references, duplicate keys, errors in
 // referenced files, and the catalogue. Scenarios use backend "hw" (the workloads have no sim
 // profiles yet); both backends validate the same way otherwise. The invalid-scenario corpus

@@ -1,4 +1,4 @@
-// Progress (tools/rosguard/progress.h): the in-place line never wraps; off a terminal, plain
+// Progress (tools/rosguard/run/progress.h): the in-place line never wraps; off a terminal, plain
 // lines at an interval and one at the end.
 #include <catch2/catch.hpp>
 #include <sstream>

@@ -1,4 +1,4 @@
-// Schema validation messages and defaults (tools/rosguard/schema.h), tested directly on
+// Schema validation messages and defaults (tools/rosguard/load/schema.h), tested directly on
 // documents: the text a user reads is rendered from the schema node at the failing path.
 #include <catch2/catch.hpp>
 #include <fstream>

@@ -1,4 +1,4 @@
-// ThresholdSearch (tools/rosguard/tune.h), the search behind `rosguard tune`: on a monotone
+// ThresholdSearch (tools/rosguard/tune/tune.h), the search behind `rosguard tune`: on a monotone
 // ladder it bisects to the highest rung that meets the bound in about log2(rungs) probes; a
 // probe that contradicts monotonicity makes it scan, and the pick is then the best rung
 // whatever its place.

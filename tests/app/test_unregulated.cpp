@@ -1,4 +1,4 @@
-// The unregulated co-run (tools/rosguard/unregulated.h): which points share one, the scenario it
+// The unregulated co-run (tools/rosguard/run/unregulated.h): which points share one, the scenario it
 // runs, the points.csv cells it fills, and DIR/unregulated.json.
 #include <unistd.h>
 

@@ -1,4 +1,4 @@
-// rosguard guard (hw/guard/guard.h, tools/rosguard/guard_cmd.cpp): a stress-ng process pinned on
+// rosguard guard (hw/guard/guard.h, tools/rosguard/host/guard.cpp): a stress-ng process pinned on
 // an nRT core is held to its budget while an RT node says it is active and runs freely otherwise;
 // SIGTERM leaves no throttled core and no SCHED_FIFO thread; SIGHUP with a changed threshold takes
 // effect from the next window while regulation goes on.

@@ -1,5 +1,5 @@
 // The machine a host model records (hw::host_facts of the calibration suite's probe) and the
-// machine a "platform": "host" run reads without the hw backend (tools/rosguard/host_facts.h
+// machine a "platform": "host" run reads without the hw backend (tools/rosguard/load/host_facts.h
 // this_machine()) are read by separate code: on one machine they must be the same identity, or
 // every model calibrated here would warn that it was measured elsewhere.
 #include <catch2/catch.hpp>

@@ -49,7 +49,7 @@ void list_platforms(const CommandContext& c) {
 }
 
 void list_columns(const CommandContext&) {
-  // Markdown, as the README's results section shows it (tools/columns_doc.py).
+  // Markdown, as docs/results.md's results section shows it (tools/columns_doc.py).
   std::cout << "| `points.csv` column | unit | meaning |\n|---|---|---|\n";
   for (const auto& c : point_column_dictionary())
     std::cout << "| `" << c.name << "` | " << c.unit << " | " << c.meaning << " |\n";

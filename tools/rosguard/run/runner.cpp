@@ -165,13 +165,14 @@ void add_adjacent(std::vector<Task> isolation, const std::vector<Task>& points, 
   }
 }
 
-TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
-                    const ResultsStore::Opened& opened, const Backend& backend,
-                    const CorunPlan& corun_plan, const UnregulatedCoruns& coruns_held) {
-  TaskPlan plan;
-  const int reps = loaded.points.front().scenario.repetitions;
-  std::vector<std::vector<Task>> iso_rounds(static_cast<std::size_t>(reps)),
-      corun_rounds(static_cast<std::size_t>(reps)), point_rounds(static_cast<std::size_t>(reps));
+bool in_shard(const LoadedPoint& p, const RunOptions& opt) {
+  return p.sweep.index % static_cast<std::size_t>(opt.shard_count) ==
+         static_cast<std::size_t>(opt.shard_index);
+}
+
+// The baselines a shard's runs need, by key in first-use order: which run (point) measures it,
+// its workload and core, and how many measurements.
+struct BaselineNeeds {
   struct Need {
     std::size_t point = 0;
     const WorkloadInfo* workload = nullptr;
@@ -179,118 +180,151 @@ TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
     int measurements = 1;
     bool corun = false;  // a co-run's own baseline (hw.adjacent_baselines)
   };
-  std::map<std::string, Need> needs;  // by baseline key, in first-use order below
-  std::vector<std::string> key_order;
-  bool interleave = false;
-  bool adjacent =
-      false;  // hw.adjacent_baselines: a point's baselines right before each of its runs
+  std::map<std::string, Need> by_key;
+  std::vector<std::string> order;
+
+  void add(const std::string& key, Need n) {
+    auto [it, added] = by_key.try_emplace(key, n);
+    if (added) order.push_back(key);
+    it->second.measurements = std::max(it->second.measurements, n.measurements);
+  }
+};
+
+// A shard's tasks by repetition round, before they are put into phases.
+struct RoundTasks {
+  std::vector<std::vector<Task>> isolation, coruns, points;
+  bool interleave = false;  // more than one measurement of a baseline: rounds, not one pass
+  bool adjacent = false;    // hw.adjacent_baselines: a run's baselines right before it
+  explicit RoundTasks(int reps)
+      : isolation(static_cast<std::size_t>(reps)),
+        coruns(static_cast<std::size_t>(reps)),
+        points(static_cast<std::size_t>(reps)) {}
+};
+
+// The shard's point runs a resumed folder lacks, by round, and the baselines they need.
+void plan_point_runs(const LoadedScenario& loaded, const RunOptions& opt,
+                     const ResultsStore::Opened& opened, const Backend& backend,
+                     std::size_t point_count, RoundTasks& rounds, BaselineNeeds& needs,
+                     std::size_t& skipped) {
   // Each point's baseline keys (RT nodes, then nRT nodes), on --jobs threads.
-  std::vector<std::vector<std::string>> keys(corun_plan.first);
-  parallel_for(corun_plan.first, worker_threads(opt), [&](std::size_t i) {
+  std::vector<std::vector<std::string>> keys(point_count);
+  parallel_for(point_count, worker_threads(opt), [&](std::size_t i) {
     const Scenario& s = loaded.points[i].scenario;
     for (const auto& n : s.nodes.rt)
       keys[i].push_back(Baselines::key(s, n.workload, n.core));
     for (const auto& n : s.nodes.nrt)
       keys[i].push_back(Baselines::key(s, n.workload, n.core));
   });
-  for (std::size_t i = 0; i < corun_plan.first; ++i) {
+  for (std::size_t i = 0; i < point_count; ++i) {
     const LoadedPoint& p = loaded.points[i];
-    if (p.sweep.index % static_cast<std::size_t>(opt.shard_count) !=
-        static_cast<std::size_t>(opt.shard_index))
-      continue;
+    if (!in_shard(p, opt)) continue;
     for (int rep = 0; rep < p.scenario.repetitions; ++rep) {
       if (opened.done.count({p.sweep.id, rep})) {
-        ++plan.skipped;
+        ++skipped;
         continue;
       }
-      point_rounds[static_cast<std::size_t>(rep)].push_back(
+      rounds.points[static_cast<std::size_t>(rep)].push_back(
           {Task::Kind::Point, p.sweep.index, rep, "", nullptr, 0});
     }
     const int measurements = backend.baseline_repetitions(p.scenario);
-    adjacent = adjacent || p.scenario.hw.adjacent_baselines;
-    interleave = interleave || measurements > 1 || adjacent;
+    rounds.adjacent = rounds.adjacent || p.scenario.hw.adjacent_baselines;
+    rounds.interleave = rounds.interleave || measurements > 1 || rounds.adjacent;
     std::size_t k = 0;
-    const auto need = [&](const WorkloadInfo& w, int core) {
-      const std::string& key = keys[i][k++];
-      auto [it, added] = needs.try_emplace(key, Need{p.sweep.index, &w, core, 1});
-      if (added) key_order.push_back(key);
-      it->second.measurements = std::max(it->second.measurements, measurements);
-    };
     for (const auto& n : p.scenario.nodes.rt)
-      need(n.workload, n.core);
+      needs.add(keys[i][k++], {p.sweep.index, &n.workload, n.core, measurements});
     for (const auto& n : p.scenario.nodes.nrt)
-      need(n.workload, n.core);
+      needs.add(keys[i][k++], {p.sweep.index, &n.workload, n.core, measurements});
   }
-  // With adjacent baselines a co-run has baselines of its own too, measured before each of its
-  // runs.
-  for (std::size_t c = 0; adjacent && c < corun_plan.measurements.size(); ++c) {
+}
+
+// The unregulated co-run measurements a resumed folder (or another shard) lacks, by round; with
+// adjacent baselines a co-run has baselines of its own too, measured before each of its runs.
+void plan_corun_runs(const LoadedScenario& loaded, const CorunPlan& corun_plan,
+                     const UnregulatedCoruns& coruns_held, int reps, RoundTasks& rounds,
+                     BaselineNeeds& needs) {
+  for (std::size_t c = 0; c < corun_plan.measurements.size(); ++c) {
     const std::size_t point = corun_plan.first + c;
     const Scenario& s = loaded.points[point].scenario;
+    const int measurements = corun_plan.measurements[c];
     const auto need = [&](const WorkloadInfo& w, int core) {
-      const std::string key = Baselines::key(s, w, core);
-      auto [it, added] = needs.try_emplace(key, Need{point, &w, core, 1, true});
-      if (added) key_order.push_back(key);
-      it->second.measurements = std::max(it->second.measurements, corun_plan.measurements[c]);
+      needs.add(Baselines::key(s, w, core), {point, &w, core, measurements, true});
     };
     for (const auto& n : s.nodes.rt)
-      need(n.workload, n.core);
+      if (rounds.adjacent) need(n.workload, n.core);
     for (const auto& n : s.nodes.nrt)
-      need(n.workload, n.core);
+      if (rounds.adjacent) need(n.workload, n.core);
+    for (int k = 0; k < measurements; ++k) {
+      if (coruns_held.has(loaded.points[point].sweep.id, k)) continue;
+      rounds.coruns[static_cast<std::size_t>(baseline_round(k, reps, measurements))].push_back(
+          {Task::Kind::Point, point, k, "", nullptr, 0, true});
+    }
   }
-  // Measurements a resumed folder (or another shard) already holds are not taken again.
-  for (const std::string& key : key_order) {
-    const Need& n = needs.at(key);
-    plan.keys.insert(key);
+}
+
+// The baseline measurements a resumed folder (or another shard) lacks, by round.
+void plan_isolation_runs(const BaselineNeeds& needs, const ResultsStore::Opened& opened, int reps,
+                         RoundTasks& rounds, std::set<std::string>& keys) {
+  for (const std::string& key : needs.order) {
+    const BaselineNeeds::Need& n = needs.by_key.at(key);
+    keys.insert(key);
     const auto held = opened.baselines.all().find(key);
     for (int k = 0; k < n.measurements; ++k) {
       if (held != opened.baselines.all().end() && held->second.runs.count(k)) continue;
       const auto round = static_cast<std::size_t>(baseline_round(k, reps, n.measurements));
-      iso_rounds[round].push_back(
+      rounds.isolation[round].push_back(
           {Task::Kind::Isolation, n.point, k, key, n.workload, n.core, n.corun});
     }
   }
-  // Co-run measurements a resumed folder (or another shard) already holds are not taken again.
-  for (std::size_t c = 0; c < corun_plan.measurements.size(); ++c) {
-    const std::size_t point = corun_plan.first + c;
-    const int measurements = corun_plan.measurements[c];
-    for (int k = 0; k < measurements; ++k) {
-      if (coruns_held.has(loaded.points[point].sweep.id, k)) continue;
-      corun_rounds[static_cast<std::size_t>(baseline_round(k, reps, measurements))].push_back(
-          {Task::Kind::Point, point, k, "", nullptr, 0, true});
-    }
-  }
+}
+
+// The rounds' tasks in phases: one pass (every baseline, then the co-runs, then the points in
+// sweep order), or round by round (adjacent: run by run).
+void phase_rounds(RoundTasks rounds, const CorunPlan& corun_plan, TaskPlan& plan) {
   const auto add = [&](std::vector<Task> phase) {
     plan.tasks += phase.size();
     for (const Task& t : phase)
       plan.runs += t.kind == Task::Kind::Point && !corun_plan.is_corun(t.point) ? 1 : 0;
     if (!phase.empty()) plan.phases.push_back(std::move(phase));
   };
-  if (!interleave) {  // every baseline first, then the co-runs, then the points in sweep order
+  if (!rounds.interleave) {
     std::vector<Task> isolation, coruns, points;
-    for (auto& r : iso_rounds)
+    for (auto& r : rounds.isolation)
       isolation.insert(isolation.end(), r.begin(), r.end());
-    for (auto& r : corun_rounds)
+    for (auto& r : rounds.coruns)
       coruns.insert(coruns.end(), r.begin(), r.end());
-    for (auto& r : point_rounds)
+    for (auto& r : rounds.points)
       points.insert(points.end(), r.begin(), r.end());
     std::stable_sort(points.begin(), points.end(),
                      [](const Task& a, const Task& b) { return a.point < b.point; });
     add(std::move(isolation));
     add(std::move(coruns));
     add(std::move(points));
-    return plan;
+    return;
   }
-  for (std::size_t r = 0; r < iso_rounds.size(); ++r) {
-    if (adjacent) {
-      std::vector<Task> runs = std::move(corun_rounds[r]);
-      runs.insert(runs.end(), point_rounds[r].begin(), point_rounds[r].end());
-      add_adjacent(std::move(iso_rounds[r]), std::move(runs), add);
+  for (std::size_t r = 0; r < rounds.isolation.size(); ++r) {
+    if (rounds.adjacent) {
+      std::vector<Task> runs = std::move(rounds.coruns[r]);
+      runs.insert(runs.end(), rounds.points[r].begin(), rounds.points[r].end());
+      add_adjacent(std::move(rounds.isolation[r]), runs, add);
       continue;
     }
-    add(std::move(iso_rounds[r]));
-    add(std::move(corun_rounds[r]));
-    add(std::move(point_rounds[r]));
+    add(std::move(rounds.isolation[r]));
+    add(std::move(rounds.coruns[r]));
+    add(std::move(rounds.points[r]));
   }
+}
+
+TaskPlan plan_tasks(const LoadedScenario& loaded, const RunOptions& opt,
+                    const ResultsStore::Opened& opened, const Backend& backend,
+                    const CorunPlan& corun_plan, const UnregulatedCoruns& coruns_held) {
+  TaskPlan plan;
+  const int reps = loaded.points.front().scenario.repetitions;
+  RoundTasks rounds(reps);
+  BaselineNeeds needs;
+  plan_point_runs(loaded, opt, opened, backend, corun_plan.first, rounds, needs, plan.skipped);
+  plan_corun_runs(loaded, corun_plan, coruns_held, reps, rounds, needs);
+  plan_isolation_runs(needs, opened, reps, rounds, plan.keys);
+  phase_rounds(std::move(rounds), corun_plan, plan);
   return plan;
 }
 
@@ -535,11 +569,6 @@ RoundPairing pairing_of(const Scenario& s, const Backend& backend) {
 // Co-run times of a shard's point runs (RT nodes, then nRT nodes), by point index and rep.
 using RunTimes = std::map<std::size_t, std::map<int, std::vector<double>>>;
 
-bool in_shard(const LoadedPoint& p, const RunOptions& opt) {
-  return p.sweep.index % static_cast<std::size_t>(opt.shard_count) ==
-         static_cast<std::size_t>(opt.shard_index);
-}
-
 // The rows points.csv already holds for this shard's points (a resumed run).
 void read_run_times(const fs::path& points_csv, const LoadedScenario& loaded,
                     std::size_t point_count, const RunOptions& opt, RunTimes& out) {
@@ -595,36 +624,31 @@ std::string pct_text(double v) {
   return buf;
 }
 
-// The adaptive rounds (hw.precision_pct): round r measures, for every point still short of its
-// precision (and below its cap), measurement r of each of its baselines, then (in the first
-// rounds) its unregulated co-run, then its repetition r; the points that reached their target
-// after r rounds (or their cap) are left out of round r. What a resumed folder already holds is
-// not measured again. Returns whether a baseline or co-run was measured after a row was written.
-bool run_adaptive(const LoadedScenario& loaded, const RunOptions& opt,
-                  const ResultsStore::Opened& opened, const Backend& backend,
-                  const CorunPlan& corun_plan, RunState& st, const ResultsStore& store,
-                  TaskRunner& runner, InvocationReport& report, json& trace_events,
-                  Progress& progress, RunTimes& times, std::set<std::string>& keys) {
+// A point of this shard in the adaptive rounds: its stopping rule, its baselines (RT nodes, then
+// nRT nodes) and its co-run point.
+struct AdaptivePoint {
   struct Node {
     std::string key;
     const WorkloadInfo* workload;
     int core;
   };
-  struct Shard {
-    std::size_t point;
-    PrecisionRule rule;
-    std::vector<Node> nodes;
-    std::optional<std::size_t> corun;  // index of its co-run point
-  };
+  std::size_t point;
+  PrecisionRule rule;
+  std::vector<Node> nodes;
+  std::optional<std::size_t> corun;  // index of its co-run point
+};
+
+std::vector<AdaptivePoint> adaptive_points(const LoadedScenario& loaded, const RunOptions& opt,
+                                           const Backend& backend, const CorunPlan& corun_plan,
+                                           std::set<std::string>& keys) {
   std::map<std::string, std::size_t> corun_index;
   for (std::size_t c = corun_plan.first; c < loaded.points.size(); ++c)
     corun_index.emplace(loaded.points[c].sweep.id, c);
-  std::vector<Shard> shard;
-  int max_rounds = 0;
+  std::vector<AdaptivePoint> shard;
   for (std::size_t i = 0; i < corun_plan.first; ++i) {
     const LoadedPoint& p = loaded.points[i];
     if (!in_shard(p, opt)) continue;
-    Shard e{i, rule_of(p.scenario, backend), {}, std::nullopt};
+    AdaptivePoint e{i, rule_of(p.scenario, backend), {}, std::nullopt};
     for (const auto& n : p.scenario.nodes.rt)
       e.nodes.push_back({Baselines::key(p.scenario, n.workload, n.core), &n.workload, n.core});
     for (const auto& n : p.scenario.nodes.nrt)
@@ -633,80 +657,116 @@ bool run_adaptive(const LoadedScenario& loaded, const RunOptions& opt,
       keys.insert(n.key);
     if (const auto k = corun_plan.key_of.find(p.sweep.id); k != corun_plan.key_of.end())
       if (const auto c = corun_index.find(k->second); c != corun_index.end()) e.corun = c->second;
-    max_rounds = std::max(max_rounds, e.rule.max_rounds);
     shard.push_back(std::move(e));
   }
-  const bool adjacent = std::any_of(shard.begin(), shard.end(), [&](const Shard& e) {
+  return shard;
+}
+
+// What adaptive round r measures: the isolation measurements, co-runs and point runs a resumed
+// folder lacks, for the points still short of their precision.
+struct AdaptiveRound {
+  std::vector<Task> isolation, coruns, points;
+  std::size_t extra = 0;   // runs beyond the planned minimum
+  std::size_t active = 0;  // points in this round
+  std::set<std::string> iso_added, corun_added;
+
+  void isolation_once(const std::string& key, Task t) {
+    if (iso_added.insert(key).second) isolation.push_back(std::move(t));
+  }
+};
+
+AdaptiveRound adaptive_round(const LoadedScenario& loaded, const ResultsStore::Opened& opened,
+                             const Backend& backend, const CorunPlan& corun_plan,
+                             const RunState& st, const RunTimes& times,
+                             const std::vector<AdaptivePoint>& shard, bool adjacent, int r,
+                             std::set<std::string>& keys) {
+  AdaptiveRound round;
+  const auto held = [&](const std::string& key) {
+    const auto it = st.baselines.all().find(key);
+    return it != st.baselines.all().end() && it->second.runs.count(r) > 0;
+  };
+  // Adjacent baselines: the co-run's own, measurement r, unless the folder holds it.
+  const auto corun_baselines = [&](std::size_t point) {
+    const Scenario& c = loaded.points[point].scenario;
+    const auto add = [&](const WorkloadInfo& w, int core) {
+      const std::string key = Baselines::key(c, w, core);
+      keys.insert(key);
+      if (!held(key))
+        round.isolation_once(key, {Task::Kind::Isolation, point, r, key, &w, core, true});
+    };
+    for (const auto& n : c.nodes.rt)
+      add(n.workload, n.core);
+    for (const auto& n : c.nodes.nrt)
+      add(n.workload, n.core);
+  };
+  for (const AdaptivePoint& e : shard) {
+    const LoadedPoint& p = loaded.points[e.point];
+    if (r >= e.rule.max_rounds) continue;
+    const bool done = opened.done.count({p.sweep.id, r}) > 0;
+    if (r >= e.rule.min_rounds) {
+      const auto it = times.find(e.point);
+      const auto verdict = judge_rounds(
+          e.rule, r,
+          point_cis(p.scenario, backend, st.baselines,
+                    it == times.end() ? std::map<int, std::vector<double>>{} : it->second, r));
+      if (verdict != RoundsVerdict::More) continue;
+      if (!done) ++round.extra;
+    }
+    ++round.active;
+    if (!done) round.points.push_back({Task::Kind::Point, e.point, r, "", nullptr, 0});
+    for (const AdaptivePoint::Node& n : e.nodes)
+      if (!held(n.key))
+        round.isolation_once(n.key, {Task::Kind::Isolation, e.point, r, n.key, n.workload, n.core});
+    if (!e.corun) continue;
+    const std::size_t c = *e.corun - corun_plan.first;
+    const std::string& id = loaded.points[*e.corun].sweep.id;
+    if (r < corun_plan.measurements[c] && !st.coruns.has(id, r) &&
+        round.corun_added.insert(id).second) {
+      round.coruns.push_back({Task::Kind::Point, *e.corun, r, "", nullptr, 0, true});
+      if (adjacent) corun_baselines(*e.corun);
+    }
+  }
+  return round;
+}
+
+// The adaptive rounds (hw.precision_pct): round r measures, for every point still short of its
+// precision (and below its cap), measurement r of each of its baselines, then (in the first
+// rounds) its unregulated co-run, then its repetition r (adjacent baselines: run by run); the
+// points that reached their target after r rounds (or their cap) are left out of round r. What a
+// resumed folder already holds is not measured again. Returns whether a baseline or co-run was
+// measured after a row was written.
+bool run_adaptive(const LoadedScenario& loaded, const RunOptions& opt,
+                  const ResultsStore::Opened& opened, const Backend& backend,
+                  const CorunPlan& corun_plan, RunState& st, const ResultsStore& store,
+                  TaskRunner& runner, InvocationReport& report, json& trace_events,
+                  Progress& progress, RunTimes& times, std::set<std::string>& keys) {
+  const std::vector<AdaptivePoint> shard = adaptive_points(loaded, opt, backend, corun_plan, keys);
+  int max_rounds = 0;
+  for (const AdaptivePoint& e : shard)
+    max_rounds = std::max(max_rounds, e.rule.max_rounds);
+  const bool adjacent = std::any_of(shard.begin(), shard.end(), [&](const AdaptivePoint& e) {
     return loaded.points[e.point].scenario.hw.adjacent_baselines;
   });
   bool measured_after_rows = false;
   for (int r = 0; r < max_rounds; ++r) {
-    std::vector<Task> isolation, coruns, points;
-    std::set<std::string> iso_added, corun_added;
-    std::size_t extra = 0;   // runs beyond the planned minimum
-    std::size_t active = 0;  // points in this round
-    // Adjacent baselines: the co-run's own, measurement r, unless the folder holds it.
-    const auto add_corun_baselines = [&](const Scenario& c, std::size_t point) {
-      const auto add = [&](const WorkloadInfo& w, int core) {
-        const std::string key = Baselines::key(c, w, core);
-        keys.insert(key);
-        const auto held = st.baselines.all().find(key);
-        if (held != st.baselines.all().end() && held->second.runs.count(r)) return;
-        if (iso_added.insert(key).second)
-          isolation.push_back({Task::Kind::Isolation, point, r, key, &w, core, true});
-      };
-      for (const auto& n : c.nodes.rt)
-        add(n.workload, n.core);
-      for (const auto& n : c.nodes.nrt)
-        add(n.workload, n.core);
-    };
-    for (const Shard& e : shard) {
-      const LoadedPoint& p = loaded.points[e.point];
-      if (r >= e.rule.max_rounds) continue;
-      const bool done = opened.done.count({p.sweep.id, r}) > 0;
-      if (r >= e.rule.min_rounds) {
-        const auto it = times.find(e.point);
-        const auto verdict = judge_rounds(
-            e.rule, r,
-            point_cis(p.scenario, backend, st.baselines,
-                      it == times.end() ? std::map<int, std::vector<double>>{} : it->second, r));
-        if (verdict != RoundsVerdict::More) continue;
-        if (!done) ++extra;
-      }
-      ++active;
-      if (!done) points.push_back({Task::Kind::Point, e.point, r, "", nullptr, 0});
-      for (const Node& n : e.nodes) {
-        const auto held = st.baselines.all().find(n.key);
-        if (held != st.baselines.all().end() && held->second.runs.count(r)) continue;
-        if (iso_added.insert(n.key).second)
-          isolation.push_back({Task::Kind::Isolation, e.point, r, n.key, n.workload, n.core});
-      }
-      if (e.corun) {
-        const std::size_t c = *e.corun - corun_plan.first;
-        const std::string& id = loaded.points[*e.corun].sweep.id;
-        if (r < corun_plan.measurements[c] && !st.coruns.has(id, r) &&
-            corun_added.insert(id).second) {
-          coruns.push_back({Task::Kind::Point, *e.corun, r, "", nullptr, 0, true});
-          if (adjacent) add_corun_baselines(loaded.points[*e.corun].scenario, *e.corun);
-        }
-      }
-    }
-    if (active == 0) break;
+    AdaptiveRound next =
+        adaptive_round(loaded, opened, backend, corun_plan, st, times, shard, adjacent, r, keys);
+    if (next.active == 0) break;
     // A resumed folder may hold the whole round already.
-    if (points.empty() && isolation.empty() && coruns.empty()) continue;
-    progress.set_total(progress.total() + extra);
+    if (next.points.empty() && next.isolation.empty() && next.coruns.empty()) continue;
+    progress.set_total(progress.total() + next.extra);
     TaskPlan round;
     const auto add = [&round](std::vector<Task> phase) {
       round.tasks += phase.size();
       if (!phase.empty()) round.phases.push_back(std::move(phase));
     };
     if (adjacent) {
-      coruns.insert(coruns.end(), points.begin(), points.end());
-      add_adjacent(std::move(isolation), coruns, add);
+      next.coruns.insert(next.coruns.end(), next.points.begin(), next.points.end());
+      add_adjacent(std::move(next.isolation), next.coruns, add);
     } else {
-      add(std::move(isolation));
-      add(std::move(coruns));
-      add(std::move(points));
+      add(std::move(next.isolation));
+      add(std::move(next.coruns));
+      add(std::move(next.points));
     }
     measured_after_rows =
         run_tasks(round, corun_plan, st, store, runner, report, trace_events,
@@ -1007,9 +1067,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
       start_task_hosts(loader, loaded, backends, opt.trace, requested_jobs(opt));
   loader.load_points(loaded, PointSelection::All, worker_threads(opt));
   std::unique_ptr<Backend> backend = make_backend(loaded, backends);
-  // The loader's warnings (e.g. budgets that act alike): on the console as `check` prints them,
-  // and in the manifest.
-  loader.print_warnings(loaded);
+  loader.print_warnings(loaded);  // on the console as `check` prints them; and in the manifest
   const Scenario& first = loaded.points.front().scenario;
   const bool adaptive = adaptive_run(loaded, *backend);
 

@@ -6,8 +6,8 @@
 #include <string>
 
 #include "load/loader.h"
-#include "policy/policy.h"
 #include "load/schema.h"
+#include "policy/policy.h"
 
 using namespace rosguard;
 using json = nlohmann::json;

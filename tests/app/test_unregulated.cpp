@@ -1,5 +1,5 @@
-// The unregulated co-run (tools/rosguard/run/unregulated.h): which points share one, the scenario it
-// runs, the points.csv cells it fills, and DIR/unregulated.json.
+// The unregulated co-run (tools/rosguard/run/unregulated.h): which points share one, the scenario
+// it runs, the points.csv cells it fills, and DIR/unregulated.json.
 #include <unistd.h>
 
 #include <catch2/catch.hpp>

@@ -5,8 +5,8 @@
 #include <catch2/catch.hpp>
 
 #include "calibration/measurements.h"
-#include "load/host_facts.h"
 #include "hw/host_probe.h"
+#include "load/host_facts.h"
 
 using namespace rosguard;
 

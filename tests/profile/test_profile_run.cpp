@@ -10,8 +10,8 @@
 #include <string>
 #include <utility>
 
-#include "load/files.h"
 #include "host/profile.h"
+#include "load/files.h"
 #include "load/schema.h"
 
 namespace fs = std::filesystem;

@@ -13,8 +13,8 @@
 #include "calibration/fit.h"
 #include "core/error.h"
 #include "load/loader.h"
-#include "platform/sim_platform.h"
 #include "load/schema.h"
+#include "platform/sim_platform.h"
 #include "sim_test_util.h"
 
 using namespace rosguard;

@@ -4,8 +4,8 @@
 
 #include <string>
 
-#include "policy/policy.h"
 #include "load/schema.h"
+#include "policy/policy.h"
 
 namespace rosguard {
 

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "profile/profiler.h"
 #include "load/schema.h"
+#include "profile/profiler.h"
 
 namespace rosguard {
 

@@ -19,8 +19,8 @@
 #include <tuple>
 
 #include "core/error.h"
-#include "run/parallel.h"
 #include "policy/rules.h"
+#include "run/parallel.h"
 
 #if !defined(ROSGUARD_SOURCE_DIR) || !defined(ROSGUARD_DATA_FROM_BIN)
 #error "ROSGUARD_SOURCE_DIR and ROSGUARD_DATA_FROM_BIN (bin -> share/rosguard) must be defined"

@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "load/host_model.h"
+#include "load/schema.h"
 #include "scenario/scenario.h"
 #include "scenario/sweep.h"
-#include "load/schema.h"
 
 namespace rosguard {
 

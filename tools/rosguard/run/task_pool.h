@@ -30,8 +30,8 @@
 
 #include "backend/backend.h"
 #include "load/loader.h"
-#include "scenario/scenario.h"
 #include "run/unregulated.h"
+#include "scenario/scenario.h"
 
 namespace rosguard {
 

@@ -31,7 +31,7 @@
 #include "hw/point_rig.h"
 #include "hw/safety_net.h"
 #include "hw/topic/dds/dds.h"
-#include "policy/rules.h"
+#include "regulator/setup.h"
 #include "results/results.h"
 
 namespace rosguard::hw {
@@ -161,7 +161,7 @@ class HwBackend : public Backend {
     if (const auto why = throttle_unavailable(s.hw.throttle, commands_only(s)))
       throw InputError(s.file, "/hw/throttle", *why);
 
-    check_policy(s, policies_);
+    regulation_setup(s, policies_);  // throws InputError for a rule of the policy broken
     plan_metric(s, sources_);  // throws InputError for a source that cannot serve the scenario
   }
 
@@ -283,9 +283,9 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   report_shared_core(s, ctx);
   report_transport(s, ctx);
   const auto source = sources_.find(plan.source)->make();
-  const HwSampling sampling = hw_sampling(s, plan, *source);
-  if (!sampling.fallback.empty()) ctx.fallback("sampling", sampling.fallback);
-  if (sampling.mode == Sampling::Overflow && !s.nodes.nrt.empty()) {
+  const HwRegulation regulation = hw_regulation(s, plan, *source, policies_, &baselines);
+  if (!regulation.fallback.empty()) ctx.fallback("sampling", regulation.fallback);
+  if (regulation.setup.sampling == Sampling::Overflow && !s.nodes.nrt.empty()) {
     std::string events;
     for (std::size_t i = 0; i < plan.metric_events; ++i)
       events += (events.empty() ? "" : ", ") + plan.group_events[i];
@@ -301,8 +301,7 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
   // it must not wait for a time slice behind SCHED_FIFO threads on every core.
   std::optional<ScopedSched> engine_sched(std::in_place,
                                           ThreadSpec{"", -1, sched_of(s), prio::kEngine});
-  PointRig rig(s, plan, *source, sampling, make_point_regulator(s, plan, baselines, policies_),
-               options_, ctx.trace() != nullptr, throttle);
+  PointRig rig(s, plan, *source, regulation.setup, options_, ctx.trace() != nullptr, throttle);
   report_sched(rig.start(), ctx);
   audit_threads(s, ctx);
   rig.drive(ctx);

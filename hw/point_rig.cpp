@@ -10,7 +10,6 @@
 #include "hw/common/clock.h"
 #include "hw/isolation.h"
 #include "hw/topic/dds_topic.h"
-#include "policy/rules.h"
 
 namespace rosguard::hw {
 
@@ -67,17 +66,31 @@ void emit_trace(TraceSink* sink, const TraceLog& log, const char* default_track)
 
 }  // namespace
 
-HwSampling hw_sampling(const Scenario& s, const MetricPlan& plan, const PmcSource& source) {
-  const RegulationSpec& r = s.regulation;
-  const std::int64_t period_us = std::max(r.sampling_period_us, kHwFinestPollUs);
+HwRegulation hw_regulation(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
+                           const PolicyRegistry& policies, const Baselines* baselines) {
+  HwRegulation out{regulation_setup(s, policies, baselines), ""};
+  RegulationSetup& setup = out.setup;
+  // The metric's events on this machine may differ from the scenario's (metric_plan.h); per-event
+  // budgets follow the scenario's events, so they hold only where the plan kept them.
+  if (plan.spec.events.size() != setup.metric.events.size()) setup.params.event_budget_mbps.clear();
+  setup.metric = plan.spec;
+
+  const TimeNs asked_ns = setup.sampling_period_ns;
+  const TimeNs poll_ns = std::max(asked_ns, kHwFinestPollNs);
+  const auto us_text = [](TimeNs ns) { return std::to_string(ns / kNsPerUs) + " us"; };
   const std::string period =
-      std::to_string(period_us) + " us" +
-      (period_us != r.sampling_period_us
-           ? " (regulation.sampling_period_us " + std::to_string(r.sampling_period_us) +
-                 " us raised to the hw controller's finest, " + std::to_string(kHwFinestPollUs) +
-                 " us)"
+      us_text(poll_ns) +
+      (poll_ns != asked_ns
+           ? " (regulation.sampling_period_us " + us_text(asked_ns) +
+                 " raised to the hw controller's finest, " + us_text(kHwFinestPollNs) + ")"
            : "");
-  switch (r.sampling) {
+  const auto external = [&](std::string why) {
+    setup.sampling = Sampling::External;
+    setup.sampling_period_ns = poll_ns;
+    out.fallback = std::move(why);
+    return out;
+  };
+  switch (setup.sampling) {
     case Sampling::Overflow: {
       std::string why;
       for (const auto& n : s.nodes.nrt)
@@ -93,52 +106,32 @@ HwSampling hw_sampling(const Scenario& s, const MetricPlan& plan, const PmcSourc
             plan.group_events.begin() + static_cast<std::ptrdiff_t>(plan.metric_events));
         if (auto u = source.overflow_unavailable(events)) why = *u;
       }
-      if (why.empty()) return {Sampling::Overflow, r.sampling_period_us * kNsPerUs, ""};
-      return {Sampling::External, period_us * kNsPerUs,
-              "overflow sampling (" + r.policy + ") cannot be armed on the hw backend here (" +
-                  why + "), so the controller reads the nRT cores' counters externally every " +
-                  period + " instead, and exceedance is seen up to one period late, not at once"};
+      if (why.empty()) return out;
+      return external(
+          "overflow sampling (" + setup.policy.name + ") cannot be armed on the hw backend here (" +
+          why + "), so the controller reads the nRT cores' counters externally every " + period +
+          " instead, and exceedance is seen up to one period late, not at once");
     }
     case Sampling::Mmio:
-      return {Sampling::External, period_us * kNsPerUs,
-              "mmio sampling (" + r.policy +
-                  ") is not available on the hw backend: it cannot poll the cores' counters "
-                  "through memory-mapped debug registers, so the controller reads them with "
-                  "the PMC source every " +
-                  period + " instead, and throttles through the nRT nodes' THR callback"};
+      return external("mmio sampling (" + setup.policy.name +
+                      ") is not available on the hw backend: it cannot poll the cores' counters "
+                      "through memory-mapped debug registers, so the controller reads them with "
+                      "the PMC source every " +
+                      period + " instead, and throttles through the nRT nodes' THR callback");
     case Sampling::Self:
     case Sampling::External:
       break;
   }
-  return {r.sampling, r.sampling_period_us * kNsPerUs, ""};
-}
-
-std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
-                                                const Baselines& baselines,
-                                                const PolicyRegistry& policies) {
-  const RegulationSpec& r = s.regulation;
-  TimeNs window_ns = 0;
-  if (!s.nodes.rt.empty())
-    window_ns = static_cast<TimeNs>(
-        baselines.at(s, s.nodes.rt[0].workload, s.nodes.rt[0].core).time_us * 1e3);
-  PolicyParams params = policy_params(s, window_ns);
-  // The metric's events on this machine may differ from the scenario's (metric_plan.h); per-event
-  // budgets follow the scenario's events, so they hold only where the plan kept them.
-  if (plan.spec.events.size() != r.metric.events.size()) params.event_budget_mbps.clear();
-  RegulatorConfig rc;
-  rc.rt_count = std::max<std::size_t>(1, s.nodes.rt.size());
-  rc.account_of_entity = accounts_for_scope(r.scope, s.nodes.nrt.size());
-  rc.metric = plan.spec;
-  return std::make_unique<Regulator>(rc, policies.make(r.policy, params));
+  return out;
 }
 
 PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
-                   const HwSampling& sampling, std::unique_ptr<Regulator> regulator,
-                   const HwOptions& options, bool trace, const ThrottleChoice& throttle)
+                   const RegulationSetup& regulation, const HwOptions& options, bool trace,
+                   const ThrottleChoice& throttle)
     : s_(s),
       plan_(plan),
       source_(source),
-      sampling_(sampling),
+      reg_(regulation),
       options_(options),
       trace_(trace),
       throttle_(throttle),
@@ -154,8 +147,8 @@ PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& s
   ControllerConfig cc;
   cc.core = s.nodes.controller_core;
   cc.sched = sched_of(s);
-  cc.sampling = sampling_.mode;
-  cc.sampling_period_ns = sampling_.period_ns;
+  cc.sampling = reg_.sampling;
+  cc.sampling_period_ns = reg_.sampling_period_ns;
   cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s.hw.watchdog_ms * kNsPerMs / 4);
   cc.metric_events = plan.metric_events;
   cc.trace = trace;
@@ -168,7 +161,7 @@ PointRig::PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& s
     cc.group_sizes.push_back(plan.group_events.size());
   }
   controller_ =
-      std::make_unique<Controller>(cc, std::move(regulator), *rt_topic_, *samples_, control_ptrs,
+      std::make_unique<Controller>(cc, reg_.make_regulator(), *rt_topic_, *samples_, control_ptrs,
                                    meter_.get(), engine_waker_, errors_.handler(), origin_);
 }
 
@@ -220,15 +213,14 @@ void PointRig::make_topics() {
 }
 
 void PointRig::wire_nodes() {
-  const RegulationSpec& r = s_.regulation;
   for (std::size_t i = 0; i < s_.nodes.nrt.size(); ++i) {
     const auto& n = s_.nodes.nrt[i];
     NrtConfig c;
     c.name = n.name;
     c.entity = i;
     c.core = n.core;
-    c.sampling = sampling_.mode;
-    c.sampling_period_ns = r.sampling_period_us * kNsPerUs;
+    c.sampling = reg_.sampling;
+    c.sampling_period_ns = reg_.sampling_period_ns;
     c.watchdog_ns = s_.hw.watchdog_ms * kNsPerMs;
     c.mode = n.mode;
     c.sched = sched_of(s_);
@@ -286,7 +278,7 @@ std::vector<SchedOutcome> PointRig::start() {
   for (auto& n : nrts_)
     groups.push_back(&n->group());
   controller_->set_groups(groups);
-  if (sampling_.mode == Sampling::Overflow) {
+  if (reg_.sampling == Sampling::Overflow) {
     // Overflow counters on each node's workload thread, for the metric's events.
     const std::vector<std::string> events(
         plan_.group_events.begin(),
@@ -443,6 +435,7 @@ void PointRig::check_errors() const {
 
 PointOutcome PointRig::outcome(RunContext& ctx) const {
   PointOutcome out;
+  out.sampling = RanSampling{reg_.sampling, reg_.sampling_period_ns};
   for (std::size_t i = 0; i < s_.nodes.rt.size(); ++i) {
     const RtNodeSpec& spec = s_.nodes.rt[i];
     std::vector<double> job_ns, response_ns;
@@ -467,7 +460,7 @@ PointOutcome PointRig::outcome(RunContext& ctx) const {
       response_ns = job_ns;
     }
     std::optional<double> period_ns;
-    if (spec.period_us) period_ns = static_cast<double>(*spec.period_us * kNsPerUs);
+    if (const auto p = spec.period_ns()) period_ns = static_cast<double>(*p);
     out.rt.push_back(rt_outcome(spec.name, job_ns, response_ns, period_ns));
   }
   signal_samples(out);
@@ -549,8 +542,8 @@ void PointRig::signal_samples(PointOutcome& out) const {
 void PointRig::report_external_lag(RunContext& ctx) const {
   const auto& reads = controller_->external_reads_us();
   const std::size_t n_nrt = nrts_.size();
-  if (sampling_.mode == Sampling::Overflow) return;  // no periodic reads to be late
-  const std::int64_t period_us = sampling_.period_ns / kNsPerUs;
+  if (reg_.sampling == Sampling::Overflow) return;  // no periodic reads to be late
+  const std::int64_t period_us = reg_.sampling_period_ns / kNsPerUs;
   const double round_budget_us =
       static_cast<double>(period_us) / static_cast<double>(std::max<std::size_t>(n_nrt, 1));
   const auto slow =

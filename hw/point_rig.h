@@ -24,36 +24,41 @@
 #include "hw/throttle/throttle.h"
 #include "hw/topic/dds/dds.h"
 #include "hw/wait.h"
+#include "regulator/setup.h"
 
 namespace rosguard::hw {
 
-// The sampling mode the hw backend runs for a scenario's regulation.sampling, and why when it
-// differs (a fallback for the manifest, "" otherwise). Overflow sampling (memguard) arms perf
-// overflow counters on the nRT nodes' threads (hw/pmc_source/overflow.h) where the point's PMC
-// source gives them on this host (perf and software sources, probed here) and every nRT node runs
-// a built-in workload; otherwise, and always for mmio sampling (mempol: there are no
-// memory-mapped debug registers to poll), it becomes external sampling every
-// regulation.sampling_period_us, but not faster than kHwFinestPollUs.
-struct HwSampling {
-  Sampling mode = Sampling::Self;
-  TimeNs period_ns = 0;
-  std::string fallback;
-};
 // The finest external sampling period the hw controller is run at in place of overflow / mmio
 // sampling: the floor rosguard guard's schema sets for its external sampling (guard.schema.json,
 // sampling_period_us minimum), below which the controller thread's reads and wake-ups take a
 // shared core from its nodes.
-inline constexpr std::int64_t kHwFinestPollUs = 100;
-HwSampling hw_sampling(const Scenario& s, const MetricPlan& plan, const PmcSource& source);
+inline constexpr TimeNs kHwFinestPollNs = 100 * kNsPerUs;
+
+// The regulation the hw backend runs for a point: regulation_setup() of the scenario (with the
+// first RT node's isolation time in `baselines` as the monolithic window), counting the metric
+// the plan counts on this host (per-event budgets dropped where it counts other events), and
+// sampling as this host can. Overflow sampling (memguard) arms perf overflow counters on the nRT
+// nodes' threads (hw/pmc_source/overflow.h) where the point's PMC source gives them on this host
+// (perf and software sources, probed here) and every nRT node runs a built-in workload;
+// otherwise, and always for mmio sampling (mempol: there are no memory-mapped debug registers to
+// poll), it becomes external sampling every regulation.sampling_period_us, but not faster than
+// kHwFinestPollNs. `fallback` says why the sampling differs from the scenario's ("" where it
+// does not).
+struct HwRegulation {
+  RegulationSetup setup;
+  std::string fallback;
+};
+HwRegulation hw_regulation(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
+                           const PolicyRegistry& policies, const Baselines* baselines = nullptr);
 
 class NodeMeter;
 
 class PointRig {
  public:
-  // `sampling`: hw_sampling() of the point, with the same source.
+  // `regulation`: hw_regulation() of the point, with the same plan and source.
   PointRig(const Scenario& s, const MetricPlan& plan, const PmcSource& source,
-           const HwSampling& sampling, std::unique_ptr<Regulator> regulator,
-           const HwOptions& options, bool trace, const ThrottleChoice& throttle);
+           const RegulationSetup& regulation, const HwOptions& options, bool trace,
+           const ThrottleChoice& throttle);
   ~PointRig();
   PointRig(const PointRig&) = delete;
   PointRig& operator=(const PointRig&) = delete;
@@ -89,7 +94,7 @@ class PointRig {
   const Scenario& s_;
   const MetricPlan& plan_;
   const PmcSource& source_;
-  const HwSampling sampling_;
+  const RegulationSetup reg_;
   const HwOptions& options_;
   const bool trace_;
   const ThrottleChoice& throttle_;
@@ -115,11 +120,5 @@ class PointRig {
   std::unique_ptr<Controller> controller_;
   bool torn_down_ = false;
 };
-
-// Builds the point's regulator from the run's policy registry.
-
-std::unique_ptr<Regulator> make_point_regulator(const Scenario& s, const MetricPlan& plan,
-                                                const Baselines& baselines,
-                                                const PolicyRegistry& policies);
 
 }  // namespace rosguard::hw

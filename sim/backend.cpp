@@ -5,7 +5,7 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "policy/rules.h"
+#include "regulator/setup.h"
 
 namespace rosguard::sim {
 namespace {
@@ -109,7 +109,7 @@ RunConfig base_config(const Scenario& s, std::uint64_t seed) {
   cfg.quantum_ns = std::max<TimeNs>(1, us_to_ns(s.sim.quantum_us));
   cfg.seed = seed;
   cfg.controller_core = s.nodes.controller_core;
-  cfg.metric = s.regulation.metric;
+  cfg.regulation.metric = s.regulation.metric;
   return cfg;
 }
 
@@ -133,8 +133,7 @@ RunConfig isolation_config(const Scenario& s, const WorkloadInfo& workload, int 
   return cfg;
 }
 
-RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint64_t seed,
-                       const PolicyRegistry& policies) {
+RunConfig point_config(const Scenario& s, RegulationSetup regulation, std::uint64_t seed) {
   RunConfig cfg = base_config(s, seed);
   for (std::size_t i = 0; i < s.nodes.rt.size(); ++i) {
     const RtNodeSpec& n = s.nodes.rt[i];
@@ -143,7 +142,7 @@ RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint
     r.core = n.core;
     r.profile = profile_of(s, cfg.platform, n.workload, "/nodes/rt/" + std::to_string(i));
     r.iterations = n.iterations;
-    if (n.period_us) r.period_ns = *n.period_us * kNsPerUs;
+    r.period_ns = n.period_ns();
     cfg.rt.push_back(std::move(r));
   }
   for (std::size_t i = 0; i < s.nodes.nrt.size(); ++i) {
@@ -155,12 +154,7 @@ RunConfig point_config(const Scenario& s, TimeNs monolithic_window_ns, std::uint
     r.loop = n.mode == NrtMode::Loop;
     cfg.nrt.push_back(std::move(r));
   }
-  const RegulationSpec& reg = s.regulation;
-  cfg.policy = policies.at(reg.policy);
-  cfg.policy_params = policy_params(s, monolithic_window_ns);
-  cfg.sampling = reg.sampling;
-  cfg.sampling_period_ns = reg.sampling_period_us * kNsPerUs;
-  cfg.scope = reg.scope;
+  cfg.regulation = std::move(regulation);
   return cfg;
 }
 
@@ -172,8 +166,7 @@ void SimBackend::validate(const Scenario& s) const {
     profile_of(s, platform, s.nodes.nrt[i].workload, "/nodes/nrt/" + std::to_string(i));
 
   const RegulationSpec& r = s.regulation;
-  check_policy(s, policies_);
-  const bool samples = policies_.at(r.policy).traits.regulates && !s.nodes.nrt.empty();
+  const bool samples = regulation_setup(s, policies_).regulates() && !s.nodes.nrt.empty();
   if (samples && r.sampling == Sampling::Self) {
     // On average: a rare long sample (a measured cost distribution keeps its largest sample as
     // its bound) only delays the next one, which SampleSchedule owes once.
@@ -202,16 +195,12 @@ IsolationResult SimBackend::isolation(const Scenario& s, const WorkloadInfo& wor
 PointOutcome SimBackend::run_point(const Scenario& s, const Baselines& baselines, int rep,
                                    std::uint64_t seed, RunContext& ctx) {
   (void)rep;  // the seed already differs per repetition
-  TimeNs window = 0;
-  if (!s.nodes.rt.empty()) {
-    const auto& first = s.nodes.rt.front();
-    window = us_to_ns(baselines.at(s, first.workload, first.core).time_us);
-  }
-  RunConfig cfg = point_config(s, window, seed, policies_);
+  RunConfig cfg = point_config(s, regulation_setup(s, policies_, &baselines), seed);
   cfg.trace = ctx.trace();
   cfg.stop_requested = [&ctx] { return ctx.stop_requested(); };
   record_facts(ctx, cfg);
   SimReport report = simulate(cfg);
+  report.outcome.sampling = RanSampling{cfg.regulation.sampling, cfg.regulation.sampling_period_ns};
   return std::move(report.outcome);
 }
 

@@ -28,10 +28,9 @@ class SimBackend : public Backend {
   const PolicyRegistry& policies_;
 };
 
-// The simulation a point describes (used by run_point, and by tests that need the full report).
-// `monolithic_window_ns` is the first RT node's isolation time (monolithic policy only).
-RunConfig point_config(const Scenario& point, TimeNs monolithic_window_ns, std::uint64_t seed,
-                       const PolicyRegistry& policies);
+// The simulation a point describes, regulated by `regulation` (regulation_setup() of the point;
+// used by run_point, and by tests that need the full report).
+RunConfig point_config(const Scenario& point, RegulationSetup regulation, std::uint64_t seed);
 // The isolation run of `workload` on `core` under `scenario`'s platform and settings.
 RunConfig isolation_config(const Scenario& scenario, const WorkloadInfo& workload, int core,
                            std::uint64_t seed);

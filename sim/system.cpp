@@ -66,20 +66,18 @@ class Top : public sc_core::sc_module {
         bus_("bus", rt_),
         watchdog_("watchdog", rt_, [this](TimeNs t) { poll_stop(t); }) {
     rec_.trace = cfg.trace;
-    const std::vector<PmuEvent> events = metric_events(cfg.metric);
+    const RegulationSetup& reg = cfg.regulation;
+    const std::vector<PmuEvent> events = metric_events(reg.metric);
 
     if (!cfg.isolation) {
-      RegulatorConfig rc;
-      rc.rt_count = std::max<std::size_t>(1, cfg.rt.size());
-      rc.account_of_entity = accounts_for_scope(cfg.scope, cfg.nrt.size());
-      rc.metric = cfg.metric;
-      if (!cfg.policy.make) throw ContractError("a regulated simulation needs a policy");
-      auto regulator =
-          std::make_unique<Regulator>(std::move(rc), cfg.policy.make(cfg.policy_params));
+      if (reg.nodes.nrt != cfg.nrt.size())
+        throw ContractError("the regulation setup is for " + std::to_string(reg.nodes.nrt) +
+                            " nRT node(s), the run has " + std::to_string(cfg.nrt.size()));
+      auto regulator = reg.make_regulator();
       ControllerConfig cc;
       cc.core = cfg.controller_core;
-      cc.sampling = cfg.sampling;
-      cc.sampling_period_ns = cfg.sampling_period_ns;
+      cc.sampling = reg.sampling;
+      cc.sampling_period_ns = reg.sampling_period_ns;
       cc.line_bytes = cfg.platform.line_bytes;
       cc.metric_events = events;
       controller_ = std::make_unique<Controller>("controller", std::move(cc), std::move(regulator),
@@ -93,10 +91,10 @@ class Top : public sc_core::sc_module {
       nc.entity = i;
       nc.name = n.name;
       nc.loop = n.loop;
-      nc.sampling = cfg.sampling;
-      nc.sampling_period_ns = cfg.sampling_period_ns;
+      nc.sampling = reg.sampling;
+      nc.sampling_period_ns = reg.sampling_period_ns;
       nc.metric_events = events;
-      nc.line_bytes = cfg.metric.line_bytes;
+      nc.line_bytes = reg.metric.line_bytes;
       nc.freq_hz = cfg.platform.freq_mhz * 1e6;
       nrt_.push_back(std::make_unique<NrtNodeModel>(n.name.c_str(), std::move(nc), n.profile,
                                                     cfg.platform.costs, cfg.seed, core(n.core),

@@ -17,7 +17,7 @@
 #include "nodes/recorder.h"
 #include "nodes/rt_node.h"
 #include "platform/sim_platform.h"
-#include "policy/policy.h"
+#include "regulator/setup.h"
 #include "workload/profile.h"
 
 namespace rosguard::sim {
@@ -49,12 +49,9 @@ struct RunConfig {
   std::vector<NrtSpec> nrt;
   // Isolation: the first RT node alone, no controller and no regulation.
   bool isolation = false;
-  PolicyInfo policy;  // from the run's policy registry (point_config)
-  PolicyParams policy_params;
-  Sampling sampling = Sampling::Self;
-  TimeNs sampling_period_ns = 1'000'000;
-  Scope scope = Scope::Core;
-  MetricSpec metric;
+  // The regulation (regulator/setup.h; point_config). Isolation: only its metric, what the
+  // cores count.
+  RegulationSetup regulation;
   TraceSink* trace = nullptr;
   std::function<bool()> stop_requested;  // polled every few ms of simulated time
   TimeNs limit_ns = kRunLimitNs;         // simulated time after which the run is a failure

@@ -899,8 +899,8 @@ class CallbackController {
   // Lines per sample: the budget of a regulation period crossed in 2.5 samples.
   static std::uint64_t lines_per_sample(const RegulatorConfig& rc) {
     const PolicyParams params = policy_params();
-    const double budget = params.threshold_pct / 100.0 * params.reference_mbps * kBytesPerMb *
-                          (static_cast<double>(params.regulation_period_ns) / 1e9);
+    const double budget =
+        budget_bytes(100.0, account_rate_mbps(params, 0), params.regulation_period_ns);
     double weights = 0.0;
     for (const auto& e : rc.metric.events)
       weights += e.weight;

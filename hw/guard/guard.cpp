@@ -47,10 +47,9 @@ struct Guard::ErrorSink {
   std::vector<std::string> errors;
 };
 
-Guard::Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySource& activity,
-             GuardPublisher& publisher, std::ostream& log)
+Guard::Guard(GuardSettings settings, ActivitySource& activity, GuardPublisher& publisher,
+             std::ostream& log)
     : s_(std::move(settings)),
-      policies_(policies),
       activity_source_(activity),
       publisher_(publisher),
       log_(log),
@@ -132,7 +131,7 @@ void Guard::choose_source() {
   if (s_.source == GuardSource::Perf || (s_.source == GuardSource::Auto && perf_ok)) {
     source_name_ = "perf";
     source_why_ = "perf: the core's hardware PMU per CPU (L2 refills + write-backs x 64 B, Eq. 1)";
-    metric_ = MetricSpec{};
+    s_.regulation.metric = MetricSpec{};
     group_events_ = {"l2d_cache_refill", "l2d_cache_wb"};
   } else {
     source_name_ = "cputime";
@@ -145,9 +144,10 @@ void Guard::choose_source() {
         "the budget is CPU time, not bandwidth: the CPU time of the processes pinned to each core "
         "(/proc/<tid>/schedstat) x reference_mbps; a core may run its processes threshold_pct % "
         "of each window";
-    metric_.line_bytes = 64;
-    metric_.events = {{"task_clock", s_.reference_mbps * kBytesPerMb / 1e9 / 64.0}};
-    metric_.counter_bits = 64;
+    MetricSpec& m = s_.regulation.metric;
+    m.line_bytes = 64;
+    m.events = {{"task_clock", s_.regulation.params.reference_mbps * kBytesPerMb / 1e9 / 64.0}};
+    m.counter_bits = 64;
     group_events_ = {"cpu_time"};
   }
 }
@@ -163,7 +163,7 @@ void Guard::wire(const RtThread::ErrorHandler& on_error, const std::string& reco
   cc.core = s_.controller_core;
   cc.sched = SchedClass::Fifo;
   cc.sampling = Sampling::External;
-  cc.sampling_period_ns = s_.sampling_period_ns;
+  cc.sampling_period_ns = s_.regulation.sampling_period_ns;
   cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s_.watchdog_ns / 4);
   cc.metric_events = group_events_.size();
   cc.keep_measurements = false;
@@ -177,7 +177,7 @@ void Guard::wire(const RtThread::ErrorHandler& on_error, const std::string& reco
     c.entity = i;
     c.core = s_.nrt[i].core;
     c.sampling = Sampling::External;
-    c.sampling_period_ns = s_.sampling_period_ns;
+    c.sampling_period_ns = s_.regulation.sampling_period_ns;
     c.watchdog_ns = s_.watchdog_ns;
     c.sched = SchedClass::Fifo;
     c.throttle = throttle_.kind;
@@ -208,27 +208,19 @@ void Guard::wire(const RtThread::ErrorHandler& on_error, const std::string& reco
     cc.entity_cores.push_back(c.core);
     cc.group_sizes.push_back(group_events_.size());
   }
-  RegulatorConfig rc;
-  rc.rt_count = s_.rt.size();
-  rc.account_of_entity = accounts_for_scope(s_.scope, s_.nrt.size());
-  rc.metric = metric_;
-  controller_ = std::make_unique<Controller>(cc, std::make_unique<Regulator>(rc, make_policy(s_)),
-                                             rt_topic_, samples_, control_ptrs, nullptr,
-                                             engine_waker_, on_error, now_ns());
+  if (s_.regulation.nodes.nrt != s_.nrt.size())
+    throw ContractError("the guard's regulation setup is for " +
+                        std::to_string(s_.regulation.nodes.nrt) + " core(s), it regulates " +
+                        std::to_string(s_.nrt.size()));
+  controller_ =
+      std::make_unique<Controller>(cc, s_.regulation.make_regulator(), rt_topic_, samples_,
+                                   control_ptrs, nullptr, engine_waker_, on_error, now_ns());
   controller_->set_groups(groups);
   tasks_ = std::make_unique<CoreTasks>(throttle_.kind, task_cores, record);
 }
 
 Guard::~Guard() {
   shutdown();
-}
-
-std::unique_ptr<Policy> Guard::make_policy(const GuardSettings& s) const {
-  PolicyParams p;
-  p.threshold_pct = s.threshold_pct;
-  p.reference_mbps = s.reference_mbps;
-  p.regulation_period_ns = s.regulation_period_ns;
-  return policies_.make(s.policy, p);
 }
 
 void Guard::logln(const std::string& line) {
@@ -360,11 +352,9 @@ void Guard::start() {
   std::string rts;
   for (const auto& r : s_.rt)
     rts += (rts.empty() ? "" : ", ") + r;
-  logln("regulating " + cores + " with " + s_.policy + " at " + fmt(s_.threshold_pct) + " % of " +
-        fmt(s_.reference_mbps) + " MB/s per " + fmt(ns_to_us(s_.regulation_period_ns)) +
-        " us window, sampled every " + fmt(ns_to_us(s_.sampling_period_ns)) +
-        " us, while any of [" + rts + "] is active (" + activity_source_.describe() +
-        "); publishing to " + publisher_.describe());
+  logln("regulating " + cores + " with " + s_.regulation.describe() + ", while any of [" + rts +
+        "] is active (" + activity_source_.describe() + "); publishing to " +
+        publisher_.describe());
   started_ = true;
 }
 
@@ -487,10 +477,12 @@ bool Guard::reload(const GuardSettings& next) {
                             return a.name == b.name && a.core == b.core;
                           }),
           "nrt");
-  differs(next.policy != s_.policy, "regulation.policy");
-  differs(next.sampling_period_ns != s_.sampling_period_ns, "regulation.sampling_period_us");
-  differs(next.reference_mbps != s_.reference_mbps, "regulation.reference_mbps");
-  differs(next.scope != s_.scope, "regulation.scope");
+  const RegulationSetup& now = s_.regulation;
+  const RegulationSetup& then = next.regulation;
+  differs(then.policy.name != now.policy.name, "regulation.policy");
+  differs(then.sampling_period_ns != now.sampling_period_ns, "regulation.sampling_period_us");
+  differs(then.params.reference_mbps != now.params.reference_mbps, "regulation.reference_mbps");
+  differs(then.scope != now.scope, "regulation.scope");
   differs(next.source != s_.source, "hw.pmc_source");
   differs(next.throttle != s_.throttle, "hw.throttle");
   differs(next.watchdog_ns != s_.watchdog_ns, "hw.watchdog_ms");
@@ -502,22 +494,25 @@ bool Guard::reload(const GuardSettings& next) {
     return false;
   }
   std::string what;
-  if (next.threshold_pct != s_.threshold_pct)
-    what += "threshold_pct " + fmt(s_.threshold_pct) + " -> " + fmt(next.threshold_pct);
-  if (next.regulation_period_ns != s_.regulation_period_ns)
+  if (then.params.threshold_pct != now.params.threshold_pct)
+    what +=
+        "threshold_pct " + fmt(now.params.threshold_pct) + " -> " + fmt(then.params.threshold_pct);
+  if (then.params.regulation_period_ns != now.params.regulation_period_ns)
     what += std::string(what.empty() ? "" : ", ") + "regulation_period_us " +
-            fmt(ns_to_us(s_.regulation_period_ns)) + " -> " +
-            fmt(ns_to_us(next.regulation_period_ns));
+            fmt(ns_to_us(now.params.regulation_period_ns)) + " -> " +
+            fmt(ns_to_us(then.params.regulation_period_ns));
   const TimeNs rescan = next.rescan_ns;
   const std::size_t every = next.publish_every;
   if (what.empty()) {
     logln("reload: regulation unchanged");
   } else {
-    controller_->post_policy(make_policy(next));
+    // The running setup with the new parameters (the metric stays the chosen source's).
+    RegulationSetup swapped = now;
+    swapped.params = then.params;
+    controller_->post_policy(swapped.make_policy());
     logln("reload: " + what + " (from the next window; regulation continues meanwhile)");
   }
-  s_.threshold_pct = next.threshold_pct;
-  s_.regulation_period_ns = next.regulation_period_ns;
+  s_.regulation.params = then.params;
   s_.rescan_ns = rescan;
   s_.publish_every = every;
   return true;

@@ -44,6 +44,7 @@
 #include "hw/throttle/throttle.h"
 #include "node/activity_states.h"
 #include "policy/policy.h"
+#include "regulator/setup.h"
 
 namespace rosguard::hw {
 
@@ -64,12 +65,10 @@ struct GuardSettings {
     int core = 0;
   };
   std::vector<Nrt> nrt;
-  std::string policy = "interval";
-  TimeNs sampling_period_ns = kNsPerMs;
-  TimeNs regulation_period_ns = 5 * kNsPerMs;
-  double threshold_pct = 10.0;
-  double reference_mbps = 0.0;
-  Scope scope = Scope::Core;
+  // The configuration's regulation as the loader built it (regulation_setup(): policy, external
+  // sampling, periods in ns, threshold, reference, scope, one entity per nRT core); the guard
+  // counts with the metric of the source it chooses (choose_source), which replaces the setup's.
+  RegulationSetup regulation;
   GuardSource source = GuardSource::Auto;
   ThrottleMode throttle = ThrottleMode::Auto;
   TimeNs watchdog_ns = 100 * kNsPerMs;
@@ -173,8 +172,8 @@ struct GuardStats {
 
 class Guard {
  public:
-  Guard(GuardSettings settings, const PolicyRegistry& policies, ActivitySource& activity,
-        GuardPublisher& publisher, std::ostream& log);
+  Guard(GuardSettings settings, ActivitySource& activity, GuardPublisher& publisher,
+        std::ostream& log);
   ~Guard();
   Guard(const Guard&) = delete;
   Guard& operator=(const Guard&) = delete;
@@ -204,7 +203,6 @@ class Guard {
   void on_activity(const ActivitySignal& a);  // the activity source's thread
   void expire_activity();                     // main thread
   void release(const ActivityStates::Release& r, TimeNs now, const std::string& why);
-  std::unique_ptr<Policy> make_policy(const GuardSettings& s) const;
   std::string repair_after_crash();
   void check_cores() const;
   void choose_source();
@@ -214,14 +212,12 @@ class Guard {
   struct ErrorSink;
 
   GuardSettings s_;
-  const PolicyRegistry& policies_;
   ActivitySource& activity_source_;
   GuardPublisher& publisher_;
   std::ostream& log_;
   ThrottleChoice throttle_;
   std::string source_name_, source_why_;
   std::unique_ptr<PmcSource> perf_;
-  MetricSpec metric_;
   std::vector<std::string> group_events_;
 
   Waker engine_waker_, notes_waker_;

@@ -76,8 +76,8 @@ void RtRunner::main() {
       argv.push_back(a.get<std::string>());
   TimeNs release = now_ns();
   for (int job = 0; job < spec_.iterations && !stop_.load(std::memory_order_acquire); ++job) {
-    if (spec_.period_us && job > 0) {
-      release += *spec_.period_us * kNsPerUs;
+    if (const auto period = spec_.period_ns(); period && job > 0) {
+      release += *period;
       sleep_until(release);
     }
     const TimeNs t0 = now_ns();

@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -110,10 +111,19 @@ struct Observation {
   double value_us = 0.0;
 };
 
+// The sampling a point ran with (RegulationSetup::sampling and sampling_period_ns): the
+// scenario's, or what the backend ran in its place (a fallback it reported).
+struct RanSampling {
+  Sampling mode = Sampling::Self;
+  TimeNs period_ns = 0;
+};
+
 struct PointOutcome {
   std::vector<RtOutcome> rt;    // in scenario order
   std::vector<NrtOutcome> nrt;  // in scenario order
   std::vector<Observation> samples;
+  // What points.csv reports in its sampling columns; absent: the scenario's.
+  std::optional<RanSampling> sampling;
 };
 
 // What a backend tells the runner besides results: fallbacks taken (these go to the manifest

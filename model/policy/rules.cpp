@@ -22,11 +22,11 @@ std::string sampling_list(const std::vector<Sampling>& samplings) {
 
 }  // namespace
 
-void check_policy_rules(const Scenario& s, const PolicyTraits& traits) {
-  const RegulationSpec& r = s.regulation;
+void check_policy_rules(const RegulationSpec& r, RegulatedNodes nodes, const PolicyTraits& traits,
+                        const std::string& file) {
   if (traits.regulates && std::find(traits.samplings.begin(), traits.samplings.end(), r.sampling) ==
                               traits.samplings.end())
-    throw InputError(s.file, "/regulation/sampling",
+    throw InputError(file, "/regulation/sampling",
                      r.policy + " regulation does not run with " +
                          std::string(to_string(r.sampling)) +
                          " sampling (it runs with: " + sampling_list(traits.samplings) + ")");
@@ -34,53 +34,41 @@ void check_policy_rules(const Scenario& s, const PolicyTraits& traits) {
   const bool periodic_sampling = r.sampling != Sampling::Overflow;
   if (traits.regulates && traits.periodic_windows && periodic_sampling &&
       r.sampling_period_us > r.regulation_period_us)
-    throw InputError(s.file, "/regulation/sampling_period_us",
+    throw InputError(file, "/regulation/sampling_period_us",
                      "sampling period " + std::to_string(r.sampling_period_us) +
                          " us is longer than the regulation period " +
                          std::to_string(r.regulation_period_us) +
                          " us: a budget would be replenished before it could be checked");
   if (traits.throttles && traits.periodic_windows && periodic_sampling &&
       r.sampling_period_us == r.regulation_period_us)
-    throw InputError(s.file, "/regulation/sampling_period_us",
+    throw InputError(file, "/regulation/sampling_period_us",
                      "sampling period equals the regulation period (" +
                          std::to_string(r.sampling_period_us) +
                          " us): each window's usage would only be seen as it closes, so nothing "
                          "would ever be throttled; sample more often");
-  if (traits.needs_rt && s.nodes.rt.empty())
-    throw InputError(s.file, "/regulation/policy",
+  if (traits.needs_rt && nodes.rt == 0)
+    throw InputError(file, "/regulation/policy",
                      r.policy +
                          " regulation budgets the RT node's execution, and there is no RT "
                          "node");
   if (r.reclaim && !traits.reclaim)
-    throw InputError(s.file, "/regulation/reclaim",
+    throw InputError(file, "/regulation/reclaim",
                      r.policy + " regulation has no budget reclaim (memguard has)");
   if (r.sharing != Sharing::Off && !traits.reclaim)
-    throw InputError(s.file, "/regulation/sharing",
+    throw InputError(file, "/regulation/sharing",
                      r.policy + " regulation has no sharing of spare bandwidth (memguard has)");
   if (r.global_budget_mbps > 0 && !traits.global_budget)
-    throw InputError(s.file, "/regulation/global_budget_mbps",
+    throw InputError(file, "/regulation/global_budget_mbps",
                      r.policy + " regulation has no global budget (mempol has)");
   if (!traits.regulates && (!r.budget_mbps.empty() || !r.event_budget_mbps.empty()))
     throw InputError(
-        s.file, r.budget_mbps.empty() ? "/regulation/event_budget_mbps" : "/regulation/budget_mbps",
+        file, r.budget_mbps.empty() ? "/regulation/event_budget_mbps" : "/regulation/budget_mbps",
         r.policy + " regulation has no budget: the key would be ignored");
-  if (r.sampling == Sampling::Overflow && r.scope == Scope::Group && s.nodes.nrt.size() > 1)
-    throw InputError(s.file, "/regulation/scope",
+  if (r.sampling == Sampling::Overflow && r.scope == Scope::Group && nodes.nrt > 1)
+    throw InputError(file, "/regulation/scope",
                      "overflow sampling arms each core's PMU with its own budget; scope group "
                      "shares one budget between cores, which no core's interrupt can see (use "
                      "scope core or node)");
-}
-
-void check_policy(const Scenario& s, const PolicyRegistry& policies) {
-  const PolicyInfo* info = policies.find(s.regulation.policy);
-  if (!info) {
-    try {
-      policies.at(s.regulation.policy);
-    } catch (const InputError& e) {
-      throw InputError(s.file, e.json_path(), e.message());
-    }
-  }
-  check_policy_rules(s, info->traits);
 }
 
 std::vector<std::string> apply_policy_defaults(nlohmann::json& regulation) {
@@ -114,21 +102,6 @@ std::vector<std::string> apply_policy_defaults(nlohmann::json& regulation) {
   fill("sampling_period_us", sampling_period, kDefaultSamplingPeriodUs);
   fill("regulation_period_us", regulation_period, kDefaultRegulationPeriodUs);
   return applied;
-}
-
-PolicyParams policy_params(const Scenario& s, TimeNs monolithic_window_ns) {
-  const RegulationSpec& r = s.regulation;
-  PolicyParams p;
-  p.threshold_pct = r.threshold_pct;
-  p.reference_mbps = r.reference_mbps;
-  p.regulation_period_ns = r.regulation_period_us * kNsPerUs;
-  p.monolithic_window_ns = monolithic_window_ns;
-  p.budget_mbps = r.budget_mbps;
-  p.event_budget_mbps = r.event_budget_mbps;
-  p.global_budget_mbps = r.global_budget_mbps;
-  p.reclaim = r.reclaim;
-  p.sharing = r.sharing;
-  return p;
 }
 
 }  // namespace rosguard

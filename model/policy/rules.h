@@ -1,5 +1,5 @@
 // The scenario rules that depend on what a policy is (its traits), not on its name; the
-// policy-dependent defaults; and the policy parameters of a scenario, the same for both backends.
+// policy-dependent defaults.
 //
 // Contract: pure; throws InputError naming the scenario file and the JSON path.
 #pragma once
@@ -13,12 +13,20 @@
 
 namespace rosguard {
 
+// How many nodes a regulation serves: RT nodes (whose activity switches it on) and nRT nodes
+// (the regulated entities, in order).
+struct RegulatedNodes {
+  std::size_t rt = 0;
+  std::size_t nrt = 0;
+};
+
 // Sampling must be able to see a window's usage before the window closes; a budget sized from
 // the RT node's isolation time needs an RT node; the sampling mode must be one the policy runs
-// with; reclaim / sharing and a global budget only where the policy has them.
-void check_policy_rules(const Scenario& s, const PolicyTraits& traits);
-// The traits of s.regulation.policy in `policies` (InputError when unknown), then the rules.
-void check_policy(const Scenario& s, const PolicyRegistry& policies);
+// with; reclaim / sharing and a global budget only where the policy has them. `file` names the
+// document in errors. (regulation_setup(), regulator/setup.h, applies them with the run's
+// registry.)
+void check_policy_rules(const RegulationSpec& r, RegulatedNodes nodes, const PolicyTraits& traits,
+                        const std::string& file);
 
 // Fills regulation.sampling, regulation.sampling_period_us and regulation.regulation_period_us
 // where `regulation` (a scenario's "regulation" object) does not set them: from the built-in
@@ -26,11 +34,5 @@ void check_policy(const Scenario& s, const PolicyRegistry& policies);
 // defaults (self, 1000 us, 5000 us). Returns what a policy's own defaults filled in, as
 // "sampling = overflow (memguard's default)", for check's output and the manifest.
 std::vector<std::string> apply_policy_defaults(nlohmann::json& regulation);
-
-// The policy parameters of a scenario: threshold, reference, periods, budgets (budget_mbps per
-// nRT node becomes one per account: scope core and node have one account per nRT node), the
-// per-event and global budgets, reclaim and sharing. `monolithic_window_ns`: the first RT node's
-// isolation time (0 without RT nodes).
-PolicyParams policy_params(const Scenario& s, TimeNs monolithic_window_ns);
 
 }  // namespace rosguard

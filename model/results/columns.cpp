@@ -67,14 +67,16 @@ std::vector<ColumnInfo> build_points() {
       {"policy", "text",
        "regulation policy (none, interval, monolithic, monitor, memguard, mempol)"},
       {"sampling", "text",
-       "self (each nRT node samples its own counters), external (the controller reads them), "
-       "overflow (a PMU overflow interrupt on the nRT core: memguard) or mmio (the controller "
-       "polls debug registers: mempol)"},
+       "the sampling the point ran with: self (each nRT node samples its own counters), "
+       "external (the controller reads them), overflow (a PMU overflow interrupt on the nRT "
+       "core: memguard) or mmio (the controller polls debug registers: mempol); where the "
+       "backend could not run the scenario's, what it ran instead (the manifest's fallbacks "
+       "say why)"},
       {"scope", "text", "what one budget covers: core, node or group (all nRT nodes)"},
       {"threshold_pct", "%",
        "bandwidth setpoint as a percentage of the reference bandwidth (unused where "
        "regulation.budget_mbps is given: the manifest's scenario has it)"},
-      {"sampling_period_us", "us", "PMC sampling period"},
+      {"sampling_period_us", "us", "PMC sampling period the point ran with"},
       {"regulation_period_us", "us", "regulation (budget) period"},
   };
   const auto node = [&](const std::string& prefix, const std::vector<ColumnInfo>& cols,

@@ -201,10 +201,13 @@ std::string points_row(const std::vector<std::string>& header, const SweepPoint&
   cell["rep"] = std::to_string(rep);
   cell["backend"] = s.backend;
   cell["policy"] = r.policy;
-  cell["sampling"] = std::string(to_string(r.sampling));
+  // The sampling it ran with (a backend may run another than the scenario's: a fallback).
+  cell["sampling"] = std::string(to_string(o.sampling ? o.sampling->mode : r.sampling));
   cell["scope"] = std::string(to_string(r.scope));
   cell["threshold_pct"] = compact(r.threshold_pct);
-  cell["sampling_period_us"] = std::to_string(r.sampling_period_us);
+  cell["sampling_period_us"] = o.sampling
+                                   ? compact(static_cast<double>(o.sampling->period_ns) / 1e3)
+                                   : std::to_string(r.sampling_period_us);
   cell["regulation_period_us"] = std::to_string(r.regulation_period_us);
   cell["reference_mbps"] = mbps(r.reference_mbps);
   cell["platform"] = s.platform.name;

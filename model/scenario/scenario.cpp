@@ -283,6 +283,58 @@ std::vector<MetricEvent> build_metric_events(const nlohmann::json& events, const
   return out;
 }
 
+HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const std::string& file) {
+  HwSettings out;
+  out.pmc_source = parse_pmc_source(hw.at("pmc_source").get<std::string>());
+  out.scheduler =
+      hw.at("scheduler").get<std::string>() == "fifo" ? SchedulerKind::Fifo : SchedulerKind::Other;
+  out.throttle = parse_throttle_mode(hw.value("throttle", std::string("auto")));
+  out.watchdog_ms = hw.at("watchdog_ms").get<std::int64_t>();
+  // Three measurements give a median that one outlier cannot move.
+  out.baseline_repetitions = std::max(repetitions, 3);
+  if (hw.contains("baseline_repetitions")) {
+    out.baseline_repetitions = hw.at("baseline_repetitions").get<int>();
+    if (out.baseline_repetitions < repetitions)
+      throw InputError(file, "/hw/baseline_repetitions",
+                       "must be at least repetitions (" + std::to_string(repetitions) +
+                           "): every repetition round needs a baseline measured before it");
+  }
+  out.adjacent_baselines = hw.value("adjacent_baselines", false);
+  if (out.adjacent_baselines) {
+    if (hw.contains("baseline_repetitions"))
+      throw InputError(file, "/hw/baseline_repetitions",
+                       "not with hw.adjacent_baselines: each repetition has its own baseline "
+                       "measurement, taken right before its co-run");
+    out.baseline_repetitions = repetitions;
+  }
+  if (hw.contains("precision_pct")) out.precision_pct = hw.at("precision_pct").get<double>();
+  out.max_repetitions = hw.value("max_repetitions", 20);
+  if (out.precision_pct && out.max_repetitions < repetitions)
+    throw InputError(file, "/hw/max_repetitions",
+                     "must be at least repetitions (" + std::to_string(repetitions) +
+                         "): with hw.precision_pct, repetitions is the fewest rounds a point runs "
+                         "and max_repetitions the most");
+  out.progress_timeout_ms = hw.value("progress_timeout_ms", std::int64_t{60000});
+  out.transport =
+      hw.value("transport", "inproc") == "dds" ? TransportKind::Dds : TransportKind::Inproc;
+  if (hw.contains("dds")) {
+    const auto& dds = hw.at("dds");
+    if (dds.contains("domain_id")) out.dds_domain_id = dds.at("domain_id").get<std::uint32_t>();
+    out.dds_namespace = dds.value("namespace", "");
+    out.signal_timeout_ms = dds.value("signal_timeout_ms", std::int64_t{60000});
+    if (dds.contains("security")) {
+      const auto& j = dds.at("security");
+      out.dds_security = DdsSecurityFiles{
+          j.at("identity_ca").get<std::string>(), j.at("identity_certificate").get<std::string>(),
+          j.at("private_key").get<std::string>(), j.at("permissions_ca").get<std::string>(),
+          j.at("governance").get<std::string>(),  j.at("permissions").get<std::string>()};
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 RegulationSpec build_regulation(const nlohmann::json& reg, const PlatformInfo& plat,
                                 const NodesSpec& nodes, const std::string& file) {
   RegulationSpec r;
@@ -352,58 +404,6 @@ RegulationSpec build_regulation(const nlohmann::json& reg, const PlatformInfo& p
   return r;
 }
 
-HwSettings build_hw_settings(const nlohmann::json& hw, int repetitions, const std::string& file) {
-  HwSettings out;
-  out.pmc_source = parse_pmc_source(hw.at("pmc_source").get<std::string>());
-  out.scheduler =
-      hw.at("scheduler").get<std::string>() == "fifo" ? SchedulerKind::Fifo : SchedulerKind::Other;
-  out.throttle = parse_throttle_mode(hw.value("throttle", std::string("auto")));
-  out.watchdog_ms = hw.at("watchdog_ms").get<std::int64_t>();
-  // Three measurements give a median that one outlier cannot move.
-  out.baseline_repetitions = std::max(repetitions, 3);
-  if (hw.contains("baseline_repetitions")) {
-    out.baseline_repetitions = hw.at("baseline_repetitions").get<int>();
-    if (out.baseline_repetitions < repetitions)
-      throw InputError(file, "/hw/baseline_repetitions",
-                       "must be at least repetitions (" + std::to_string(repetitions) +
-                           "): every repetition round needs a baseline measured before it");
-  }
-  out.adjacent_baselines = hw.value("adjacent_baselines", false);
-  if (out.adjacent_baselines) {
-    if (hw.contains("baseline_repetitions"))
-      throw InputError(file, "/hw/baseline_repetitions",
-                       "not with hw.adjacent_baselines: each repetition has its own baseline "
-                       "measurement, taken right before its co-run");
-    out.baseline_repetitions = repetitions;
-  }
-  if (hw.contains("precision_pct")) out.precision_pct = hw.at("precision_pct").get<double>();
-  out.max_repetitions = hw.value("max_repetitions", 20);
-  if (out.precision_pct && out.max_repetitions < repetitions)
-    throw InputError(file, "/hw/max_repetitions",
-                     "must be at least repetitions (" + std::to_string(repetitions) +
-                         "): with hw.precision_pct, repetitions is the fewest rounds a point runs "
-                         "and max_repetitions the most");
-  out.progress_timeout_ms = hw.value("progress_timeout_ms", std::int64_t{60000});
-  out.transport =
-      hw.value("transport", "inproc") == "dds" ? TransportKind::Dds : TransportKind::Inproc;
-  if (hw.contains("dds")) {
-    const auto& dds = hw.at("dds");
-    if (dds.contains("domain_id")) out.dds_domain_id = dds.at("domain_id").get<std::uint32_t>();
-    out.dds_namespace = dds.value("namespace", "");
-    out.signal_timeout_ms = dds.value("signal_timeout_ms", std::int64_t{60000});
-    if (dds.contains("security")) {
-      const auto& j = dds.at("security");
-      out.dds_security = DdsSecurityFiles{
-          j.at("identity_ca").get<std::string>(), j.at("identity_certificate").get<std::string>(),
-          j.at("private_key").get<std::string>(), j.at("permissions_ca").get<std::string>(),
-          j.at("governance").get<std::string>(),  j.at("permissions").get<std::string>()};
-    }
-  }
-  return out;
-}
-
-}  // namespace
-
 Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std::string& file) {
   Scenario s;
   s.file = file;
@@ -418,9 +418,9 @@ Scenario build_scenario(const nlohmann::json& doc, ResolvedRefs refs, const std:
   s.regulation = build_regulation(doc.at("regulation"), s.platform, s.nodes, file);
 
   // Rules of the built-in policies; a policy registered elsewhere is checked by the backends
-  // (check_policy with the run's registry).
+  // (regulation_setup with the run's registry).
   if (const PolicyInfo* p = find_builtin_policy(s.regulation.policy))
-    check_policy_rules(s, p->traits);
+    check_policy_rules(s.regulation, {s.nodes.rt.size(), s.nodes.nrt.size()}, p->traits, file);
 
   s.sim.quantum_us = doc.at("sim").at("quantum_us").get<double>();
   s.hw = build_hw_settings(doc.at("hw"), s.repetitions, file);

@@ -61,6 +61,10 @@ struct RtNodeSpec {
   int iterations = 1;
   std::optional<std::int64_t> period_us;  // absent: jobs back to back
   RtSignal signal = RtSignal::Self;
+  // The job period in ns (absent: jobs back to back), converted here only.
+  std::optional<TimeNs> period_ns() const {
+    return period_us ? std::optional<TimeNs>(*period_us * kNsPerUs) : std::nullopt;
+  }
 };
 
 struct NrtNodeSpec {
@@ -172,6 +176,13 @@ WorkloadInfo size_working_set(const WorkloadInfo& w, const PlatformInfo& platfor
 
 // Typed view of a validated platform document. Throws InputError naming `file` and the path.
 PlatformInfo build_platform(const nlohmann::json& doc, const std::string& file);
+
+// The typed regulation of a validated document's "regulation" object (defaults applied): the
+// reference from `platform` where the object has none, metric events checked against the
+// platform's, budgets per nRT node by `nodes`' names. Used for scenarios and for the guard's
+// configuration (the loader gives it the guard's sampling and metric).
+RegulationSpec build_regulation(const nlohmann::json& regulation, const PlatformInfo& platform,
+                                const NodesSpec& nodes, const std::string& file);
 
 // Typed view of a validated scenario document with its references resolved. Throws InputError
 // (file + JSON path) when the combination is inconsistent.

@@ -60,12 +60,19 @@ sim::RunConfig minimal_setup(TimeNs sampling_us, int rt_iterations) {
   cfg.seed = 1;
   cfg.rt.push_back({"rt0", 1, profile("bandwidth_read"), rt_iterations, std::nullopt});
   cfg.nrt.push_back({"nrt0", 2, profile("bandwidth_read"), true});
-  cfg.policy = *find_builtin_policy("interval");
-  cfg.policy_params.threshold_pct = 20.0;
-  cfg.policy_params.reference_mbps = 26271.74;
-  cfg.policy_params.regulation_period_ns = 5 * kNsPerMs;
-  cfg.sampling = Sampling::Self;
-  cfg.sampling_period_ns = sampling_us * kNsPerUs;
+  static const PolicyRegistry policies = [] {
+    PolicyRegistry p;
+    register_builtin(p);
+    return p;
+  }();
+  RegulationSpec r;
+  r.policy = "interval";
+  r.threshold_pct = 20.0;
+  r.reference_mbps = 26271.74;
+  r.regulation_period_us = 5000;
+  r.sampling = Sampling::Self;
+  r.sampling_period_us = sampling_us;
+  cfg.regulation = regulation_setup(r, {1, 1}, policies, "bench_sim");
   return cfg;
 }
 

@@ -32,6 +32,15 @@ using rosguard::test::slurp;
 
 namespace {
 
+const PolicyRegistry& test_policies() {
+  static const PolicyRegistry registry = [] {
+    PolicyRegistry r;
+    register_builtin(r);
+    return r;
+  }();
+  return registry;
+}
+
 // Below this share of its core, unregulated, stress-ng shares the core with other work (other
 // tests' SCHED_FIFO threads, builds): CPU-share comparisons then say nothing about the guard.
 constexpr double kQuiet = 0.6;
@@ -115,17 +124,22 @@ class Stress {
   pid_t pid_ = -1;
 };
 
-GuardSettings settings_for(int ctl, int core, double threshold_pct) {
+GuardSettings settings_for(int ctl, int core, double threshold_pct,
+                           const std::string& policy = "interval") {
   GuardSettings s;
   s.name = "test";
   s.file = "test";
   s.controller_core = ctl;
   s.rt = {"planner"};
   s.nrt = {{"be", core}};
-  s.sampling_period_ns = kNsPerMs;
-  s.regulation_period_ns = 10 * kNsPerMs;
-  s.threshold_pct = threshold_pct;
-  s.reference_mbps = 1000.0;  // cputime: the budget is threshold_pct % of each window's time
+  RegulationSpec r;
+  r.policy = policy;
+  r.sampling = Sampling::External;
+  r.sampling_period_us = 1000;
+  r.regulation_period_us = 10000;
+  r.threshold_pct = threshold_pct;
+  r.reference_mbps = 1000.0;  // cputime: the budget is threshold_pct % of each window's time
+  s.regulation = regulation_setup(r, {1, 1}, test_policies(), "test");
   s.rescan_ns = 50 * kNsPerMs;
   return s;
 }
@@ -205,13 +219,11 @@ TEST_CASE("guard holds a pinned stress-ng to its budget while the RT node is act
   const int core = cpus.back(), ctl = cpus.front();
   const long long cpu_step_ns = cpu_time_step_ns(core);
   Stress st(core);
-  PolicyRegistry policies;
-  register_builtin(policies);
   InprocActivity activity;
   Recorder rec;
   std::ostringstream log;
   {
-    Guard g(settings_for(ctl, core, 10.0), policies, activity, rec, log);
+    Guard g(settings_for(ctl, core, 10.0), activity, rec, log);
     g.start();
     serve_for(g, std::chrono::milliseconds(300));  // a rescan finds stress-ng
     const double before = share_while_serving(g, st, std::chrono::milliseconds(500));
@@ -261,12 +273,10 @@ TEST_CASE("guard reload: a new threshold from the next window, regulation never 
   }
   const int core = cpus.back(), ctl = cpus.front();
   Stress st(core);
-  PolicyRegistry policies;
-  register_builtin(policies);
   InprocActivity activity;
   Recorder rec;
   std::ostringstream log;
-  Guard g(settings_for(ctl, core, 50.0), policies, activity, rec, log);
+  Guard g(settings_for(ctl, core, 50.0), activity, rec, log);
   g.start();
   serve_for(g, std::chrono::milliseconds(300));
   const double free = share_while_serving(g, st, std::chrono::milliseconds(400));
@@ -307,8 +317,7 @@ TEST_CASE("guard reload: a new threshold from the next window, regulation never 
   CHECK_THAT(log.str(), Catch::Contains("reload: threshold_pct 50 -> 5") &&
                             Catch::Contains("new policy parameters in force from the next window"));
   // A change that cannot be applied while running is refused, and the guard keeps going.
-  auto other = settings_for(ctl, core, 5.0);
-  other.policy = "monitor";
+  auto other = settings_for(ctl, core, 5.0, "monitor");
   CHECK_FALSE(g.reload(other));
 }
 
@@ -422,8 +431,6 @@ TEST_CASE("guard over DDS: Bool activity in, samples (with budgets) and commands
   const std::string ns = "/guard_test_" + std::to_string(::getpid());
   const int core = cpus.back(), ctl = cpus.front();
   Stress st(core);
-  PolicyRegistry policies;
-  register_builtin(policies);
   DdsActivity activity(std::nullopt, ns);
   DdsPublisher publisher({"be"}, std::nullopt, ns);
   // Plain Cyclone endpoints with the ROS 2 names, as an RT node and a `ros2 topic echo` would use.
@@ -433,7 +440,7 @@ TEST_CASE("guard over DDS: Bool activity in, samples (with budgets) and commands
   dds::Reader<dds::CommandMsg> cmd(outside, ns + "/rosguard/be/command");
   CHECK(dds::dds_topic_name(ns + "/rosguard/be/pmc") == "rt" + ns + "/rosguard/be/pmc");
   std::ostringstream log;
-  Guard g(settings_for(ctl, core, 10.0), policies, activity, publisher, log);
+  Guard g(settings_for(ctl, core, 10.0), activity, publisher, log);
   g.start();
   // Wait for discovery both ways (volatile topics keep nothing for late joiners).
   for (int i = 0; i < 200 && (rt.matched() == 0 || pmc.matched() == 0 || cmd.matched() == 0); ++i)

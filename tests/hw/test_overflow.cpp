@@ -65,17 +65,16 @@ TEST_CASE(
     WARN("SKIPPED: perf software events do not work here: " << *why);
     return;
   }
-  const HwSampling sampling = hw_sampling(s, plan, *source);
-  INFO(sampling.fallback);
-  REQUIRE(sampling.mode == Sampling::Overflow);
-  CHECK(sampling.fallback.empty());
+  // No RT node: memguard needs no isolation time, so no baselines.
+  const HwRegulation regulation = hw_regulation(s, plan, *source, test_policies());
+  INFO(regulation.fallback);
+  REQUIRE(regulation.setup.sampling == Sampling::Overflow);
+  CHECK(regulation.fallback.empty());
 
-  const Baselines baselines;  // no RT node: memguard needs no isolation time
   const ThrottleChoice throttle;
   const HwOptions options;
   TestContext ctx;
-  PointRig rig(s, plan, *source, sampling,
-               make_point_regulator(s, plan, baselines, test_policies()), options, false, throttle);
+  PointRig rig(s, plan, *source, regulation.setup, options, false, throttle);
   rig.start();
   rig.drive(ctx);
   rig.teardown();
@@ -161,8 +160,8 @@ TEST_CASE(
     s.hw.pmc_source = PmcSourceKind::Instrumented;
     const MetricPlan plan = plan_metric(s, sources);
     const auto source = sources.find(plan.source)->make();
-    const HwSampling h = hw_sampling(s, plan, *source);
-    CHECK(h.mode == Sampling::External);
+    const HwRegulation h = hw_regulation(s, plan, *source, test_policies());
+    CHECK(h.setup.sampling == Sampling::External);
     CHECK_THAT(h.fallback,
                Catch::Contains("cannot be armed") && Catch::Contains("counts without perf events"));
     // The point runs regulated all the same, and its manifest (and the run's warnings) say so.
@@ -178,20 +177,21 @@ TEST_CASE(
     MetricPlan plan;  // the scenario's metric on the perf source
     plan.group_events = {"l2d_cache_refill", "l2d_cache_wb"};
     plan.metric_events = 2;
-    const HwSampling h = hw_sampling(s, plan, *perf);
+    const HwRegulation h = hw_regulation(s, plan, *perf, test_policies());
     if (const auto why = perf->unavailable_reason()) {
-      CHECK(h.mode == Sampling::External);
+      CHECK(h.setup.sampling == Sampling::External);
       CHECK_THAT(h.fallback, Catch::Contains(*why));
     } else {
       WARN("this host has a PMU: overflow counters on hardware events");
-      CHECK(h.mode == Sampling::Overflow);
+      CHECK(h.setup.sampling == Sampling::Overflow);
     }
   }
   SECTION("an external command: its inherited counters cannot overflow as one") {
     s.nodes.nrt[0].workload.doc = {{"command", {"true"}}};
     const MetricPlan plan = plan_metric(s, sources);
-    const HwSampling h = hw_sampling(s, plan, *sources.find(plan.source)->make());
-    CHECK(h.mode == Sampling::External);
+    const HwRegulation h =
+        hw_regulation(s, plan, *sources.find(plan.source)->make(), test_policies());
+    CHECK(h.setup.sampling == Sampling::External);
     CHECK_THAT(h.fallback, Catch::Contains("external command"));
   }
 }

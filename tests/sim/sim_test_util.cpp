@@ -156,7 +156,9 @@ json run_point_report(const Scenario& s, std::uint64_t seed) {
   if (!s.nodes.rt.empty())
     window = static_cast<TimeNs>(iso["rt:" + s.nodes.rt[0].name]["time_us"].get<double>() * 1e3);
   json out = in_child([&] {
-    const sim::RunConfig cfg = sim::point_config(s, window, seed, builtin_registry());
+    RegulationSetup reg = regulation_setup(s, builtin_registry());
+    reg.params.monolithic_window_ns = window;
+    const sim::RunConfig cfg = sim::point_config(s, std::move(reg), seed);
     const sim::SimReport rep = sim::simulate(cfg);
     json j;
     j["rt"] = json::array();

@@ -2,7 +2,6 @@
 #include "host/guard.h"
 
 #include "commands/command.h"
-#include "load/schema.h"
 
 namespace rosguard {
 
@@ -11,9 +10,7 @@ CommandHandler setup_guard(CLI::App& sub) {
   sub.add_option("config", args->config, "Guard configuration (guard.schema.json)")->required();
   sub.add_flag("--check", args->check,
                "Validate the configuration, print it with its defaults; nothing runs");
-  return [args](const CommandContext& c) {
-    return guard_command(*args, SchemaSet(c.loader.home().schemas()), c.policies);
-  };
+  return [args](const CommandContext& c) { return guard_command(*args, c.loader, c.policies); };
 }
 
 }  // namespace rosguard

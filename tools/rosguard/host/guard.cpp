@@ -31,13 +31,13 @@ extern "C" void on_hup(int) {
   g_hup.store(true);
 }
 
-// The file, validated against guard.schema.json with its defaults, as typed settings.
-hw::GuardSettings load_guard(const std::string& file, const SchemaSet& schemas,
-                             nlohmann::json* out_doc = nullptr) {
-  const std::string shown = display_path(file);
-  nlohmann::json doc = read_json_file(file, shown);
-  schemas.validate(doc, SchemaKind::Guard, shown);
-  schemas.apply_defaults(doc, SchemaKind::Guard);
+// The file through the loader (Loader::load_guard: schema, defaults, the regulation's setup),
+// the rest of it as typed settings.
+hw::GuardSettings load_guard(const std::string& file, Loader& loader,
+                             const PolicyRegistry& policies, nlohmann::json* out_doc = nullptr) {
+  LoadedGuard loaded = loader.load_guard(file, policies);
+  const std::string& shown = loaded.file;
+  const nlohmann::json& doc = loaded.document;
   hw::GuardSettings s;
   s.file = shown;
   s.name = doc.at("name").get<std::string>();
@@ -65,16 +65,7 @@ hw::GuardSettings load_guard(const std::string& file, const SchemaSet& schemas,
                        "controller)");
     s.nrt.push_back(nrt);
   }
-  const auto& r = doc.at("regulation");
-  s.policy = r.at("policy").get<std::string>();
-  s.sampling_period_ns = r.at("sampling_period_us").get<std::int64_t>() * kNsPerUs;
-  s.regulation_period_ns = r.at("regulation_period_us").get<std::int64_t>() * kNsPerUs;
-  if (s.regulation_period_ns < s.sampling_period_ns)
-    throw InputError(shown, "/regulation/regulation_period_us",
-                     "must be at least sampling_period_us (a window needs a sample)");
-  s.threshold_pct = r.at("threshold_pct").get<double>();
-  s.reference_mbps = r.at("reference_mbps").get<double>();
-  s.scope = r.at("scope").get<std::string>() == "group" ? Scope::Group : Scope::Core;
+  s.regulation = std::move(loaded.regulation);
   const auto& h = doc.at("hw");
   const std::string src = h.at("pmc_source").get<std::string>();
   s.source = src == "perf"      ? hw::GuardSource::Perf
@@ -92,9 +83,9 @@ hw::GuardSettings load_guard(const std::string& file, const SchemaSet& schemas,
 
 }  // namespace
 
-int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyRegistry& policies) {
+int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& policies) {
   nlohmann::json doc;
-  const hw::GuardSettings settings = load_guard(args.config, schemas, &doc);
+  const hw::GuardSettings settings = load_guard(args.config, loader, policies, &doc);
   if (args.check) {
     std::cout << doc.dump(2) << "\n";
     return 0;
@@ -164,12 +155,12 @@ int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyR
     }
   } restore{old_int, old_term, old_hup};
 
-  hw::Guard guard(settings, policies, *activity, *publisher, std::cerr);
+  hw::Guard guard(settings, *activity, *publisher, std::cerr);
   guard.start();
   guard.run([] { return g_stop.load() != 0; }, [] { return g_hup.exchange(false); },
             [&]() -> std::optional<hw::GuardSettings> {
               try {
-                return load_guard(args.config, schemas);
+                return load_guard(args.config, loader, policies);
               } catch (const InputError& e) {
                 std::cerr << "guard " << settings.name << ": reload refused: " << e.what()
                           << "; the running configuration stays\n";
@@ -184,7 +175,7 @@ int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyR
 
 #else
 
-int guard_command(const GuardArgs&, const SchemaSet&, const PolicyRegistry&) {
+int guard_command(const GuardArgs&, Loader&, const PolicyRegistry&) {
   throw RunError(
       "this rosguard is built without the hw backend (ROSGUARD_WITH_HW=OFF): "
       "`rosguard guard` needs it");

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "load/schema.h"
+#include "load/loader.h"
 #include "policy/policy.h"
 
 namespace rosguard {
@@ -14,6 +14,6 @@ struct GuardArgs {
   bool check = false;  // validate and print the settings; nothing runs
 };
 
-int guard_command(const GuardArgs& args, const SchemaSet& schemas, const PolicyRegistry& policies);
+int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& policies);
 
 }  // namespace rosguard

@@ -250,13 +250,13 @@ std::vector<std::string> ineffective_budget_warnings(const std::vector<LoadedPoi
     if (!info || !info->traits.throttles || !info->traits.periodic_windows ||
         r.sampling == Sampling::Overflow || !r.event_budget_mbps.empty() || r.reference_mbps <= 0.0)
       continue;
+    const PolicyParams params = policy_params(r);
     const auto& nodes = lp.scenario.nodes.nrt;
     for (std::size_t i = 0; i < nodes.size(); ++i) {
       const auto& n = nodes[i];
-      const double rate_mbps = r.budget_mbps.empty() ? r.threshold_pct / 100.0 * r.reference_mbps
-                               : r.budget_mbps.size() == 1 ? r.budget_mbps.front()
-                                                           : r.budget_mbps.at(i);
-      const double budget_mib = rate_mbps * static_cast<double>(r.regulation_period_us) / 1e6;
+      const double rate_mbps = account_rate_mbps(params, i);
+      const double budget_mib =
+          budget_bytes(100.0, rate_mbps, params.regulation_period_ns) / kBytesPerMb;
       const auto& ref = n.workload.doc.value("reference", nlohmann::json::object());
       if (!ref.contains("mbps") || !ref["mbps"].is_number()) continue;
       const double mbps = ref["mbps"].get<double>();
@@ -680,6 +680,31 @@ InputError Loader::attribute_to_sweep(const InputError& e, const SweepPoint& p,
     if (b.json_path() == path && b.message() == msg) return b;
   }
   return InputError(file, path, msg + " (in sweep point " + params_text(p) + ")");
+}
+
+LoadedGuard Loader::load_guard(const std::string& file, const PolicyRegistry& policies) {
+  LoadedGuard out;
+  out.file = display_path(file);
+  out.document = read_json_file(file, out.file);
+  schemas_.validate(out.document, SchemaKind::Guard, out.file);
+  schemas_.apply_defaults(out.document, SchemaKind::Guard);
+  const json& doc = out.document;
+  json reg = doc.at("regulation");
+  // The guard's controller reads every core's counters; what it counts is its PMC source's
+  // choice at start (the metric the guard puts in the setup), so the configuration has none.
+  reg["sampling"] = "external";
+  reg["metric"] = {{"line_bytes", 64}, {"events", json::object()}};
+  NodesSpec nodes;
+  for (const auto& n : doc.at("nrt")) {
+    NrtNodeSpec spec;
+    spec.core = n.at("core").get<int>();
+    spec.name = n.value("name", "core" + std::to_string(spec.core));
+    nodes.nrt.push_back(std::move(spec));
+  }
+  const RegulationSpec spec = build_regulation(reg, PlatformInfo{}, nodes, out.file);
+  out.regulation =
+      regulation_setup(spec, {doc.at("rt").size(), nodes.nrt.size()}, policies, out.file);
+  return out;
 }
 
 LoadedScenario Loader::load(const std::string& file, const std::optional<std::string>& backend,

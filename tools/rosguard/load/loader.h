@@ -15,6 +15,7 @@
 
 #include "load/host_model.h"
 #include "load/schema.h"
+#include "regulator/setup.h"
 #include "scenario/scenario.h"
 #include "scenario/sweep.h"
 
@@ -77,6 +78,13 @@ struct CatalogEntry {
   std::filesystem::path file;
 };
 
+// A guard configuration (guard.schema.json) as Loader::load_guard reads it.
+struct LoadedGuard {
+  std::string file;         // as shown in messages
+  nlohmann::json document;  // defaults applied
+  RegulationSetup regulation;
+};
+
 class Loader {
  public:
   explicit Loader(Home home);
@@ -99,6 +107,12 @@ class Loader {
   // another process of this run: the same document, so the same answer).
   LoadedPoint point(const LoadedScenario& loaded, std::uint64_t index, bool skip_schema = false);
 
+  // A guard configuration read the way a scenario is: parsed, checked against its schema,
+  // defaults applied; its regulation built into the same RegulationSpec as a scenario's
+  // (build_regulation; sampling external: the guard's controller reads every core) and set up
+  // with `policies` (regulation_setup: the policy's rules, periods in ns). Throws InputError
+  // naming the file and the JSON path.
+  LoadedGuard load_guard(const std::string& file, const PolicyRegistry& policies);
   std::vector<CatalogEntry> platforms() const;
   std::vector<CatalogEntry> workloads() const;
 

@@ -660,7 +660,10 @@ std::string Tuner::setting_label(const json& setting) const {
 
 std::optional<double> Tuner::budget_mbps(const json& setting) const {
   if (!reference_mbps_ || setting.size() <= config_paths_.size()) return std::nullopt;
-  return setting[config_paths_.size()].get<double>() / 100.0 * *reference_mbps_;
+  PolicyParams p;
+  p.threshold_pct = setting[config_paths_.size()].get<double>();
+  p.reference_mbps = *reference_mbps_;
+  return account_rate_mbps(p, 0);
 }
 
 void Tuner::prepare_folder() {

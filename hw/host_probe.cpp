@@ -298,6 +298,8 @@ void probe_frequency(HostProbe& p) {
 
 void probe_events(HostProbe& p) {
   const Arch arch = host_arch();
+  const auto implemented = arch == Arch::Aarch64 ? armv8_pmu_events() : std::nullopt;
+  std::string unimplemented;
   for (const auto& name : hardware_event_names()) {
     EventProbe e{name, false, ""};
     const auto code = hardware_event(name, arch);
@@ -306,14 +308,19 @@ void probe_events(HostProbe& p) {
     } else {
       try {
         open_perf_group({{name, *code}}, PmcTarget{});
-        e.opens = true;
-        e.detail = std::string(code->note);
+        const auto why = pmu_lacks(*code, implemented);
+        e.opens = !why;
+        e.detail = why ? *why : std::string(code->note);
+        if (why) unimplemented += (unimplemented.empty() ? "" : ", ") + name;
       } catch (const RunError& err) {
         e.detail = err.what();
       }
     }
     p.hardware_events.push_back(std::move(e));
   }
+  if (!unimplemented.empty())
+    p.notes.push_back("hardware events that open but the PMU does not implement (not in " +
+                      implemented->where + "; they would count 0): " + unimplemented);
   for (const auto& name : software_event_names()) {
     EventProbe e{name, false, ""};
     try {

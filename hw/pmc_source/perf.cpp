@@ -6,8 +6,12 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 
 #include "core/error.h"
 #include "hw/common/sys.h"
@@ -90,9 +94,13 @@ class PerfSource : public PerfEventSource {
 
   std::vector<std::string> events() const override {
     if (unavailable_reason()) return {};
+    // A raw code the PMU does not implement opens but counts 0: not an event of this host.
+    const auto implemented =
+        host_arch() == Arch::Aarch64 ? armv8_pmu_events() : std::optional<Armv8PmuEvents>{};
     std::vector<std::string> out;
     for (const auto& n : hardware_event_names())
-      if (hardware_event(n, host_arch())) out.push_back(n);
+      if (const auto code = hardware_event(n, host_arch()); code && !pmu_lacks(*code, implemented))
+        out.push_back(n);
     return out;
   }
 
@@ -111,6 +119,56 @@ class PerfSource : public PerfEventSource {
 };
 
 }  // namespace
+
+std::optional<Armv8PmuEvents> armv8_pmu_events(const std::string& devices) {
+  namespace fs = std::filesystem;
+  std::optional<Armv8PmuEvents> out;
+  std::error_code ec;
+  std::vector<fs::path> pmus;
+  for (const auto& d : fs::directory_iterator(devices, ec))
+    if (d.path().filename().string().rfind("armv8_", 0) == 0 &&
+        fs::is_directory(d.path() / "events"))
+      pmus.push_back(d.path());
+  std::sort(pmus.begin(), pmus.end());
+  for (const auto& pmu : pmus) {
+    std::set<std::uint64_t> codes;
+    for (const auto& f : fs::directory_iterator(pmu / "events", ec)) {
+      // "event=0x0017", possibly with more terms after a comma
+      std::ifstream in(f.path());
+      std::string text;
+      std::getline(in, text);
+      if (text.rfind("event=", 0) != 0) continue;
+      try {
+        codes.insert(std::stoull(text.substr(6), nullptr, 16));
+      } catch (const std::exception&) {
+      }
+    }
+    const std::string where = (pmu / "events").string();
+    if (!out) {
+      out = Armv8PmuEvents{std::move(codes), where};
+      continue;
+    }
+    std::set<std::uint64_t> both;
+    std::set_intersection(out->codes.begin(), out->codes.end(), codes.begin(), codes.end(),
+                          std::inserter(both, both.end()));
+    out->codes = std::move(both);
+    out->where += " and " + where;
+  }
+  return out;
+}
+
+std::optional<std::string> pmu_lacks(const PerfEventCode& code,
+                                     const std::optional<Armv8PmuEvents>& implemented) {
+  if (!implemented || code.type != PERF_TYPE_RAW || code.config >= 0x40 ||
+      implemented->codes.count(code.config))
+    return std::nullopt;
+  char hex[16];
+  std::snprintf(hex, sizeof hex, "0x%02llx", static_cast<unsigned long long>(code.config));
+  return "perf_event_open accepts the raw code " + std::string(hex) + " (" +
+         std::string(code.note) + ") but the PMU does not implement it: not among the events " +
+         "the kernel lists in " + implemented->where +
+         " (its PMCEID registers), so it would count 0";
+}
 
 std::unique_ptr<CounterGroup> PerfEventSource::open(const std::vector<std::string>& events,
                                                     const PmcTarget& target) const {

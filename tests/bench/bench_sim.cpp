@@ -24,6 +24,7 @@
 
 #include "platform/contention.h"
 #include "platform/sim_platform.h"
+#include "policy/builtin_registry.h"
 #include "system.h"
 #include "workload/profile.h"
 
@@ -60,11 +61,6 @@ sim::RunConfig minimal_setup(TimeNs sampling_us, int rt_iterations) {
   cfg.seed = 1;
   cfg.rt.push_back({"rt0", 1, profile("bandwidth_read"), rt_iterations, std::nullopt});
   cfg.nrt.push_back({"nrt0", 2, profile("bandwidth_read"), true});
-  static const PolicyRegistry policies = [] {
-    PolicyRegistry p;
-    register_builtin(p);
-    return p;
-  }();
   RegulationSpec r;
   r.policy = "interval";
   r.threshold_pct = 20.0;
@@ -72,7 +68,7 @@ sim::RunConfig minimal_setup(TimeNs sampling_us, int rt_iterations) {
   r.regulation_period_us = 5000;
   r.sampling = Sampling::Self;
   r.sampling_period_us = sampling_us;
-  cfg.regulation = regulation_setup(r, {1, 1}, policies, "bench_sim");
+  cfg.regulation = regulation_setup(r, {1, 1}, builtin_registry(), "bench_sim");
   return cfg;
 }
 

@@ -16,22 +16,13 @@
 #include "hw/common/clock.h"
 #include "hw/common/sys.h"
 #include "load/loader.h"
+#include "policy/builtin_registry.h"
 #include "results/results.h"
 
 using namespace rosguard;
 using namespace rosguard::hw;
 
 namespace {
-
-// The built-in policies, registered once for these tests as main() does for a run.
-const PolicyRegistry& test_policies() {
-  static const PolicyRegistry registry = [] {
-    PolicyRegistry r;
-    register_builtin(r);
-    return r;
-  }();
-  return registry;
-}
 
 const std::string kScenarios = std::string(ROSGUARD_TEST_SOURCE_DIR) + "/tests/hw/scenarios/";
 
@@ -113,7 +104,7 @@ struct Protection {
 // One attempt: isolation + both policies alternating; checks the bound.
 Protection protection_attempt(int attempt, TransportKind transport) {
   const auto loaded = load("rt-vs-nrt-bandwidth-read.json", transport);
-  auto backend = make_hw_backend(test_policies());
+  auto backend = make_hw_backend(builtin_registry());
   TestContext ctx;
   Baselines baselines;
   const auto runs = run_all(*backend, loaded, ctx, baselines);
@@ -210,7 +201,7 @@ void check_command_regulated(TransportKind transport) {
     return;
   }
   const auto loaded = load("stress-ng-nrt.json", transport);
-  auto backend = make_hw_backend(test_policies());
+  auto backend = make_hw_backend(builtin_registry());
   TestContext ctx;
   Baselines baselines;
   const auto runs = run_all(*backend, loaded, ctx, baselines);
@@ -254,7 +245,7 @@ void check_watchdog(TransportKind transport) {
   HwOptions opt;
   // Silent 30 ms after its first throttle command (monolithic 1 %: throttled for good by then).
   opt.controller_fail_after_ns = 30 * kNsPerMs;
-  auto backend = make_hw_backend(test_policies(), opt);
+  auto backend = make_hw_backend(builtin_registry(), opt);
   TestContext ctx;
   Baselines baselines;
   const TimeNs t0 = now_ns();
@@ -281,7 +272,7 @@ TEST_CASE("dds transport: watchdog returns the nRT node to nominal when the cont
 
 void check_stop(TransportKind transport) {
   const auto loaded = load("long-run.json", transport);
-  auto backend = make_hw_backend(test_policies());
+  auto backend = make_hw_backend(builtin_registry());
   TestContext ctx;
   Baselines baselines;
   const Scenario& s = loaded.points[0].scenario;
@@ -308,7 +299,7 @@ TEST_CASE("a failing nRT command fails the point cleanly", "[hw][integration][sa
   auto loaded = load("stress-ng-nrt.json");
   Scenario s = loaded.points[0].scenario;
   s.nodes.nrt[0].workload.doc = {{"command", {"false"}}};
-  auto backend = make_hw_backend(test_policies());
+  auto backend = make_hw_backend(builtin_registry());
   TestContext ctx;
   Baselines baselines;
   baselines.put(Baselines::key(s, s.nodes.rt[0].workload, s.nodes.rt[0].core), {1e5, 0, 0});
@@ -319,7 +310,7 @@ TEST_CASE("a failing nRT command fails the point cleanly", "[hw][integration][sa
 
 TEST_CASE("validate rejects what this host cannot run, naming file and path", "[hw][validate]") {
   auto loaded = load("rt-vs-nrt-bandwidth-read.json");
-  auto backend = make_hw_backend(test_policies());
+  auto backend = make_hw_backend(builtin_registry());
   Scenario s = loaded.points[1].scenario;
   CHECK_NOTHROW(backend->validate(s));
 

@@ -23,6 +23,7 @@
 #include "hw/guard/dds_guard.h"
 #include "hw/guard/guard.h"
 #include "hw_test_files.h"
+#include "policy/builtin_registry.h"
 #include "policy/policy.h"
 
 using namespace rosguard;
@@ -31,15 +32,6 @@ namespace fs = std::filesystem;
 using rosguard::test::slurp;
 
 namespace {
-
-const PolicyRegistry& test_policies() {
-  static const PolicyRegistry registry = [] {
-    PolicyRegistry r;
-    register_builtin(r);
-    return r;
-  }();
-  return registry;
-}
 
 // Below this share of its core, unregulated, stress-ng shares the core with other work (other
 // tests' SCHED_FIFO threads, builds): CPU-share comparisons then say nothing about the guard.
@@ -139,7 +131,7 @@ GuardSettings settings_for(int ctl, int core, double threshold_pct,
   r.regulation_period_us = 10000;
   r.threshold_pct = threshold_pct;
   r.reference_mbps = 1000.0;  // cputime: the budget is threshold_pct % of each window's time
-  s.regulation = regulation_setup(r, {1, 1}, test_policies(), "test");
+  s.regulation = regulation_setup(r, {1, 1}, builtin_registry(), "test");
   s.rescan_ns = 50 * kNsPerMs;
   return s;
 }

@@ -10,20 +10,12 @@
 #include "hw/common/sys.h"
 #include "hw/point_rig.h"
 #include "load/loader.h"
+#include "policy/builtin_registry.h"
 
 using namespace rosguard;
 using namespace rosguard::hw;
 
 namespace {
-
-const PolicyRegistry& test_policies() {
-  static const PolicyRegistry registry = [] {
-    PolicyRegistry r;
-    register_builtin(r);
-    return r;
-  }();
-  return registry;
-}
 
 class TestContext : public RunContext {
  public:
@@ -66,7 +58,7 @@ TEST_CASE(
     return;
   }
   // No RT node: memguard needs no isolation time, so no baselines.
-  const HwRegulation regulation = hw_regulation(s, plan, *source, test_policies());
+  const HwRegulation regulation = hw_regulation(s, plan, *source, builtin_registry());
   INFO(regulation.fallback);
   REQUIRE(regulation.setup.sampling == Sampling::Overflow);
   CHECK(regulation.fallback.empty());
@@ -144,7 +136,7 @@ TEST_CASE(
     return;
   }
   SECTION("software source, built-in workload: no fallback, throttled by the overflow path") {
-    auto backend = make_hw_backend(test_policies());
+    auto backend = make_hw_backend(builtin_registry());
     backend->validate(s);
     TestContext ctx;
     const PointOutcome o = backend->run_point(s, Baselines{}, 0, 0, ctx);
@@ -160,12 +152,12 @@ TEST_CASE(
     s.hw.pmc_source = PmcSourceKind::Instrumented;
     const MetricPlan plan = plan_metric(s, sources);
     const auto source = sources.find(plan.source)->make();
-    const HwRegulation h = hw_regulation(s, plan, *source, test_policies());
+    const HwRegulation h = hw_regulation(s, plan, *source, builtin_registry());
     CHECK(h.setup.sampling == Sampling::External);
     CHECK_THAT(h.fallback,
                Catch::Contains("cannot be armed") && Catch::Contains("counts without perf events"));
     // The point runs regulated all the same, and its manifest (and the run's warnings) say so.
-    auto backend = make_hw_backend(test_policies());
+    auto backend = make_hw_backend(builtin_registry());
     TestContext ctx;
     const PointOutcome o = backend->run_point(s, Baselines{}, 0, 0, ctx);
     CHECK(ctx.fallbacks["sampling"] == h.fallback);
@@ -177,7 +169,7 @@ TEST_CASE(
     MetricPlan plan;  // the scenario's metric on the perf source
     plan.group_events = {"l2d_cache_refill", "l2d_cache_wb"};
     plan.metric_events = 2;
-    const HwRegulation h = hw_regulation(s, plan, *perf, test_policies());
+    const HwRegulation h = hw_regulation(s, plan, *perf, builtin_registry());
     if (const auto why = perf->unavailable_reason()) {
       CHECK(h.setup.sampling == Sampling::External);
       CHECK_THAT(h.fallback, Catch::Contains(*why));
@@ -190,7 +182,7 @@ TEST_CASE(
     s.nodes.nrt[0].workload.doc = {{"command", {"true"}}};
     const MetricPlan plan = plan_metric(s, sources);
     const HwRegulation h =
-        hw_regulation(s, plan, *sources.find(plan.source)->make(), test_policies());
+        hw_regulation(s, plan, *sources.find(plan.source)->make(), builtin_registry());
     CHECK(h.setup.sampling == Sampling::External);
     CHECK_THAT(h.fallback, Catch::Contains("external command"));
   }

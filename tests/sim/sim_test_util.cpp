@@ -12,6 +12,7 @@
 
 #include "backend.h"
 #include "load/loader.h"
+#include "policy/builtin_registry.h"
 #include "results/results.h"
 
 #ifndef ROSGUARD_TEST_SOURCE_DIR
@@ -124,16 +125,6 @@ class NullContext : public RunContext {
 };
 
 }  // namespace
-
-// The built-in policies, registered once for the sim tests as main() does for a run.
-const PolicyRegistry& builtin_registry() {
-  static const PolicyRegistry registry = [] {
-    PolicyRegistry r;
-    register_builtin(r);
-    return r;
-  }();
-  return registry;
-}
 
 IsolationResult isolation(const Scenario& s, const WorkloadInfo& w, int core) {
   return from_json(in_child([&] {

@@ -5,21 +5,13 @@
 #include <vector>
 
 #include "core/error.h"
+#include "policy/builtin_registry.h"
 #include "regulator/setup.h"
 #include "results/results.h"
 
 using namespace rosguard;
 
 namespace {
-
-const PolicyRegistry& policies() {
-  static const PolicyRegistry registry = [] {
-    PolicyRegistry r;
-    register_builtin(r);
-    return r;
-  }();
-  return registry;
-}
 
 RegulationSpec interval_spec() {
   RegulationSpec r;
@@ -48,7 +40,8 @@ Scenario monolithic_scenario() {
 }  // namespace
 
 TEST_CASE("a regulation setup: the policy, its parameters in ns, the accounts", "[setup]") {
-  const RegulationSetup setup = regulation_setup(interval_spec(), {1, 2}, policies(), "a.json");
+  const RegulationSetup setup =
+      regulation_setup(interval_spec(), {1, 2}, builtin_registry(), "a.json");
   CHECK(setup.policy.name == "interval");
   CHECK(setup.regulates());
   CHECK(setup.sampling == Sampling::Self);
@@ -73,14 +66,14 @@ TEST_CASE("a regulation setup: the policy, its parameters in ns, the accounts", 
   SECTION("scope group: one account for every nRT node; no RT node still one activation") {
     RegulationSpec r = interval_spec();
     r.scope = Scope::Group;
-    const RegulationSetup g = regulation_setup(r, {0, 3}, policies(), "a.json");
+    const RegulationSetup g = regulation_setup(r, {0, 3}, builtin_registry(), "a.json");
     CHECK(g.regulator_config().account_of_entity == std::vector<std::size_t>{0, 0, 0});
     CHECK(g.regulator_config().rt_count == 1);
   }
   SECTION("budgets per nRT node replace threshold x reference") {
     RegulationSpec r = interval_spec();
     r.budget_mbps = {100.0, 300.0};
-    const RegulationSetup b = regulation_setup(r, {1, 2}, policies(), "a.json");
+    const RegulationSetup b = regulation_setup(r, {1, 2}, builtin_registry(), "a.json");
     CHECK(account_rate_mbps(b.params, 1) == 300.0);
     CHECK_THAT(b.describe(), Catch::Contains("budget 100 / 300 MB/s"));
   }
@@ -90,7 +83,7 @@ TEST_CASE("a regulation setup refuses what its policy cannot run, naming file an
           "[setup]") {
   const auto error_of = [](const RegulationSpec& r, RegulatedNodes nodes) {
     try {
-      regulation_setup(r, nodes, policies(), "guard.json");
+      regulation_setup(r, nodes, builtin_registry(), "guard.json");
     } catch (const InputError& e) {
       return std::string(e.what());
     }
@@ -114,12 +107,12 @@ TEST_CASE("a regulation setup refuses what its policy cannot run, naming file an
 TEST_CASE("a point's setup takes its monolithic window from the baselines, rounded to ns",
           "[setup]") {
   const Scenario s = monolithic_scenario();
-  CHECK(regulation_setup(s, policies()).params.monolithic_window_ns == 0);
+  CHECK(regulation_setup(s, builtin_registry()).params.monolithic_window_ns == 0);
   Baselines b;
   IsolationResult iso;
   iso.time_us = 12345.6786;
   b.put(Baselines::key(s, s.nodes.rt[0].workload, 0), iso);
-  const RegulationSetup setup = regulation_setup(s, policies(), &b);
+  const RegulationSetup setup = regulation_setup(s, builtin_registry(), &b);
   CHECK(setup.params.monolithic_window_ns == 12'345'679);
   CHECK_THAT(setup.describe(), Catch::Contains("per RT execution"));
 }

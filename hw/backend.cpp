@@ -290,10 +290,9 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
     for (std::size_t i = 0; i < plan.metric_events; ++i)
       events += (events.empty() ? "" : ", ") + plan.group_events[i];
     ctx.fact("overflow_sampling",
-             "perf overflow counters (" + events + ", " + plan.source +
-                 " source) on each nRT node's workload thread, armed with the budget left "
-                 "(sample_period), signal the controller thread (F_SETSIG), which reads the "
-                 "node and throttles it at once");
+             "overflow counters (" + events + ", " + plan.source +
+                 " source) on each nRT node's workload thread, armed with the budget left, "
+                 "signal the controller thread, which reads the node and throttles it at once");
   }
   const ThrottleChoice& throttle = throttle_for(s, ctx);
   // The engine's thread above every node thread while they run (restored before the safety

@@ -288,6 +288,7 @@ std::vector<SchedOutcome> PointRig::start() {
       PmcTarget target;
       target.kind = PmcTarget::Kind::Thread;
       target.pid = n->workload_tid();
+      target.work = &n->work();
       counters.push_back(source_.open_overflow(events, target));
     }
     controller_->set_overflow(std::move(counters));

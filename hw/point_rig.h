@@ -37,9 +37,10 @@ inline constexpr TimeNs kHwFinestPollNs = 100 * kNsPerUs;
 // The regulation the hw backend runs for a point: regulation_setup() of the scenario (with the
 // first RT node's isolation time in `baselines` as the monolithic window), counting the metric
 // the plan counts on this host (per-event budgets dropped where it counts other events), and
-// sampling as this host can. Overflow sampling (memguard) arms perf overflow counters on the nRT
+// sampling as this host can. Overflow sampling (memguard) arms overflow counters on the nRT
 // nodes' threads (hw/pmc_source/overflow.h) where the point's PMC source gives them on this host
-// (perf and software sources, probed here) and every nRT node runs a built-in workload;
+// (perf and software sources, probed here; the instrumented source's workload watches) and every
+// nRT node runs a built-in workload;
 // otherwise, and always for mmio sampling (mempol: there are no memory-mapped debug registers to
 // poll), it becomes external sampling every regulation.sampling_period_us, but not faster than
 // kHwFinestPollNs. `fallback` says why the sampling differs from the scenario's ("" where it

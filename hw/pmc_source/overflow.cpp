@@ -4,6 +4,7 @@
 #include <linux/perf_event.h>
 #include <signal.h>
 #include <sys/ioctl.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -27,16 +28,31 @@ struct Slot {
 };
 constexpr std::size_t kSlots = 256;
 std::array<Slot, kSlots> g_slots;
+constexpr int kQueued = -2;  // the fd of a slot whose signal is queued with its index
+
+void mark(Slot& s, TimeNs t) noexcept {
+  if (OverflowSink* sink = s.sink.load(std::memory_order_relaxed))
+    sink->hit(s.entity.load(std::memory_order_relaxed), s.event.load(std::memory_order_relaxed), t);
+}
 
 void on_overflow(int, siginfo_t* info, void*) {
   const int saved = errno;
   const TimeNs t = now_ns();
-  for (Slot& s : g_slots)
-    if (s.state.load(std::memory_order_acquire) == 2 &&
-        s.fd.load(std::memory_order_relaxed) == info->si_fd)
-      if (OverflowSink* sink = s.sink.load(std::memory_order_relaxed))
-        sink->hit(s.entity.load(std::memory_order_relaxed), s.event.load(std::memory_order_relaxed),
-                  t);
+  if (info->si_code == SI_QUEUE) {
+    // Queued by a workload of this process (anyone else's is ignored): the slot is its value.
+    const int i = info->si_value.sival_int;
+    if (info->si_pid == ::getpid() && i >= 0 && static_cast<std::size_t>(i) < kSlots) {
+      Slot& s = g_slots[static_cast<std::size_t>(i)];
+      if (s.state.load(std::memory_order_acquire) == 2 &&
+          s.fd.load(std::memory_order_relaxed) == kQueued)
+        mark(s, t);
+    }
+  } else {
+    for (Slot& s : g_slots)
+      if (s.state.load(std::memory_order_acquire) == 2 &&
+          s.fd.load(std::memory_order_relaxed) == info->si_fd)
+        mark(s, t);
+  }
   errno = saved;
 }
 
@@ -102,24 +118,32 @@ void OverflowSink::hit(std::size_t entity, std::size_t event, TimeNs t) noexcept
   waker_.notify();
 }
 
-OverflowCounters::OverflowCounters(std::vector<Fd> fds, std::vector<std::string> names,
-                                   std::vector<std::uint64_t> min_periods)
-    : fds_(std::move(fds)),
-      names_(std::move(names)),
+int take_queued_slot(OverflowSink& sink, std::size_t entity, std::size_t event) {
+  install_handler();
+  return take_slot(kQueued, sink, entity, event);
+}
+
+void release_queued_slot(int slot) {
+  if (slot >= 0 && static_cast<std::size_t>(slot) < kSlots) free_slot(slot);
+}
+
+PerfOverflowCounters::PerfOverflowCounters(std::vector<Fd> fds, std::vector<std::string> names,
+                                           std::vector<std::uint64_t> min_periods)
+    : OverflowCounters(std::move(names)),
+      fds_(std::move(fds)),
       min_periods_(std::move(min_periods)),
-      slots_(fds_.size(), -1),
-      periods_(fds_.size(), 0) {
+      slots_(fds_.size(), -1) {
   min_periods_.resize(fds_.size(), 1);
 }
 
-OverflowCounters::~OverflowCounters() {
+PerfOverflowCounters::~PerfOverflowCounters() {
   for (std::size_t i = 0; i < fds_.size(); ++i) {
     if (periods_[i]) ::ioctl(fds_[i].get(), PERF_EVENT_IOC_DISABLE, 0);
     if (slots_[i] >= 0) free_slot(slots_[i]);
   }
 }
 
-void OverflowCounters::claim(OverflowSink& sink, std::size_t entity) {
+void PerfOverflowCounters::claim(OverflowSink& sink, std::size_t entity) {
   install_handler();
   const f_owner_ex owner{F_OWNER_TID, current_tid()};
   for (std::size_t i = 0; i < fds_.size(); ++i) {
@@ -134,7 +158,7 @@ void OverflowCounters::claim(OverflowSink& sink, std::size_t entity) {
   }
 }
 
-void OverflowCounters::arm(std::span<const std::uint64_t> periods) {
+void PerfOverflowCounters::arm(std::span<const std::uint64_t> periods) {
   for (std::size_t i = 0; i < fds_.size(); ++i) {
     const std::uint64_t p = i < periods.size() ? periods[i] : 0;
     const int fd = fds_[i].get();
@@ -153,10 +177,6 @@ void OverflowCounters::arm(std::span<const std::uint64_t> periods) {
                      std::to_string(period) + ": " + errno_text(errno));
     periods_[i] = period;
   }
-}
-
-void OverflowCounters::disarm() {
-  arm({});
 }
 
 }  // namespace rosguard::hw

@@ -277,8 +277,8 @@ std::unique_ptr<OverflowCounters> open_perf_overflow(const std::vector<NamedEven
     fds.emplace_back(static_cast<int>(fd));
     names.push_back(name);
   }
-  return std::make_unique<OverflowCounters>(std::move(fds), std::move(names),
-                                            std::move(min_periods));
+  return std::make_unique<PerfOverflowCounters>(std::move(fds), std::move(names),
+                                                std::move(min_periods));
 }
 
 std::optional<std::string> probe_perf_overflow(const std::vector<NamedEvent>& events) {

@@ -30,8 +30,7 @@ std::optional<std::string> PmcSource::probe(const std::string& event) const {
 }
 
 std::optional<std::string> PmcSource::overflow_unavailable(const std::vector<std::string>&) const {
-  return "the " + std::string(name()) +
-         " source counts without perf events, so nothing can signal an overflow";
+  return "the " + std::string(name()) + " source has no overflow counters";
 }
 
 std::unique_ptr<OverflowCounters> PmcSource::open_overflow(const std::vector<std::string>&,

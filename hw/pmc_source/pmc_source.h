@@ -11,8 +11,9 @@
 //   concurrently.
 // - Failures are RunError naming the event, the target and the errno.
 // - Overflow counters (MemGuard's interrupt, hw/pmc_source/overflow.h) come from the perf and
-//   software sources, on a thread target only: an inherited (process) event cannot be sampled as
-//   one count over the process and its children.
+//   software sources, on a thread target only (an inherited (process) event cannot be sampled as
+//   one count over the process and its children), and from the instrumented source, on a
+//   built-in workload.
 #pragma once
 
 #include <sys/types.h>
@@ -70,7 +71,8 @@ class PmcSource {
   virtual std::unique_ptr<CounterGroup> open(const std::vector<std::string>& events,
                                              const PmcTarget& target) const = 0;
   // Overflow sampling (overflow.h): why this source cannot give overflow counters for `events`
-  // on this host (empty when it can; the perf-based sources try it on the calling thread).
+  // on this host (empty when it can; the perf-based sources try it on the calling thread). The
+  // default: none.
   virtual std::optional<std::string> overflow_unavailable(
       const std::vector<std::string>& events) const;
   // Overflow counters for `events` on a thread target, disarmed. Throws RunError.

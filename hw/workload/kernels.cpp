@@ -22,7 +22,7 @@ namespace {
 
 constexpr std::size_t kLine = 64;
 constexpr std::size_t kWordsPerLine = kLine / sizeof(std::uint64_t);
-constexpr std::uint64_t kChunkLines = 64;  // progress published and stop checked this often
+constexpr std::uint64_t kChunkLines = WorkCounters::kChunkLines;
 
 class Buffer {
  public:
@@ -58,7 +58,7 @@ class BandwidthKernel : public BuiltinWorkload {
     volatile std::uint64_t* p = buf_.data();
     const std::uint64_t lines = buf_.lines();
     std::uint64_t done = 0, sum = 0;
-    auto& counter = write_ ? c.lines_written : c.lines_read;
+    CountWriter count(c, write_ ? c.lines_written : c.lines_read);
     for (std::uint64_t pass = 0; pass < passes_; ++pass) {
       for (std::uint64_t base = 0; base < lines; base += kChunkLines) {
         const std::uint64_t end = std::min(lines, base + kChunkLines);
@@ -68,8 +68,7 @@ class BandwidthKernel : public BuiltinWorkload {
         else
           for (std::uint64_t i = base; i < end; ++i)
             sum += p[i * kWordsPerLine];
-        WorkCounters::add(counter, end - base);
-        WorkCounters::add(c.units_done, end - base);
+        count.retire(end - base);
         done += end - base;
         if (stop.load(std::memory_order_relaxed)) return finish(done, sum);
       }
@@ -108,12 +107,12 @@ class LatencyKernel : public BuiltinWorkload {
     const volatile std::uint64_t* p = buf_.data();
     const std::uint64_t total = units_per_run();
     std::uint64_t done = 0, at = at_;
+    CountWriter count(c, c.lines_read);
     while (done < total) {
       const std::uint64_t n = std::min(kChunkLines, total - done);
       for (std::uint64_t k = 0; k < n; ++k)
         at = p[at * kWordsPerLine];
-      WorkCounters::add(c.lines_read, n);
-      WorkCounters::add(c.units_done, n);
+      count.retire(n);
       done += n;
       if (stop.load(std::memory_order_relaxed)) break;
     }
@@ -156,6 +155,7 @@ class ProxyKernel : public BuiltinWorkload {
     volatile std::uint64_t* p = buf_.data();
     const std::uint64_t lines = buf_.lines();
     std::uint64_t x = 1, done = 0, i = 0;
+    CountWriter count(c, c.lines_read);
     while (done < units_) {
       const std::uint64_t n = std::min(kChunkLines, units_ - done);
       for (std::uint64_t k = 0; k < n; ++k) {
@@ -163,8 +163,7 @@ class ProxyKernel : public BuiltinWorkload {
         x = alu_work(x, cal_.alu_per_line);
         if (++i == lines) i = 0;
       }
-      WorkCounters::add(c.lines_read, n);
-      WorkCounters::add(c.units_done, n);
+      count.retire(n);
       done += n;
       if (stop.load(std::memory_order_relaxed)) break;
     }

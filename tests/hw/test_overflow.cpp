@@ -1,7 +1,8 @@
 // MemGuard's overflow interrupt on the hw backend: perf overflow counters on a software event
-// (task_clock) signal the controller thread, which throttles the nRT node within one overflow
-// period of its budget's crossing; memguard points no longer fall back to external sampling where
-// the counters can be armed, and say so (warning, manifest fallback) where they cannot.
+// (task_clock), or the instrumented source's workload line counts, signal the controller thread,
+// which throttles the nRT node within one overflow period of its budget's crossing; memguard
+// points no longer fall back to external sampling where the counters can be armed, and say so
+// (warning, manifest fallback) where they cannot.
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <map>
@@ -42,19 +43,16 @@ PmcSourceRegistry builtin_sources() {
   return sources;
 }
 
-}  // namespace
-
-TEST_CASE(
-    "overflow sampling with a software event throttles the nRT node within one overflow period "
-    "of exceeding its budget",
-    "[hw][overflow][integration]") {
-  const Scenario s = memguard_scenario();
+// Runs the memguard point on `s`'s PMC source and checks the overflow path against the run's
+// own records: every throttle caused by an overflow signal, read less than one overflow period
+// past the budget's crossing (with the allowance below), and taken by the node in time.
+void check_overflow_path(const Scenario& s, const std::string& unit) {
   REQUIRE(s.regulation.sampling == Sampling::Overflow);  // memguard's default
   const PmcSourceRegistry sources = builtin_sources();
   const MetricPlan plan = plan_metric(s, sources);
   const auto source = sources.find(plan.source)->make();
   if (const auto why = source->unavailable_reason()) {
-    WARN("SKIPPED: perf software events do not work here: " << *why);
+    WARN("SKIPPED: the " << plan.source << " source does not work here: " << *why);
     return;
   }
   // No RT node: memguard needs no isolation time, so no baselines.
@@ -88,18 +86,19 @@ TEST_CASE(
     if (!r.throttled) continue;
     ++throttling;
     // The counter was armed to overflow where the budget is exceeded (one event: the budget
-    // left, plus one count; or the kernel's 10 us floor of a clock event when less was left), so
-    // what the node ran past that point when the controller read it and throttled it is its
-    // overshoot: less than one overflow period. Not always on a VM: a software clock event's
-    // overflow is found by an hrtimer, and a vCPU the host descheduled finds it late while its
-    // clock runs on (2 of 70 runs on the 2-vCPU development VM had one such signal; one was
-    // read 683 us past its crossing, with a 500 us period). So: at most one throttle in ten may be
-    // late.
+    // left, plus one count; or the kernel's 10 us floor of a clock event when less was left; or,
+    // for the instrumented source, the end of the 64-line chunk that crossed it), so what the
+    // node ran past that point when the controller read it and throttled it is its overshoot:
+    // less than one overflow period. Not always on a VM: a software clock event's overflow is
+    // found by an hrtimer, and a vCPU the host descheduled finds it late while its clock runs on
+    // (2 of 70 runs on the 2-vCPU development VM had one such signal; one was read 683 us past
+    // its crossing, with a 500 us period). So: at most one throttle in ten may be late.
     const std::uint64_t crossing = r.at_arm + r.period;
     const std::uint64_t over = r.at_read > crossing ? r.at_read - crossing : 0;
     if (over >= r.period) {
       ++late;
-      WARN("late overflow: " << over << " ns past the crossing of a " << r.period << " ns period");
+      WARN("late overflow: " << over << " " << unit << " past the crossing of a " << r.period << " "
+                             << unit << " period");
     }
     if (over > worst_over) {
       worst_over = over;
@@ -107,12 +106,13 @@ TEST_CASE(
     }
   }
   const std::vector<double>& delays = node.activation_delays_us();
-  WARN(records.size() << " overflow signal(s), " << throttling << " of them throttled the node ("
-                      << node.throttles() << " throttle(s) in all); worst overshoot " << worst_over
-                      << " of a " << worst_period << " ns task_clock period; signal to THR max "
-                      << (delays.empty() ? 0.0 : *std::max_element(delays.begin(), delays.end()))
-                      << " us");
-  // The node is CPU-bound at a 25 % budget: it exceeds it in period after period, and each
+  WARN(plan.source << " source: " << records.size() << " overflow signal(s), " << throttling
+                   << " of them throttled the node (" << node.throttles()
+                   << " throttle(s) in all); worst overshoot " << worst_over << " of a "
+                   << worst_period << " " << unit << " period; signal to THR max "
+                   << (delays.empty() ? 0.0 : *std::max_element(delays.begin(), delays.end()))
+                   << " us");
+  // The node runs flat out at a 25 % budget: it exceeds it in period after period, and each
   // throttle comes from an overflow signal (no periodic reads exist that could throttle it).
   CHECK(throttling >= 3);
   CHECK(late * 10 <= throttling);
@@ -124,8 +124,26 @@ TEST_CASE(
     CHECK(d * 1e3 < static_cast<double>(window_ns));
 }
 
+}  // namespace
+
 TEST_CASE(
-    "overflow sampling: memguard points on hw arm the perf overflow counters, and fall back "
+    "overflow sampling with a software event throttles the nRT node within one overflow period "
+    "of exceeding its budget",
+    "[hw][overflow][integration]") {
+  check_overflow_path(memguard_scenario(), "ns of task_clock");
+}
+
+TEST_CASE(
+    "overflow sampling with the instrumented source: the workload's line count signals, the nRT "
+    "node is throttled within one overflow period of exceeding its budget",
+    "[hw][overflow][integration]") {
+  Scenario s = memguard_scenario();
+  s.hw.pmc_source = PmcSourceKind::Instrumented;
+  check_overflow_path(s, "lines");
+}
+
+TEST_CASE(
+    "overflow sampling: memguard points on hw arm the overflow counters, and fall back "
     "visibly where they cannot",
     "[hw][overflow]") {
   Scenario s = memguard_scenario();
@@ -148,21 +166,21 @@ TEST_CASE(
     CHECK(std::any_of(o.samples.begin(), o.samples.end(),
                       [](const auto& x) { return x.kind == "activation_delay"; }));
   }
-  SECTION("the instrumented source counts without perf: external sampling, with the reason") {
+  SECTION("the instrumented source: the workload's own overflow watches, no fallback") {
     s.hw.pmc_source = PmcSourceKind::Instrumented;
     const MetricPlan plan = plan_metric(s, sources);
-    const auto source = sources.find(plan.source)->make();
-    const HwRegulation h = hw_regulation(s, plan, *source, builtin_registry());
-    CHECK(h.setup.sampling == Sampling::External);
-    CHECK_THAT(h.fallback,
-               Catch::Contains("cannot be armed") && Catch::Contains("counts without perf events"));
-    // The point runs regulated all the same, and its manifest (and the run's warnings) say so.
+    REQUIRE(plan.source == "instrumented");
+    const HwRegulation h =
+        hw_regulation(s, plan, *sources.find(plan.source)->make(), builtin_registry());
+    CHECK(h.setup.sampling == Sampling::Overflow);
+    CHECK(h.fallback.empty());
     auto backend = make_hw_backend(builtin_registry());
     TestContext ctx;
     const PointOutcome o = backend->run_point(s, Baselines{}, 0, 0, ctx);
-    CHECK(ctx.fallbacks["sampling"] == h.fallback);
-    CHECK(ctx.facts.count("overflow_sampling") == 0);
+    CHECK(ctx.fallbacks.count("sampling") == 0);
+    CHECK_THAT(ctx.facts["overflow_sampling"], Catch::Contains("instrumented source"));
     REQUIRE(o.nrt.size() == 1);
+    CHECK(o.nrt[0].throttle_count > 0);
   }
   SECTION("perf_event_open refused: the source's reason in the fallback") {
     const auto perf = sources.find("perf")->make();

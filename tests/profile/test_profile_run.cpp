@@ -87,8 +87,9 @@ TEST_CASE("profile of the built-in bandwidth_read kernel: one L2 refill per line
   const double lines = 4.0 * 512 * 1024 / 64;
   const double instructions = static_cast<double>(b.instructions - a.instructions);
   INFO("instructions per line " << instructions / lines);
-  // One load per line, plus the kernel's bookkeeping once per 64 lines (progress counters read
-  // and written, the stop flag read): a few loads and stores per 64 lines, all in the L1.
+  // One load per line, plus the kernel's bookkeeping once per 64 lines (progress counters
+  // written, the overflow watches' flag and the stop flag read): a few loads and stores per 64
+  // lines, all in the L1.
   const double loads = static_cast<double>(b.loads - a.loads);
   const double stores = static_cast<double>(b.stores - a.stores);
   CHECK(loads >= lines);

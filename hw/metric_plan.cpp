@@ -21,10 +21,12 @@ MetricPlan plan_metric(const Scenario& s, const PmcSourceRegistry& sources) {
       first_command = i;
     }
   const auto make = [&](const std::string& name) { return sources.find(name)->make(); };
-  const auto provides_all = [&](const PmcSource& src) {
+  // The metric's events `src` does not count here, named ("" if none).
+  const auto missing = [&](const PmcSource& src) {
+    std::string out;
     for (const auto& e : wanted)
-      if (!src.provides(e.name)) return false;
-    return true;
+      if (!src.provides(e.name)) out += (out.empty() ? "" : ", ") + e.name;
+    return out;
   };
 
   MetricPlan plan;
@@ -67,19 +69,25 @@ MetricPlan plan_metric(const Scenario& s, const PmcSourceRegistry& sources) {
     case PmcSourceKind::Auto: {
       auto perf = make("perf");
       const auto perf_why = perf->unavailable_reason();
-      if (!perf_why && provides_all(*perf)) {
+      const std::string perf_lacks = perf_why ? std::string() : missing(*perf);
+      if (!perf_why && perf_lacks.empty()) {
         plan.source = "perf";
         plan.why = "auto: the hardware PMU works";
-      } else if (all_builtin && provides_all(*make("instrumented"))) {
+        break;
+      }
+      const std::string no_pmu =
+          "auto: no usable hardware PMU (" +
+          (perf_why ? *perf_why : "it does not count the metric's " + perf_lacks) + ")";
+      const std::string instrumented_lacks = missing(*make("instrumented"));
+      if (all_builtin && instrumented_lacks.empty()) {
         plan.source = "instrumented";
-        plan.why = "auto: no usable hardware PMU (" +
-                   (perf_why ? *perf_why : std::string("events missing")) +
-                   "); every nRT workload is built in";
+        plan.why = no_pmu + "; every nRT workload is built in";
       } else {
         plan.source = "software";
-        plan.why = "auto: no usable hardware PMU (" +
-                   (perf_why ? *perf_why : std::string("events missing")) +
-                   ") and an nRT workload is an external command";
+        plan.why = no_pmu + (all_builtin ? "; the instrumented source does not count the "
+                                           "metric's " +
+                                               instrumented_lacks
+                                         : " and an nRT workload is an external command");
       }
       break;
     }

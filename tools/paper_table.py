@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from analysis.markdown import splice  # noqa: E402
-from analysis.results import InvalidInput, load_results  # noqa: E402
+from analysis.results import InvalidInput, NotAResultsFolder, load_results  # noqa: E402
 # experiment folder -> (figure shown in the gallery, caption)
 GALLERY = {
     "table1": ("isolation_table1.png", "Table 1: isolation IPC and bandwidth vs the paper"),
@@ -498,17 +498,44 @@ WHY = {
 }
 
 
+def load_experiments(results_dir: Path) -> dict:
+    """{folder: Results} of every experiment; InvalidInput naming each one that is missing."""
+    experiments, missing = {}, []
+    for folder, _ in FINDINGS:
+        try:
+            experiments[folder] = load_results(results_dir / folder)
+        except NotAResultsFolder:
+            missing.append(folder)
+    if missing:
+        raise InvalidInput(f"{results_dir}: no results of {', '.join(missing)}; make reproduce "
+                           f"runs every experiment (or: rosguard run scenarios/paper/NAME.json "
+                           f"--out {results_dir}/NAME)")
+    return experiments
+
+
 def check_rows(results_dir: Path):
     """[(exp., claim, reproduced, holds)] for every finding, computed from the results."""
+    experiments = load_experiments(results_dir)
     rows = []
     for folder, finding in FINDINGS:
-        rows += finding(load_results(results_dir / folder))
+        rows += finding(experiments[folder])
     return rows
+
+
+def what_ran(results_dir: Path) -> str:
+    """The table's column title: which backend, platforms and repetitions the results are of."""
+    runs = load_experiments(results_dir).values()
+    backends = sorted({r.backend for r in runs})
+    platforms = ", ".join(sorted({r.platform for r in runs}))
+    reps = sorted({r.repetitions for r in runs})
+    reps_text = f"{reps[0]}" if len(reps) == 1 else f"{reps[0]}-{reps[-1]}"
+    who = "the sim reproduces" if backends == ["sim"] else f"measured ({'+'.join(backends)})"
+    return f"{who} ({platforms}, {reps_text} repetitions)"
 
 
 def render(results_dir: Path):
     rows = check_rows(results_dir)
-    lines = ["| exp. | the paper finds | the sim reproduces (orin-agx, 3 repetitions) | holds |",
+    lines = [f"| exp. | the paper finds | {what_ran(results_dir)} | holds |",
              "|---|---|---|---|"]
     lines += [f"| {n} | {c} | {rep} | {'yes' if ok else '**no**'} |" for n, c, rep, ok in rows]
     failed = [n for n, _, _, ok in rows if not ok]
@@ -539,8 +566,8 @@ def main():
     ap.add_argument("--doc", type=Path,
                     help="replace this page's block between the reproduced markers")
     args = ap.parse_args()
-    table = render(args.results)
     try:
+        table = render(args.results)
         text = args.doc.read_text() if args.doc else None
         if text is not None:  # the markers checked before a figure is copied
             splice(text, "reproduced", "", str(args.doc))
@@ -551,7 +578,8 @@ def main():
         if text is not None:
             args.doc.write_text(splice(text, "reproduced", section, str(args.doc)))
     except InvalidInput as e:
-        sys.exit(str(e))
+        print(e, file=sys.stderr)
+        sys.exit(2)
     sys.stdout.write(table)
 
 

@@ -120,14 +120,16 @@ void Guard::check_cores() const {
 // them (pmc_source perf, or auto), else the CPU time of the processes on each core (cputime).
 void Guard::choose_source() {
   perf_ = make_perf_source();
+  std::string lacks;  // the events of the metric the PMU does not count, named
+  for (const char* e : {"l2d_cache_refill", "l2d_cache_wb"})
+    if (!perf_->provides(e)) lacks += (lacks.empty() ? "" : ", ") + std::string(e);
   const auto perf_why = perf_->unavailable_reason();
-  const bool perf_ok =
-      !perf_why && perf_->provides("l2d_cache_refill") && perf_->provides("l2d_cache_wb");
+  const std::string no_pmu = "no usable hardware PMU (" +
+                             perf_why.value_or("it does not count the metric's " + lacks) + ")";
+  const bool perf_ok = !perf_why && lacks.empty();
   if (s_.source == GuardSource::Perf && !perf_ok)
     throw InputError(s_.file, "/hw/pmc_source",
-                     "pmc_source \"perf\": no usable hardware PMU here (" +
-                         perf_why.value_or("the L2 refill / write-back events are missing") +
-                         "); use \"auto\" or \"cputime\"");
+                     "pmc_source \"perf\": " + no_pmu + " here; use \"auto\" or \"cputime\"");
   if (s_.source == GuardSource::Perf || (s_.source == GuardSource::Auto && perf_ok)) {
     source_name_ = "perf";
     source_why_ = "perf: the core's hardware PMU per CPU (L2 refills + write-backs x 64 B, Eq. 1)";
@@ -136,11 +138,7 @@ void Guard::choose_source() {
   } else {
     source_name_ = "cputime";
     source_why_ =
-        "cputime: " +
-        std::string(s_.source == GuardSource::Auto
-                        ? "no usable hardware PMU (" + perf_why.value_or("events missing") +
-                              "), so "
-                        : "") +
+        "cputime: " + (s_.source == GuardSource::Auto ? no_pmu + ", so " : std::string()) +
         "the budget is CPU time, not bandwidth: the CPU time of the processes pinned to each core "
         "(/proc/<tid>/schedstat) x reference_mbps; a core may run its processes threshold_pct % "
         "of each window";

@@ -51,6 +51,31 @@ double increasing_root(const G& g) {
   return narrow_root(g, 0.0, fa, kMaxUtil, fb).root;
 }
 
+// The occupancies (KB) of tenants sharing an LRU cache of `cap` KB (their natural partition),
+// where each tenant's access rate depends on its hit ratio, so on its occupancy:
+// rate(j, occupancy) per ns. Iterated from an equal split (a contraction in practice: more
+// cache, more hits, a little faster; the relaxation after 20 rounds only guards against a
+// cycle).
+template <class Rate>
+std::vector<double> shared_occupancies(const std::vector<const cache::MissRatioCurve*>& curves,
+                                       double cap, double line_kb, const Rate& rate) {
+  std::vector<double> occ(curves.size(), cap / static_cast<double>(curves.size()));
+  std::vector<cache::Tenant> tenants(curves.size());
+  for (int round = 0; round < 100; ++round) {
+    for (std::size_t j = 0; j < curves.size(); ++j)
+      tenants[j] = {curves[j], rate(j, occ[j])};
+    const std::vector<double> next = cache::natural_partition(tenants, cap, line_kb);
+    double moved = 0.0;
+    const double w = round < 20 ? 1.0 : 0.5;
+    for (std::size_t j = 0; j < curves.size(); ++j) {
+      moved = std::max(moved, std::abs(next[j] - occ[j]));
+      occ[j] = w * next[j] + (1.0 - w) * occ[j];
+    }
+    if (moved <= 1e-9 * cap) break;
+  }
+  return occ;
+}
+
 }  // namespace
 
 ContentionModel::ContentionModel(const SimPlatform& platform)
@@ -105,41 +130,27 @@ CoreRates ContentionModel::rates(const Phase& ph, double hit, int cluster, const
 std::vector<double> ContentionModel::occupancies(std::span<const CoreDemand> demands) const {
   std::vector<double> occ(demands.size(), 0.0);
   const MemoryState idle = unloaded(0);
-  const double cap = p_.l3.capacity_kb;
   std::vector<std::size_t> members;
-  std::vector<cache::Tenant> tenants;
+  std::vector<const cache::MissRatioCurve*> curves;
   for (int c = 0; c < p_.clusters; ++c) {
     members.clear();
+    curves.clear();
     for (std::size_t i = 0; i < demands.size(); ++i) {
       const CoreDemand& d = demands[i];
-      if (d.cluster == c && d.resident && (d.resident_phase || d.phase)) members.push_back(i);
+      if (d.cluster != c || !d.resident || !(d.resident_phase || d.phase)) continue;
+      members.push_back(i);
+      curves.push_back(&(d.resident_phase ? d.resident_phase : d.phase)->mrc);
     }
     if (members.empty()) continue;
-    const auto phase_of = [&](std::size_t i) {
-      return demands[i].resident_phase ? demands[i].resident_phase : demands[i].phase;
+    const auto rate = [&](std::size_t j, double o) {
+      const CoreDemand& d = demands[members[j]];
+      const Phase& ph = *(d.resident_phase ? d.resident_phase : d.phase);
+      return rates(ph, 1.0 - ph.mrc.miss_ratio(o), c, idle).refill_per_ns;
     };
-    // The access rates depend on the hit ratios, which depend on the partition: iterate from an
-    // equal split (a contraction in practice: more cache, more hits, a little faster; the
-    // relaxation after 20 rounds only guards against a cycle).
-    for (std::size_t i : members)
-      occ[i] = cap / static_cast<double>(members.size());
-    tenants.assign(members.size(), {});
-    for (int round = 0; round < 100; ++round) {
-      for (std::size_t j = 0; j < members.size(); ++j) {
-        const Phase& ph = *phase_of(members[j]);
-        const double hit = 1.0 - ph.mrc.miss_ratio(occ[members[j]]);
-        tenants[j] = {&ph.mrc, rates(ph, hit, c, idle).refill_per_ns};
-      }
-      const std::vector<double> next = cache::natural_partition(tenants, cap, line_kb());
-      double moved = 0.0;
-      const double w = round < 20 ? 1.0 : 0.5;
-      for (std::size_t j = 0; j < members.size(); ++j) {
-        double& o = occ[members[j]];
-        moved = std::max(moved, std::abs(next[j] - o));
-        o = w * next[j] + (1.0 - w) * o;
-      }
-      if (moved <= 1e-9 * cap) break;
-    }
+    const std::vector<double> share =
+        shared_occupancies(curves, p_.l3.capacity_kb, line_kb(), rate);
+    for (std::size_t j = 0; j < members.size(); ++j)
+      occ[members[j]] = share[j];
   }
   return occ;
 }
@@ -159,39 +170,28 @@ std::vector<double> ContentionModel::slc_hits(std::span<const CoreDemand> demand
   std::vector<double> g(demands.size(), 0.0);
   if (!p_.slc) return g;
   std::vector<std::size_t> members;
-  std::vector<cache::MissRatioCurve> curves;
+  std::vector<cache::MissRatioCurve> beyond;  // each member's curve past what its L3 share holds
   for (std::size_t i = 0; i < demands.size(); ++i) {
     const Phase* ph = demands[i].phase;
     if (ph == nullptr) continue;
     members.push_back(i);
-    curves.push_back(ph->mrc.beyond(ph->mrc.capacity_for(1.0 - hits[i])));
+    beyond.push_back(ph->mrc.beyond(ph->mrc.capacity_for(1.0 - hits[i])));
   }
   if (members.empty()) return g;
+  std::vector<const cache::MissRatioCurve*> curves;
+  for (const auto& c : beyond)
+    curves.push_back(&c);
   const MemoryState idle = unloaded(0);
-  const double cap = p_.slc->capacity_kb;
-  std::vector<double> occ(members.size(), cap / static_cast<double>(members.size()));
-  std::vector<cache::Tenant> tenants(members.size());
-  // As for the L3 (occupancies()): the access rates depend on the hit ratios, iterated from an
-  // equal split.
-  for (int round = 0; round < 100; ++round) {
-    for (std::size_t j = 0; j < members.size(); ++j) {
-      const std::size_t i = members[j];
-      g[i] = 1.0 - curves[j].miss_ratio(occ[j]);
-      tenants[j] = {
-          &curves[j],
-          rates(*demands[i].phase, hits[i], demands[i].cluster, idle, g[i]).l3_refill_per_ns};
-    }
-    const std::vector<double> next = cache::natural_partition(tenants, cap, line_kb());
-    double moved = 0.0;
-    const double w = round < 20 ? 1.0 : 0.5;
-    for (std::size_t j = 0; j < members.size(); ++j) {
-      moved = std::max(moved, std::abs(next[j] - occ[j]));
-      occ[j] = w * next[j] + (1.0 - w) * occ[j];
-    }
-    if (moved <= 1e-9 * cap) break;
-  }
+  // As for the L3 (occupancies()), fed by the L3 misses.
+  const auto rate = [&](std::size_t j, double o) {
+    const std::size_t i = members[j];
+    return rates(*demands[i].phase, hits[i], demands[i].cluster, idle,
+                 1.0 - beyond[j].miss_ratio(o))
+        .l3_refill_per_ns;
+  };
+  const std::vector<double> occ = shared_occupancies(curves, p_.slc->capacity_kb, line_kb(), rate);
   for (std::size_t j = 0; j < members.size(); ++j)
-    g[members[j]] = 1.0 - curves[j].miss_ratio(occ[j]);
+    g[members[j]] = 1.0 - beyond[j].miss_ratio(occ[j]);
   return g;
 }
 

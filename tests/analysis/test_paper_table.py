@@ -240,3 +240,31 @@ def test_gallery_copies_one_figure_per_experiment_linked_from_its_page(tmp_path)
     assert "![Exp. 7: RT x nRT grid at 20 %](figures/exp7-grid.png)" in text
     assert text.count("](figures/") == len(paper_table.GALLERY)
     assert "](docs/figures/table1.png)" in paper_table.gallery(tmp_path / "results", out, tmp_path)
+
+
+# --- the results folder as a whole ------------------------------------------------------------
+
+def test_missing_experiments_are_named_with_the_command_that_makes_them(tmp_path, capsys,
+                                                                      monkeypatch):
+    resultgen.write_results(tmp_path / "table1", resultgen.threshold_points(), reps=1)
+    with pytest.raises(paper_table.InvalidInput) as e:
+        paper_table.check_rows(tmp_path)
+    assert "exp1-pmc-callback" in str(e.value) and "table1," not in str(e.value)
+    assert "make reproduce" in str(e.value)
+    monkeypatch.setattr("sys.argv", ["paper_table.py", str(tmp_path)])
+    with pytest.raises(SystemExit) as exit_:
+        paper_table.main()
+    assert exit_.value.code == 2
+    assert "exp8-memguard" in capsys.readouterr().err
+
+
+def test_the_column_title_says_which_backend_platform_and_repetitions_ran(tmp_path):
+    for i, (folder, _) in enumerate(paper_table.FINDINGS):
+        resultgen.write_results(tmp_path / "sim" / folder, resultgen.threshold_points(),
+                                reps=1 if i == 0 else 3)
+        resultgen.write_results(tmp_path / "hw" / folder, resultgen.threshold_points(), reps=2,
+                                backend="hw")
+    sim = paper_table.what_ran(tmp_path / "sim")
+    assert sim.startswith("the sim reproduces (") and sim.endswith(", 1-3 repetitions)")
+    assert paper_table.what_ran(tmp_path / "hw").startswith("measured (hw) (")
+    assert paper_table.what_ran(tmp_path / "hw").endswith(", 2 repetitions)")

@@ -90,7 +90,7 @@ JSON
   ((c1 > c0)) || fail "$throttle: stress-ng does not run"
   kill -9 -- "-$stress_pid" 2>/dev/null || true
   wait "$stress_pid" 2>/dev/null || true
-  for _ in $(seq 100); do pgrep -f stress-ng-cpu >/dev/null || break; sleep 0.05; done
+  for _ in $(seq 100); do pgrep -g "$stress_pid" >/dev/null || break; sleep 0.05; done
   stress_pid=""
 done
 echo "OK: after SIGKILL and a new guard, nothing is left held (idle and freezer)"

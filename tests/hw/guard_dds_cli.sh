@@ -41,7 +41,7 @@ grep -q "SIGTERM received" "$tmp/log" || fail "no SIGTERM line"
 grep -q "stopped: 1 core(s) back to nominal, every guard thread joined, 0 thread(s) left under SCHED_FIFO" "$tmp/log" || fail "no clean stop"
 # Nothing left: no guard thread anywhere, and stress-ng runs under its own policy again.
 if ps -eLo comm | grep -q "^be-thr\|^be-cfb"; then fail "a guard thread is still alive"; fi
-for t in /proc/$(pgrep -f "stress-ng-cpu" | head -1)/task/*; do
+for t in /proc/$(pgrep -P "$stress_pid" | head -1)/task/*; do
   pol=$(chrt -p "$(basename "$t")" | head -1)
   [[ $pol == *SCHED_OTHER* ]] || fail "stress-ng thread left as: $pol"
 done

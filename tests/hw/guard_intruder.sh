@@ -17,7 +17,9 @@ fail() { echo "--- guard log"; grep -v -- "-> THR\|-> ON" "$tmp/log" | head -60;
 guard_start intruded
 
 # CPU time (ns) of stress-ng's worker; its share of one CPU over 1 s.
-worker=$(pgrep -f "stress-ng-cpu" | head -1)
+# The worker of the stress-ng guard_start started (not any other stress-ng on the machine).
+worker=$(pgrep -P "$stress_pid" | head -1)
+[[ -n $worker ]] || fail "no worker of stress-ng $stress_pid"
 cpu_ns() { awk '{print $1}' "/proc/$worker/schedstat"; }
 share() {
   local c0 t0 c1 t1

@@ -30,7 +30,9 @@ guard_start secured '"security": { "identity_ca": "ca/ca.pem", "identity_certifi
 grep -q "with DDS Security" "$tmp/log" || fail "the guard does not say it runs with DDS Security"
 ! grep -q "no DDS Security" "$tmp/log" || fail "the guard warns about a missing DDS Security"
 
-worker=$(pgrep -f "stress-ng-cpu" | head -1)
+# The worker of the stress-ng guard_start started (not any other stress-ng on the machine).
+worker=$(pgrep -P "$stress_pid" | head -1)
+[[ -n $worker ]] || fail "no worker of stress-ng $stress_pid"
 share() {
   local c0 t0 c1 t1
   c0=$(awk '{print $1}' "/proc/$worker/schedstat"); t0=$(date +%s%N); sleep 1

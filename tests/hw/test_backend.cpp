@@ -100,31 +100,39 @@ std::vector<double> of_kind(const PointOutcome& o, const std::string& kind) {
 }  // namespace
 
 struct Protection {
-  double interference = 0.0;  // smallest RT slowdown without regulation, minus 1
-  double gain = 0.0;          // median of paired (none - interval) RT slowdowns
+  // Memory interference regulation could remove: the smallest, over repetitions, of the RT
+  // slowdown beside the unregulated nRT node minus the one beside an nRT node that keeps its core
+  // as busy without memory traffic (the floor: what the host itself costs the RT node).
+  double interference = 0.0;
+  double gain = 0.0;  // median of paired (none - interval) RT slowdowns
 };
 
-// One attempt: isolation + both policies alternating; checks the bound.
+// One attempt: isolation + both policies and the floor alternating; checks the bound.
 Protection protection_attempt(int attempt, TransportKind transport) {
-  const auto loaded = load("rt-vs-nrt-bandwidth-read.json", transport);
+  auto loaded = load("rt-vs-nrt-bandwidth-read.json", transport);
+  loaded.points.push_back(load("rt-beside-l1-spinner.json", transport).points.at(0));
   auto backend = make_hw_backend(builtin_registry());
   TestContext ctx;
   Baselines baselines;
   const auto runs = run_all(*backend, loaded, ctx, baselines);
-  REQUIRE(runs.size() == 2);
+  REQUIRE(runs.size() == 3);
   const PointRun& none = runs[0];
   const PointRun& interval = runs[1];
+  const PointRun& floor = runs[2];
   REQUIRE(none.scenario.regulation.policy == "none");
   REQUIRE(interval.scenario.regulation.policy == "interval");
+  REQUIRE(floor.scenario.regulation.policy == "none");
   CHECK(realtime_threads().empty());
   CHECK(ctx.facts["transport"] == to_string(transport));
 
   const Scenario& s = interval.scenario;
   const auto& rt_iso = baselines.at(s, s.nodes.rt[0].workload, s.nodes.rt[0].core);
   const auto& nrt_iso = baselines.at(s, s.nodes.nrt[0].workload, s.nodes.nrt[0].core);
-  std::vector<double> slow_none, slow_interval, bw_interval, delays;
+  std::vector<double> slow_none, slow_interval, slow_floor, bw_interval, delays;
   for (const auto& o : none.reps)
     slow_none.push_back(o.rt[0].time_us / rt_iso.time_us);
+  for (const auto& o : floor.reps)
+    slow_floor.push_back(o.rt[0].time_us / rt_iso.time_us);
   for (const auto& o : interval.reps) {
     slow_interval.push_back(o.rt[0].time_us / rt_iso.time_us);
     bw_interval.push_back(o.nrt[0].bandwidth_mbps);
@@ -133,11 +141,14 @@ Protection protection_attempt(int attempt, TransportKind transport) {
     CHECK(o.nrt[0].throttle_count > 0);
   }
   const double none_med = median(slow_none), interval_med = median(slow_interval);
-  std::vector<double> paired;  // none - interval, repetition by repetition
+  std::vector<double> paired;     // none - interval, repetition by repetition
+  std::vector<double> removable;  // none - floor, repetition by repetition
   std::string reps_text;
   for (std::size_t i = 0; i < slow_none.size(); ++i) {
     paired.push_back(slow_none[i] - slow_interval[i]);
-    reps_text += " " + std::to_string(slow_none[i]) + "/" + std::to_string(slow_interval[i]);
+    removable.push_back(slow_none[i] - slow_floor[i]);
+    reps_text += " " + std::to_string(slow_none[i]) + "/" + std::to_string(slow_interval[i]) + "/" +
+                 std::to_string(slow_floor[i]);
   }
   // Bound (docs/design.md section 3.1): per regulation period the nRT node may use its budget plus
   // what it moves, unregulated, in one sampling period and one activation delay.
@@ -152,12 +163,14 @@ Protection protection_attempt(int attempt, TransportKind transport) {
                   << bound_mbps << " MB/s (nRT alone " << nrt_iso.mbps
                   << " MB/s, activation delay max " << maximum(delays) << " us); source "
                   << ctx.facts["pmc_source"]
-                  << "; RT slowdown none/interval per repetition:" << reps_text);
+                  << "; RT slowdown none/interval/floor per repetition:" << reps_text);
   CHECK(maximum(bw_interval) <= bound_mbps);
   CHECK(median(bw_interval) < 0.5 * nrt_iso.mbps);  // regulation did hold the nRT node back
-  // Interference only when every unregulated repetition shows it: a single slow repetition (the
-  // host descheduling a vCPU) is noise that regulation cannot remove.
-  return {std::ranges::min(slow_none) - 1.0, median(paired)};
+  // Interference only when every unregulated repetition shows it above its floor: a single slow
+  // repetition (the host descheduling a vCPU), or a host that slows the RT node as much beside
+  // a co-runner without memory traffic (another busy process on the machine), is not something
+  // regulation can remove.
+  return {std::ranges::min(removable), median(paired)};
 }
 
 void check_protection(TransportKind transport) {
@@ -165,10 +178,11 @@ void check_protection(TransportKind transport) {
   // them (same or different CCD / memory link): the co-runner slows the RT node by 5 % at some
   // times and by 20-45 % at others, and at times the host slows it by 20-40 % with the co-runner
   // held (seen in CI, 2026-11-26: RT slowdown 1.27-1.48 with the regulated co-runner at 2.7 GB/s,
-  // a third of its bandwidth alone, as high as unregulated). Up to five attempts (each
-  // alternates the policies over 5 repetitions): regulation must remove a clear part of the
-  // interference in one attempt that had interference to remove; the bound must hold in every
-  // attempt.
+  // a third of its bandwidth alone, as high as unregulated; with one busy process beside the
+  // test, 2026-11-27: RT slowdown 1.21-1.37 with and without regulation). Up to five attempts
+  // (each alternates the policies and the floor over 5 repetitions): regulation must remove a
+  // clear part of the interference in one attempt that had memory interference to remove (above
+  // the floor); the bound must hold in every attempt.
   std::optional<Protection> best;  // of the attempts that had interference to remove
   for (int attempt = 1; attempt <= 5; ++attempt) {
     const Protection p = protection_attempt(attempt, transport);
@@ -179,8 +193,8 @@ void check_protection(TransportKind transport) {
   if (!best) {
     WARN(
         "SKIPPED (protection part): in every attempt some unregulated repetition was slowed by "
-        "the co-runner by less than 10 %, so this host cannot show protection now; the bound was "
-        "checked");
+        "the co-runner's memory traffic by less than 10 % (over its floor beside an L1-bound "
+        "co-runner), so this host cannot show protection now; the bound was checked");
     return;
   }
   INFO("best attempt: interference " << best->interference << ", gain " << best->gain);

@@ -71,17 +71,18 @@ TEST_CASE("the idle throttle holds a SCHED_IDLE worker under 5 % of its nominal 
 TEST_CASE("without the throttle the same probe sees no hold (the measurement can fail)",
           "[hw][throttle]") {
   // Control: a spinning THR at SCHED_OTHER beside a worker at SCHED_OTHER (both nice 0) shares the
-  // core about evenly, far from the idle mechanism's sliver. Run as the idle probe but with the
-  // worker's SCHED_IDLE refused.
+  // core about evenly, far from the idle mechanism's sliver. Run as the fifo probe with SCHED_FIFO
+  // and the nice fallback both refused, so THR stays at nice 0. (With the fallback's nice -15 the
+  // worker's fair share is about 3 %, which CFS hands out in slices of milliseconds: in 20 ms
+  // windows it got 0.007 % in 1 of 4 runs on the idle 2-vCPU VM, 2026-11-27.)
   SchedOps ops = system_sched_ops();
   const auto real = ops.set_scheduler;
   ops.set_scheduler = [real](pthread_t t, int policy, const sched_param* p) {
     return policy == SCHED_FIFO ? EPERM : real(t, policy, p);
   };
+  ops.set_nice = [](pid_t, int) { return EPERM; };
   HoldProbeOptions opt;
   opt.ops = &ops;
-  // fifo with FIFO refused: THR falls back to a nice value (-15 as root: about 3 % CPU left for
-  // the worker; nice 0 unprivileged: about half).
   const HoldMeasurement m = measure_quiet(ThrottleKind::Fifo, opt);
   INFO("hold " << 100.0 * m.hold_fraction << " %, " << m.detail);
   CHECK_THAT(m.detail, Catch::Contains("SCHED_FIFO priority 40 refused"));
@@ -89,7 +90,8 @@ TEST_CASE("without the throttle the same probe sees no hold (the measurement can
     WARN("SKIPPED (the check): the probed core was shared with other work in three attempts");
     return;
   }
-  CHECK(m.hold_fraction > 0.005);
+  // About half; a third with one more busy process on the core.
+  CHECK(m.hold_fraction > 0.1);
 }
 
 TEST_CASE("the cgroup v2 freezer stops a worker process while throttled", "[hw][throttle]") {

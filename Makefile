@@ -22,7 +22,7 @@ CMAKE_ARGS ?=
 PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
-.PHONY: all deps configure build rosguard test test-nosim test-aarch64 run install reproduce sensitivity validate \
+.PHONY: all deps configure build rosguard test test-nosim test-aarch64 run install reproduce sensitivity audit-hw validate \
         validate-readme docs bench-parallel bench-large bench-soak bench-middleware bench format clean fit-table1
 
 all: build
@@ -89,6 +89,14 @@ reproduce: rosguard
 # results/sensitivity/, the paper checks re-run, the table of docs/sensitivity.md regenerated.
 sensitivity: build
 	@$(PYTHON) tools/sensitivity.py --rosguard $(ROSGUARD) --jobs $(JOBS) --doc docs/sensitivity.md
+
+# The timing-dependent tests again and again: PASSES passes of the hw tests (AUDIT_REGEX),
+# alternately idle and beside one busy process, and per test its failures and skips
+# (results/hw-audit/audit.md). Run it on a machine with nothing else to do.
+PASSES ?= 10
+AUDIT_REGEX ?= ^hw/
+audit-hw: build
+	@$(PYTHON) tools/hw_audit.py --build $(BUILD) --passes $(PASSES) --regex '$(AUDIT_REGEX)'
 
 # The sim-vs-hw validation suite (scenarios/validation/, held out from the calibration): hw and
 # sim runs into results/validation/{hw,sim}/, then report.md / report.json and the

@@ -60,7 +60,10 @@ TEST_CASE("the idle throttle holds a SCHED_IDLE worker under 5 % of its nominal 
   INFO("hold " << 100.0 * m.hold_fraction << " %, nominal CPU share " << m.nominal_cpu_share << ", "
                << m.detail);
   if (m.nominal_cpu_share <= 0.8 || std::isnan(m.hold_fraction)) {
-    WARN("SKIPPED: the probed core was shared with other work in three attempts");
+    WARN(
+        "SKIPPED: the probed core was shared with other work in three attempts (nominal CPU "
+        "share of the worker "
+        << m.nominal_cpu_share << ")");
     return;
   }
   CHECK(m.nominal_per_us > 0.0);
@@ -103,7 +106,10 @@ TEST_CASE("the cgroup v2 freezer stops a worker process while throttled", "[hw][
   const HoldMeasurement m = measure_quiet(ThrottleKind::Freezer);
   INFO("hold " << 100.0 * m.hold_fraction << " %, nominal CPU share " << m.nominal_cpu_share);
   if (m.nominal_cpu_share <= 0.8 || std::isnan(m.hold_fraction)) {
-    WARN("SKIPPED: the probed core was shared with other work in three attempts");
+    WARN(
+        "SKIPPED: the probed core was shared with other work in three attempts (nominal CPU "
+        "share of the worker "
+        << m.nominal_cpu_share << ")");
     return;
   }
   CHECK(m.hold_fraction < 0.05);

@@ -513,18 +513,22 @@ def load_experiments(results_dir: Path) -> dict:
     return experiments
 
 
-def check_rows(results_dir: Path):
-    """[(exp., claim, reproduced, holds)] for every finding, computed from the results."""
-    experiments = load_experiments(results_dir)
+def rows_of(experiments: dict):
+    """[(exp., claim, reproduced, holds)] for every finding of the loaded experiments."""
     rows = []
     for folder, finding in FINDINGS:
         rows += finding(experiments[folder])
     return rows
 
 
-def what_ran(results_dir: Path) -> str:
+def check_rows(results_dir: Path):
+    """[(exp., claim, reproduced, holds)] for every finding, computed from the results."""
+    return rows_of(load_experiments(results_dir))
+
+
+def what_ran(experiments: dict) -> str:
     """The table's column title: which backend, platforms and repetitions the results are of."""
-    runs = load_experiments(results_dir).values()
+    runs = experiments.values()
     backends = sorted({r.backend for r in runs})
     platforms = ", ".join(sorted({r.platform for r in runs}))
     reps = sorted({r.repetitions for r in runs})
@@ -534,8 +538,9 @@ def what_ran(results_dir: Path) -> str:
 
 
 def render(results_dir: Path):
-    rows = check_rows(results_dir)
-    lines = [f"| exp. | the paper finds | {what_ran(results_dir)} | holds |",
+    experiments = load_experiments(results_dir)
+    rows = rows_of(experiments)
+    lines = [f"| exp. | the paper finds | {what_ran(experiments)} | holds |",
              "|---|---|---|---|"]
     lines += [f"| {n} | {c} | {rep} | {'yes' if ok else '**no**'} |" for n, c, rep, ok in rows]
     failed = [n for n, _, _, ok in rows if not ok]

@@ -59,7 +59,13 @@ class InstrumentedOverflow final : public OverflowCounters {
       : OverflowCounters(std::move(names)),
         work_(work),
         fields_(std::move(fields)),
-        slots_(fields_.size(), -1) {}
+        slots_(fields_.size(), -1) {
+    for (std::size_t i = 0; i < fields_.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (fields_[j] == fields_[i])
+          throw RunError("instrumented source: overflow counters for '" + names_[i] +
+                         "' twice on one workload");
+  }
 
   ~InstrumentedOverflow() override {
     for (std::size_t i = 0; i < fields_.size(); ++i) {
@@ -74,10 +80,6 @@ class InstrumentedOverflow final : public OverflowCounters {
 
   void claim(OverflowSink& sink, std::size_t entity) override {
     for (std::size_t i = 0; i < fields_.size(); ++i) {
-      for (std::size_t j = 0; j < i; ++j)
-        if (fields_[j] == fields_[i])
-          throw RunError("instrumented source: overflow counters for '" + names_[i] +
-                         "' twice on one workload");
       if (slots_[i] < 0) slots_[i] = take_queued_slot(sink, entity, i);
       OverflowWatch& w = watch(i);
       w.tid.store(current_tid(), std::memory_order_relaxed);

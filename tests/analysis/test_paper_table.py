@@ -264,7 +264,7 @@ def test_the_column_title_says_which_backend_platform_and_repetitions_ran(tmp_pa
                                 reps=1 if i == 0 else 3)
         resultgen.write_results(tmp_path / "hw" / folder, resultgen.threshold_points(), reps=2,
                                 backend="hw")
-    sim = paper_table.what_ran(tmp_path / "sim")
+    sim = paper_table.what_ran(paper_table.load_experiments(tmp_path / "sim"))
     assert sim.startswith("the sim reproduces (") and sim.endswith(", 1-3 repetitions)")
-    assert paper_table.what_ran(tmp_path / "hw").startswith("measured (hw) (")
-    assert paper_table.what_ran(tmp_path / "hw").endswith(", 2 repetitions)")
+    hw = paper_table.what_ran(paper_table.load_experiments(tmp_path / "hw"))
+    assert hw.startswith("measured (hw) (") and hw.endswith(", 2 repetitions)")

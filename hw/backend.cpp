@@ -302,6 +302,12 @@ PointOutcome HwBackend::run_point(const Scenario& s, const Baselines& baselines,
                                           ThreadSpec{"", -1, sched_of(s), prio::kEngine});
   PointRig rig(s, plan, *source, regulation.setup, options_, ctx.trace() != nullptr, throttle);
   report_sched(rig.start(), ctx);
+  if (const dds::ReceiveBinding* b = rig.dds_binding()) {
+    if (b->bound)
+      ctx.fact("dds_receive_binding", b->text);
+    else
+      ctx.fallback("dds_binding", b->text);
+  }
   audit_threads(s, ctx);
   rig.drive(ctx);
   rig.teardown();

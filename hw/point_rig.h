@@ -76,6 +76,11 @@ class PointRig {
   void check_errors() const;
   PointOutcome outcome(RunContext& ctx) const;
   std::size_t nrt_count() const { return nrts_.size(); }
+  // With the dds transport: what was done to the DDS receive sockets (bound to the one interface
+  // of the Cyclone configuration, or why not); null with inproc.
+  const dds::ReceiveBinding* dds_binding() const {
+    return participant_ ? &participant_->receive_binding() : nullptr;
+  }
   // After teardown(): the overflow signals the controller took (overflow sampling), and the
   // nRT nodes (their throttle entries).
   const std::vector<OverflowRecord>& overflows() const { return controller_->overflows(); }

@@ -5,6 +5,8 @@
 #include <time.h>
 
 #include <cerrno>
+#include <cstdio>
+#include <string>
 
 #include "core/types.h"
 
@@ -32,6 +34,19 @@ inline void sleep_until(TimeNs t) {
   const timespec ts = to_timespec(t);
   while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
   }
+}
+
+// Now, CLOCK_REALTIME in UTC, as logs write it: "2026-11-27T15:54:39.898Z".
+inline std::string wall_clock_iso() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_REALTIME, &ts);
+  tm utc{};
+  ::gmtime_r(&ts.tv_sec, &utc);
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d.%03ldZ", utc.tm_year + 1900,
+                utc.tm_mon + 1, utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec,
+                ts.tv_nsec / 1000000);
+  return buf;
 }
 
 inline double ns_to_us(TimeNs t) {

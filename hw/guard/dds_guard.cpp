@@ -24,17 +24,24 @@ std::string DdsActivity::describe() const {
   std::string topics;
   for (const auto& r : readers_)
     topics += (topics.empty() ? "" : ", ") + r->ros_topic();
+  const dds::ReceiveBinding& b = participant_->receive_binding();
   return "DDS domain " + std::to_string(participant_->domain_id()) +
-         (secured_ ? " with DDS Security" : "") + ": " + topics + " (std_msgs/msg/Bool)";
+         (secured_ ? " with DDS Security" : "") + ": " + topics + " (std_msgs/msg/Bool)" +
+         (b.bound ? "; " + b.text : "");
 }
 
-std::string DdsActivity::exposure() const {
-  if (secured_) return {};
-  return "any process that reaches DDS domain " + std::to_string(participant_->domain_id()) +
-         " can publish the RT nodes' activity (no DDS Security): it cannot stop the guard or "
-         "unbalance its state, but it can hold regulation on (up to activity.max_active_ms at a "
-         "time) and, by flooding, crowd out an RT node's own messages; keep the domain on a "
-         "private network (CYCLONEDDS_URI)";
+std::vector<std::string> DdsActivity::exposure() const {
+  std::vector<std::string> out;
+  if (!secured_)
+    out.push_back("any process that reaches DDS domain " +
+                  std::to_string(participant_->domain_id()) +
+                  " can publish the RT nodes' activity (no DDS Security): it cannot stop the "
+                  "guard or unbalance its state, but it can hold regulation on (up to "
+                  "activity.max_active_ms at a time) and, by flooding, crowd out an RT node's own "
+                  "messages; keep the domain on a private network (CYCLONEDDS_URI)");
+  if (const dds::ReceiveBinding& b = participant_->receive_binding(); !b.bound)
+    out.push_back("fallback (dds binding): " + b.text);
+  return out;
 }
 
 void DdsActivity::start(const std::vector<std::string>& rt_names, Signal signal) {

@@ -36,7 +36,7 @@ class DdsActivity : public ActivitySource {
                        const dds::Security* security = nullptr);
   ~DdsActivity() override;
   std::string describe() const override;
-  std::string exposure() const override;
+  std::vector<std::string> exposure() const override;
   void start(const std::vector<std::string>& rt_names, Signal signal) override;
   void stop() override;
 

@@ -1,7 +1,5 @@
 #include "hw/guard/guard.h"
 
-#include <time.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -15,18 +13,6 @@
 
 namespace rosguard::hw {
 namespace {
-
-std::string wall_clock() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_REALTIME, &ts);
-  tm utc{};
-  ::gmtime_r(&ts.tv_sec, &utc);
-  char buf[96];
-  std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d.%03ldZ", utc.tm_year + 1900,
-                utc.tm_mon + 1, utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec,
-                ts.tv_nsec / 1000000);
-  return buf;
-}
 
 std::string fmt(double v) {
   char buf[32];
@@ -222,7 +208,7 @@ Guard::~Guard() {
 }
 
 void Guard::logln(const std::string& line) {
-  log_ << wall_clock() << " guard " << s_.name << ": " << line << '\n' << std::flush;
+  log_ << wall_clock_iso() << " guard " << s_.name << ": " << line << '\n' << std::flush;
   ++stats_.log_lines;
 }
 
@@ -336,7 +322,8 @@ void Guard::start() {
   logln("throttle '" + std::string(to_string(throttle_.kind)) + "' (" + throttle_.why +
         "; measured hold, nRT progress while throttled / nominal: " + holds + ")");
   if (!throttle_.fallback.empty()) logln("warning: fallback (throttle): " + throttle_.fallback);
-  if (const auto who = activity_source_.exposure(); !who.empty()) logln("warning: " + who);
+  for (const auto& who : activity_source_.exposure())
+    logln("warning: " + who);
   for (auto& n : nodes_)
     n->start();
   controller_->start();

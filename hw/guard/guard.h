@@ -95,8 +95,9 @@ class ActivitySource {
   using Signal = std::function<void(const ActivitySignal&)>;
   virtual ~ActivitySource() = default;
   virtual std::string describe() const = 0;
-  // Who else can steer the guard through this source ("" when only this host's root can).
-  virtual std::string exposure() const { return {}; }
+  // Who else can steer the guard through this source, a warning each (none when only this
+  // host's root can).
+  virtual std::vector<std::string> exposure() const { return {}; }
   virtual void start(const std::vector<std::string>& rt_names, Signal signal) = 0;
   virtual void stop() = 0;
 };

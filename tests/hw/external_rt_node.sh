@@ -5,7 +5,8 @@
 # std_msgs/msg/Bool true / false on <ns>/rosguard/planner/active around each. The nRT node on
 # core 1 (the same kernel) must be throttled during those jobs, the point must report the jobs'
 # times from the signal stamps and the delay from each active=true to the first THR
-# (signal_to_thr). Then: without the program, the point fails after hw.dds.signal_timeout_ms,
+# (signal_to_thr); the manifest must say the run's DDS receive sockets are bound to lo. Then:
+# without the program, the point fails after hw.dds.signal_timeout_ms,
 # naming the node.
 # Usage: external_rt_node.sh ROSGUARD RT_NODE SOURCE_DIR
 set -euo pipefail
@@ -73,6 +74,9 @@ text = json.dumps(manifest)
 fails = []
 if '"transport": "dds"' not in text:
     fails.append("the manifest does not record transport dds")
+# The Cyclone configuration selects lo only: the run's receive sockets are bound to it.
+if not any("dds_receive_binding" in k for k in text.split('"')) or "bound to lo" not in text:
+    fails.append("the manifest does not say the DDS receive sockets are bound to lo")
 if r["rt_jobs"] != "3":
     fails.append(f"rt_jobs {r['rt_jobs']}, expected the program's 3 jobs")
 # Each job ran 250 ms in the other process; its time comes from the signal stamps.

@@ -2,6 +2,9 @@
 // polling), the three message kinds across the wire, and a plain Cyclone DDS subscriber (C API,
 // ROS 2 topic and type names written out here, not taken from rosguard's helpers) that receives
 // the samples, commands and enable / disable signals of a `rosguard run` in another process.
+#include <net/if.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -17,6 +20,7 @@
 #include "core/error.h"
 #include "hw/common/clock.h"
 #include "hw/nodes/messages.h"
+#include "hw/topic/dds/cyclone_log.h"
 #include "hw/topic/dds/dds.h"
 #include "hw/topic/dds_topic.h"
 
@@ -57,6 +61,65 @@ TEST_CASE("dds: ROS 2 names: rt/ prefix, dds_ type names, names checked", "[hw][
                            std::pair{dds::MsgTraits<dds::CommandMsg>::ros_type,
                                      dds::MsgTraits<dds::CommandMsg>::descriptor()}})
     CHECK(dds::dds_type_name(ros) == desc->m_typename);
+}
+
+TEST_CASE("dds: a participant binds its domain's receive sockets to the one configured interface",
+          "[hw][dds]") {
+  // Domain 230: a domain of this test alone, created here with the loopback configuration.
+  const char* old = std::getenv("CYCLONEDDS_URI");
+  const std::string saved = old ? old : "";
+  const std::string uri =
+      std::string("file://") + ROSGUARD_TEST_SOURCE_DIR + "/tests/hw/cyclonedds-loopback.xml";
+  ::setenv("CYCLONEDDS_URI", uri.c_str(), 1);
+  const dds::UdpSockets before = dds::udp_sockets();
+  {
+    dds::Participant first(230);
+    const dds::ReceiveBinding& b = first.receive_binding();
+    INFO(b.text);
+    CHECK(b.bound);
+    CHECK(b.text.find("bound to lo") != std::string::npos);
+    int wildcard = 0;
+    for (const auto& [inode, fd] : dds::udp_sockets()) {
+      if (before.count(inode)) continue;
+      sockaddr_in a{};
+      socklen_t len = sizeof a;
+      REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0);
+      if (a.sin_family != AF_INET || a.sin_addr.s_addr != htonl(INADDR_ANY)) continue;
+      ++wildcard;
+      char device[IFNAMSIZ] = {};
+      len = sizeof device;
+      REQUIRE(::getsockopt(fd, SOL_SOCKET, SO_BINDTODEVICE, device, &len) == 0);
+      CHECK(std::string(device) == "lo");
+    }
+    CHECK(wildcard >= 2);  // discovery and data
+    // A second participant shares the domain's sockets, and says what was done to them.
+    dds::Participant second(230);
+    CHECK(second.receive_binding().bound);
+    CHECK(second.receive_binding().text == b.text);
+  }
+  if (old)
+    ::setenv("CYCLONEDDS_URI", saved.c_str(), 1);
+  else
+    ::unsetenv("CYCLONEDDS_URI");
+}
+
+TEST_CASE("dds: Cyclone's log lines from one place are written at most once per interval",
+          "[hw][dds]") {
+  std::vector<std::string> lines;
+  dds::LimitedCycloneLog log([&](const std::string& l) { lines.push_back(l); }, 10 * kNsPerS);
+  log.take("q_receive.c", 2910, "malformed packet received", 0);
+  for (int i = 1; i <= 500; ++i)
+    log.take("q_receive.c", 2910, "malformed packet received", i * kNsPerMs);
+  log.take("q_xmsg.c", 12, "another warning", kNsPerS);  // another place: its own limit
+  REQUIRE(lines.size() == 2);
+  CHECK(lines[0] == "cyclone: malformed packet received");
+  CHECK(lines[1] == "cyclone: another warning");
+  log.take("q_receive.c", 2910, "malformed packet received", 11 * kNsPerS);
+  REQUIRE(lines.size() == 3);
+  CHECK(lines[2] ==
+        "cyclone: malformed packet received (and 500 more like it in the last 11 s, not logged)");
+  CHECK(log.written() == 3);
+  CHECK(log.left_out() == 500);
 }
 
 TEST_CASE("dds: a topic wakes its subscriber's futex and carries every message kind",

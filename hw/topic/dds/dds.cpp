@@ -8,7 +8,9 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <map>
 #include <memory>
+#include <mutex>
 
 namespace rosguard::dds {
 
@@ -160,6 +162,12 @@ Participant::Participant(std::optional<std::uint32_t> domain_id, const Security*
       throw;
     }
   }
+  // Cyclone opens a domain's sockets with its first participant; later participants of the
+  // domain share them, and the binding found then.
+  static std::mutex bindings_lock;
+  static std::map<std::uint32_t, ReceiveBinding> bindings;
+  const std::lock_guard lock(bindings_lock);
+  const UdpSockets before = udp_sockets();
   handle_ = dds_create_participant(domain_, qos, nullptr);
   if (qos) dds_delete_qos(qos);
   if (handle_ < 0)
@@ -168,6 +176,14 @@ Participant::Participant(std::optional<std::uint32_t> domain_id, const Security*
                                              "document that does not verify?)"
                                            : ""),
                              "", handle_));
+  bool found_new = false;
+  binding_ = bind_new_receive_sockets(before, found_new);
+  if (found_new)
+    bindings[domain_] = binding_;
+  else if (const auto it = bindings.find(domain_); it != bindings.end())
+    binding_ = it->second;
+  else
+    binding_.text = "the domain's sockets were opened before, by no Participant of rosguard's";
 }
 
 Participant::~Participant() {

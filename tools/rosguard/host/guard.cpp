@@ -11,9 +11,11 @@
 #include "load/loader.h"
 
 #ifdef ROSGUARD_WITH_HW
+#include "hw/common/clock.h"
 #include "hw/guard/dds_guard.h"
 #include "hw/guard/fifo_activity.h"
 #include "hw/guard/guard.h"
+#include "hw/topic/dds/cyclone_log.h"
 #endif
 
 namespace rosguard {
@@ -115,6 +117,14 @@ int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& p
                       path("permissions_ca"), path("governance"),           path("permissions")};
   }
   const dds::Security* sec = security ? &*security : nullptr;
+  // Cyclone's own warnings (e.g. a line per malformed datagram anyone sends to its ports) through
+  // the same rate limit as the guard's lines, before any DDS entity exists.
+  const dds::LimitedCycloneLog cyclone_log(
+      [name = settings.name](const std::string& line) {
+        std::cerr << hw::wall_clock_iso() << " guard " << name << ": " << line << '\n'
+                  << std::flush;
+      },
+      hw::kLogRepeatNs);
   std::unique_ptr<hw::ActivitySource> activity;
   if (act.at("source").get<std::string>() == "fifo") {
     activity = std::make_unique<hw::FifoActivity>(
@@ -170,6 +180,10 @@ int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& p
   std::cerr << "guard " << settings.name << ": " << (g_stop.load() == SIGINT ? "SIGINT" : "SIGTERM")
             << " received\n";
   guard.shutdown();
+  if (const auto n = cyclone_log.left_out())
+    std::cerr << hw::wall_clock_iso() << " guard " << settings.name
+              << ": cyclone: " << cyclone_log.written() << " log line(s) written, " << n
+              << " repeat(s) not logged\n";
   return 0;
 }
 

@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
 # Issue 23 item 2: `rosguard guard` with DDS Security. A test CA (docs/guard/security/
 # make_certs.sh) signs the guard's and the RT program's certificates and permissions. A publisher
-# without credentials and one whose certificate comes from another CA say 'true' for the RT node:
-# neither is matched, the guard does not activate and stress-ng on the nRT core runs free. The
-# signed RT program (rosguard-rt-node with its identity in CYCLONEDDS_URI) is heard and
-# regulated.
+# without credentials and three whose certificates come from another CA say 'true' for the RT
+# node: none is matched, the guard does not activate and stress-ng on the nRT core runs free. Each
+# foreign certificate is refused and logged by the side that checks it: DDS Security's handshake
+# is started by the participant whose GUID (derived from a hash of its certificate's subject) is
+# smaller, and the other side checks the certificate it receives. With these subjects the guard
+# checks two ("cyclone: Begin handshake reply failed ... subject: /CN=bravo" in its log) and the
+# third ("rogue") refuses the guard's. The signed RT program (rosguard-rt-node with its identity in
+# CYCLONEDDS_URI) is heard and regulated.
 # Usage: guard_security.sh ROSGUARD RT_NODE INTRUDER SOURCE_DIR
 set -euo pipefail
 rosguard=$1
@@ -19,11 +23,13 @@ plugins=$(dirname "$(ldconfig -p | awk '/libddsc\.so/ {print $NF; exit}')")
 [[ -e $plugins/libddsc0debian/libdds_security_auth.so ]] && plugins=$plugins/libddsc0debian
 [[ -e $plugins/libdds_security_auth.so ]] || { echo "SKIPPED: Cyclone's DDS Security plugins are not installed"; exit 0; }
 "$src/docs/guard/security/make_certs.sh" "$tmp/ca" guard planner >/dev/null
-"$src/docs/guard/security/make_certs.sh" "$tmp/other" rogue >/dev/null
+rogues="rogue bravo charlie"
+# shellcheck disable=SC2086
+"$src/docs/guard/security/make_certs.sh" "$tmp/other" $rogues >/dev/null
 # shellcheck source=security_identity.sh
 source "$src/tests/hw/security_identity.sh"
 identity_xml "$tmp/ca" planner >"$tmp/planner.xml"
-identity_xml "$tmp/other" rogue >"$tmp/rogue.xml"
+for r in $rogues; do identity_xml "$tmp/other" "$r" >"$tmp/$r.xml"; done
 guard_start secured '"security": { "identity_ca": "ca/ca.pem", "identity_certificate": "ca/guard.pem",
   "private_key": "ca/guard.key", "permissions_ca": "ca/ca.pem", "governance": "ca/governance.p7s",
   "permissions": "ca/permissions_guard.p7s" }'
@@ -39,16 +45,18 @@ share() {
   c1=$(awk '{print $1}' "/proc/$worker/schedstat"); t1=$(date +%s%N)
   echo "$c0 $c1 $t0 $t1" | awk '{printf "%.3f", ($2 - $1) / ($4 - $3)}'
 }
-# No credentials, then a certificate of another CA: both say 'true' and stay a while.
+# No credentials, and certificates of another CA: all say 'true' and stay a while.
 "$intruder" --ns "$ns" --wait-ms 3000 active planner 1 >"$tmp/plain.out" &
-plain=$!
-CYCLONEDDS_URI="file://$tmp/rogue.xml" "$intruder" --ns "$ns" --wait-ms 3000 active planner 1 \
-  >"$tmp/rogue.out" 2>"$tmp/rogue.err" &
-rogue=$!
-extra_pids="$plain $rogue"
+extra_pids=$!
+for r in $rogues; do
+  CYCLONEDDS_URI="file://$tmp/$r.xml" "$intruder" --ns "$ns" --wait-ms 3000 active planner 1 \
+    >"$tmp/$r.out" 2>"$tmp/$r.err" &
+  extra_pids="$extra_pids $!"
+done
 sleep 1.5
 attacked=$(share)
-wait "$plain" "$rogue" || true
+# shellcheck disable=SC2086
+wait $extra_pids || true
 grep -q "regulation active" "$tmp/log" && fail "an unauthenticated publisher activated regulation"
 # The signed RT program: one 3 s job.
 CYCLONEDDS_URI="file://$tmp/planner.xml" "$rt_node" --name planner --ns "$ns" --jobs 1 \
@@ -63,12 +71,24 @@ kill -TERM "$guard_pid"
 rc=0
 wait "$guard_pid" || rc=$?
 guard_pid=""
-cat "$tmp/plain.out" "$tmp/rogue.out" "$tmp/rt.out"
+cat "$tmp/plain.out" "$tmp/rt.out"
 echo "stress-ng share of CPU 1: while the intruders said 'true' $attacked, during the signed job $signed"
 grep -E "totals:|planner: active" "$tmp/log"
 [[ $rc -eq 0 ]] || fail "guard exited $rc"
 grep -q "active planner 1 (matched 0)" "$tmp/plain.out" || fail "the publisher without credentials was matched"
-grep -q "active planner 1 (matched 0)" "$tmp/rogue.out" || fail "the publisher of another CA was matched"
+checked_by_guard=0
+for r in $rogues; do
+  grep -q "active planner 1 (matched 0)" "$tmp/$r.out" || fail "the publisher $r of another CA was matched"
+  if grep -q "cyclone: .*handshake.*failed.*subject: /CN=$r/" "$tmp/log"; then
+    echo "$r (another CA): refused and logged by the guard"
+    checked_by_guard=$((checked_by_guard + 1))
+  elif grep -q "handshake.*failed.*Certificate not valid" "$tmp/$r.err"; then
+    echo "$r (another CA): started no handshake; it refused the guard's certificate and logged it"
+  else
+    fail "the refusal of $r's certificate is logged by neither side"
+  fi
+done
+[[ $checked_by_guard -ge 1 ]] || fail "the guard logged no refused certificate"
 grep -q "totals: 1 activation(s)" "$tmp/log" || fail "expected exactly the signed program's activation"
 awk -v a="$attacked" -v s="$signed" 'BEGIN { exit !(a > 0.6 && s < 0.5 * a) }' ||
   echo "note (CPU shares, not checked: the machine may be busy): attacked $attacked, signed $signed"

@@ -103,23 +103,41 @@ TEST_CASE("dds: a participant binds its domain's receive sockets to the one conf
     ::unsetenv("CYCLONEDDS_URI");
 }
 
-TEST_CASE("dds: Cyclone's log lines from one place are written at most once per interval",
+TEST_CASE("dds: Cyclone's log lines of one kind are written at most once per interval",
           "[hw][dds]") {
   std::vector<std::string> lines;
   dds::LimitedCycloneLog log([&](const std::string& l) { lines.push_back(l); }, 10 * kNsPerS);
-  log.take("q_receive.c", 2910, "malformed packet received", 0);
-  for (int i = 1; i <= 500; ++i)
-    log.take("q_receive.c", 2910, "malformed packet received", i * kNsPerMs);
-  log.take("q_xmsg.c", 12, "another warning", kNsPerS);  // another place: its own limit
-  REQUIRE(lines.size() == 2);
-  CHECK(lines[0] == "cyclone: malformed packet received");
-  CHECK(lines[1] == "cyclone: another warning");
-  log.take("q_receive.c", 2910, "malformed packet received", 11 * kNsPerS);
+  // Junk datagrams: one kind whatever their dumps and numbers.
+  for (int i = 0; i <= 500; ++i)
+    log.take("q_receive.c", 2910,
+             "malformed packet received from vendor 0.1 state parse:INFO_DST <5254 " +
+                 std::to_string(i) + "> smid 0x" + std::to_string(i % 9),
+             i * kNsPerMs);
+  // A refused handshake: a kind per certificate subject.
+  log.take("fsm.c", 7, "Begin handshake reply failed; subject: /CN=alpha", kNsPerS);
+  log.take("fsm.c", 7, "Begin handshake reply failed; subject: /CN=beta", kNsPerS);
+  log.take("fsm.c", 7, "Begin handshake reply failed; subject: /CN=beta", 2 * kNsPerS);
   REQUIRE(lines.size() == 3);
-  CHECK(lines[2] ==
-        "cyclone: malformed packet received (and 500 more like it in the last 11 s, not logged)");
-  CHECK(log.written() == 3);
-  CHECK(log.left_out() == 500);
+  CHECK(lines[0].rfind("cyclone: malformed packet received from vendor 0.1", 0) == 0);
+  CHECK(lines[1] == "cyclone: Begin handshake reply failed; subject: /CN=alpha");
+  CHECK(lines[2] == "cyclone: Begin handshake reply failed; subject: /CN=beta");
+  log.take("q_receive.c", 2910,
+           "malformed packet received from vendor 0.1 state parse:INFO_DST <00> smid 0x1",
+           11 * kNsPerS);
+  REQUIRE(lines.size() == 4);
+  CHECK(lines[3] ==
+        "cyclone: malformed packet received from vendor 0.1 state parse:INFO_DST <00> smid 0x1 "
+        "(and 500 more like it in the last 11 s, not logged)");
+  // Many kinds at once: at most kBurst lines per interval over all of them (the interval that
+  // began with the line above, at 11 s).
+  for (int i = 0; i < 50; ++i)
+    log.take("fsm.c", 7,
+             "subject: /CN=" + std::string(1, static_cast<char>('a' + i % 26)) +
+                 std::string(1, static_cast<char>('a' + i / 26)),
+             12 * kNsPerS);
+  CHECK(lines.size() == 3 + dds::LimitedCycloneLog::kBurst);
+  CHECK(log.written() == lines.size());
+  CHECK(log.left_out() == 500 + 1 + 50 - (dds::LimitedCycloneLog::kBurst - 1));  // + beta again
 }
 
 TEST_CASE("dds: a topic wakes its subscriber's futex and carries every message kind",

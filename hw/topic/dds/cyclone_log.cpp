@@ -32,11 +32,31 @@ LimitedCycloneLog::~LimitedCycloneLog() {
   dds_set_log_sink(nullptr, nullptr);
 }
 
+std::string LimitedCycloneLog::kind(const std::string& file, std::uint32_t line,
+                                    std::string_view message) {
+  std::string k = file + ":" + std::to_string(line) + ":";
+  int depth = 0;
+  for (const char c : message) {
+    if (c == '<') ++depth;
+    if (depth == 0 && !(c >= '0' && c <= '9')) k += c;
+    if (c == '>' && depth > 0) --depth;
+  }
+  return k;
+}
+
 void LimitedCycloneLog::take(const std::string& file, std::uint32_t line, std::string_view message,
                              std::int64_t now_ns) {
   const std::lock_guard lock(lock_);
-  Repeat& r = repeats_[{file, line}];
-  if (r.seen && now_ns - r.last_ns < every_ns_) {
+  // Forgotten kinds keep their lines left out in left_out_.
+  if (repeats_.size() >= kMaxKinds)
+    std::erase_if(repeats_, [&](const auto& r) { return now_ns - r.second.last_ns >= every_ns_; });
+  Repeat& r =
+      repeats_.try_emplace(kind(file, line, message), Repeat{now_ns, 0, false}).first->second;
+  if (now_ns - window_start_ns_ >= every_ns_) {
+    window_start_ns_ = now_ns;
+    window_lines_ = 0;
+  }
+  if ((r.seen && now_ns - r.last_ns < every_ns_) || window_lines_ >= kBurst) {
     ++r.left_out;
     ++left_out_;
     return;
@@ -46,6 +66,7 @@ void LimitedCycloneLog::take(const std::string& file, std::uint32_t line, std::s
     text += " (and " + std::to_string(r.left_out) + " more like it in the last " +
             std::to_string((now_ns - r.last_ns) / 1'000'000'000) + " s, not logged)";
   r = {now_ns, 0, true};
+  ++window_lines_;
   ++written_;
   write_(text);
 }

@@ -124,14 +124,19 @@ class FreezeThrottler : public Throttler {
   FreezerCgroup& cg_;
 };
 
-// A worker process pinned to a core that counts loop iterations into a shared page; SIGKILLed
-// and reaped on destruction (and by the kernel if we die first).
+// A worker process pinned to a core that counts loop iterations into a shared page, and its own
+// CPU time (at most ~50 us old) beside them; SIGKILLed and reaped on destruction (and by the
+// kernel if we die first). Its CPU time comes from itself because another process's CPU clock
+// lags while it runs: the kernel brings a running task's time up to date only at scheduler ticks
+// and switches, so a 10 ms window that begins as the worker resumes (time exact) and ends while
+// it runs (half a tick behind on average) read some 20 % low on a 250 Hz kernel.
 class Worker {
  public:
   Worker(int core, bool idle) {
     void* p = ::mmap(nullptr, 4096, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
     if (p == MAP_FAILED) throw RunError("mmap: " + errno_text(errno));
     counter_ = new (p) std::atomic<std::uint64_t>(0);
+    cpu_ = new (counter_ + 1) std::atomic<std::int64_t>(0);
     cpu_set_t set;
     CPU_ZERO(&set);
     CPU_SET(core, &set);
@@ -153,8 +158,18 @@ class Worker {
         ::sched_setscheduler(0, SCHED_OTHER, &zero);
         ::setpriority(PRIO_PROCESS, 0, 0);
       }
-      for (;;)
+      timespec ts{};
+      std::int64_t published = 0;
+      for (std::uint64_t n = 1;; ++n) {
         counter_->fetch_add(1, std::memory_order_relaxed);
+        if ((n & 1023) != 0) continue;
+        ::clock_gettime(CLOCK_MONOTONIC, &ts);  // vDSO: cheap
+        const std::int64_t now = ts.tv_sec * kNsPerS + ts.tv_nsec;
+        if (now - published < 50 * kNsPerUs) continue;
+        published = now;
+        ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);  // a system call: every 50 us at most
+        cpu_->store(ts.tv_sec * kNsPerS + ts.tv_nsec, std::memory_order_relaxed);
+      }
     }
   }
   ~Worker() {
@@ -169,15 +184,11 @@ class Worker {
   Worker& operator=(const Worker&) = delete;
   pid_t pid() const { return pid_; }
   std::uint64_t count() const { return counter_->load(std::memory_order_relaxed); }
-  TimeNs cpu_ns() const {
-    clockid_t id;
-    timespec ts{};
-    if (::clock_getcpuclockid(pid_, &id) != 0 || ::clock_gettime(id, &ts) != 0) return 0;
-    return static_cast<TimeNs>(ts.tv_sec) * kNsPerS + ts.tv_nsec;
-  }
+  TimeNs cpu_ns() const { return cpu_->load(std::memory_order_relaxed); }
 
  private:
   std::atomic<std::uint64_t>* counter_ = nullptr;
+  std::atomic<std::int64_t>* cpu_ = nullptr;  // beside the counter in the shared page
   pid_t pid_ = -1;
 };
 
@@ -308,7 +319,9 @@ struct HoldTotals {
   TimeNs nom_ns = 0;                           // time unthrottled
   TimeNs nom_cpu = 0;                          // the worker's CPU time unthrottled
   TimeNs delay_ns = 0;                         // command to the throttle taking the core, summed
+  TimeNs resume_ns = 0;                        // release to the worker's next progress, summed
   int engaged = 0;                             // windows where the throttle took the core
+  int cycles = 0;
 };
 
 // The measurement's rates and hold fraction from the totals; the fraction NaN, with the reason in
@@ -318,6 +331,7 @@ void summarize(const HoldTotals& t, HoldMeasurement& m) {
   m.throttled_us = ns_to_us(t.thr_ns);
   m.windows = t.engaged;
   m.activation_us = t.engaged > 0 ? ns_to_us(t.delay_ns) / t.engaged : 0.0;
+  m.resume_us = t.cycles > 0 ? ns_to_us(t.resume_ns) / t.cycles : 0.0;
   m.nominal_cpu_share =
       t.nom_ns > 0 ? static_cast<double>(t.nom_cpu) / static_cast<double>(t.nom_ns) : 0;
   m.nominal_per_us = t.nom_ns > 0 ? static_cast<double>(t.nom_count) / ns_to_us(t.nom_ns) : 0.0;
@@ -395,7 +409,14 @@ HoldMeasurement measure_hold(ThrottleKind kind, int core, const HoldProbeOptions
   sleep_until(t);
   HoldTotals tot;
   for (int i = 0; i < opt.cycles; ++i) {
+    // The unthrottled window starts when the worker runs again: the release itself (a thaw, the
+    // throttle thread's wake-up on the core) is not nominal progress.
+    const TimeNs released = now_ns();
+    for (const std::uint64_t c = worker.count();
+         worker.count() == c && now_ns() - released < static_cast<TimeNs>(opt.off_ms * 1e6);)
+      sleep_until(now_ns() + 20 * kNsPerUs);
     const TimeNs t0 = now_ns();
+    tot.resume_ns += t0 - released;
     const std::uint64_t c0 = worker.count();
     const TimeNs cpu0 = worker.cpu_ns();
     sleep_until(t0 + static_cast<TimeNs>(opt.off_ms * 1e6));
@@ -419,6 +440,7 @@ HoldMeasurement measure_hold(ThrottleKind kind, int core, const HoldProbeOptions
       tot.delay_ns += te - t1;
     }
   }
+  tot.cycles = opt.cycles;
   stop.store(true, std::memory_order_release);
   wake.notify();
   thr.join();

@@ -95,7 +95,10 @@ struct HoldMeasurement {
   // / nominal rate; NaN when it could not be measured (detail says why).
   double hold_fraction = 0.0;
   double activation_us = 0.0;  // mean command -> throttle thread holding the core
-  int windows = 0;             // throttled windows measured
+  // Mean release -> the worker's next progress (a thaw, the throttle thread leaving the core);
+  // the unthrottled windows start there.
+  double resume_us = 0.0;
+  int windows = 0;  // throttled windows measured
   double nominal_per_us = 0.0;
   double throttled_us = 0.0, nominal_us = 0.0;
   // The worker's CPU time / wall time in the nominal windows: well below 1, something else ran

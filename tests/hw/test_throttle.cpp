@@ -57,8 +57,8 @@ SchedOps fifo_refusing_ops() {
 TEST_CASE("the idle throttle holds a SCHED_IDLE worker under 5 % of its nominal progress",
           "[hw][throttle]") {
   const HoldMeasurement m = measure_quiet(ThrottleKind::Idle);
-  INFO("hold " << 100.0 * m.hold_fraction << " %, nominal CPU share " << m.nominal_cpu_share << ", "
-               << m.detail);
+  INFO("hold " << 100.0 * m.hold_fraction << " %, nominal CPU share " << m.nominal_cpu_share
+               << ", resumed " << m.resume_us << " us after each release, " << m.detail);
   if (m.nominal_cpu_share <= 0.8 || std::isnan(m.hold_fraction)) {
     WARN(
         "SKIPPED: the probed core was shared with other work in three attempts (nominal CPU "
@@ -104,7 +104,8 @@ TEST_CASE("the cgroup v2 freezer stops a worker process while throttled", "[hw][
     return;
   }
   const HoldMeasurement m = measure_quiet(ThrottleKind::Freezer);
-  INFO("hold " << 100.0 * m.hold_fraction << " %, nominal CPU share " << m.nominal_cpu_share);
+  INFO("hold " << 100.0 * m.hold_fraction << " %, nominal CPU share " << m.nominal_cpu_share
+               << ", resumed " << m.resume_us << " us after each release");
   if (m.nominal_cpu_share <= 0.8 || std::isnan(m.hold_fraction)) {
     WARN(
         "SKIPPED: the probed core was shared with other work in three attempts (nominal CPU "

@@ -128,9 +128,11 @@ Protection protection_attempt(int attempt, TransportKind transport) {
   const Scenario& s = interval.scenario;
   const auto& rt_iso = baselines.at(s, s.nodes.rt[0].workload, s.nodes.rt[0].core);
   const auto& nrt_iso = baselines.at(s, s.nodes.nrt[0].workload, s.nodes.nrt[0].core);
-  std::vector<double> slow_none, slow_interval, slow_floor, bw_interval, delays;
-  for (const auto& o : none.reps)
+  std::vector<double> slow_none, slow_interval, slow_floor, bw_none, bw_interval, delays;
+  for (const auto& o : none.reps) {
     slow_none.push_back(o.rt[0].time_us / rt_iso.time_us);
+    bw_none.push_back(o.nrt[0].bandwidth_mbps);
+  }
   for (const auto& o : floor.reps)
     slow_floor.push_back(o.rt[0].time_us / rt_iso.time_us);
   for (const auto& o : interval.reps) {
@@ -143,9 +145,11 @@ Protection protection_attempt(int attempt, TransportKind transport) {
   const double none_med = median(slow_none), interval_med = median(slow_interval);
   std::vector<double> paired;     // none - interval, repetition by repetition
   std::vector<double> removable;  // none - floor, repetition by repetition
+  std::vector<double> held;       // nRT bandwidth regulated / unregulated, repetition by repetition
   std::string reps_text;
   for (std::size_t i = 0; i < slow_none.size(); ++i) {
     paired.push_back(slow_none[i] - slow_interval[i]);
+    held.push_back(bw_interval[i] / bw_none[i]);
     removable.push_back(slow_none[i] - slow_floor[i]);
     reps_text += " " + std::to_string(slow_none[i]) + "/" + std::to_string(slow_interval[i]) + "/" +
                  std::to_string(slow_floor[i]);
@@ -159,13 +163,16 @@ Protection protection_attempt(int attempt, TransportKind transport) {
       budget_mbps + nrt_iso.mbps * overshoot_us / static_cast<double>(r.regulation_period_us);
   WARN("attempt " << attempt << ": RT slowdown median: none " << none_med << ", interval "
                   << interval_med << "; nRT bandwidth while regulated (max of reps) "
-                  << maximum(bw_interval) << " MB/s, budget " << budget_mbps << " MB/s, bound "
-                  << bound_mbps << " MB/s (nRT alone " << nrt_iso.mbps
-                  << " MB/s, activation delay max " << maximum(delays) << " us); source "
-                  << ctx.facts["pmc_source"]
+                  << maximum(bw_interval) << " MB/s (median " << median(held)
+                  << " of unregulated), budget " << budget_mbps << " MB/s, bound " << bound_mbps
+                  << " MB/s (nRT alone " << nrt_iso.mbps << " MB/s, activation delay max "
+                  << maximum(delays) << " us); source " << ctx.facts["pmc_source"]
                   << "; RT slowdown none/interval/floor per repetition:" << reps_text);
   CHECK(maximum(bw_interval) <= bound_mbps);
-  CHECK(median(bw_interval) < 0.5 * nrt_iso.mbps);  // regulation did hold the nRT node back
+  // Regulation did hold the nRT node back: against its unregulated co-run of the same repetition
+  // (run next to it), not a baseline from another moment of a host whose speed drifts.
+  INFO("nRT bandwidth regulated / unregulated per repetition (median " << median(held) << ")");
+  CHECK(median(held) < 0.5);
   // Interference above the floor, repetition by repetition: a host that slows the RT node as
   // much beside a co-runner without memory traffic (another busy process on the machine, the
   // host descheduling a vCPU) is not something regulation can remove.

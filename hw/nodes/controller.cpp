@@ -156,7 +156,11 @@ bool Controller::arm_overflow(std::size_t e) {
   // The counts now: the counter's period runs from here.
   std::array<CounterValue, kMaxGroupEvents> v{};
   groups_[e]->read(std::span(v.data(), cfg_.group_sizes[e]));
-  const OverflowArm arm = overflow_arm(limits, std::span(v.data(), cfg_.metric_events));
+  // The split follows each event's counts since the last arm (kept across a spent arm).
+  const OverflowArm arm =
+      overflow_arm(limits, std::span(v.data(), cfg_.metric_events),
+                   a.at.size() == cfg_.metric_events ? std::span<const std::uint64_t>(a.at)
+                                                     : std::span<const std::uint64_t>());
   if (arm.due) {
     if (a.armed) overflow_[e]->disarm();
     a = {};

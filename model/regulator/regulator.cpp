@@ -18,7 +18,8 @@ std::vector<std::size_t> accounts_for_scope(Scope scope, std::size_t entities) {
 }
 
 OverflowArm overflow_arm(std::span<const OverflowLimit> limits,
-                         std::span<const CounterValue> counts) {
+                         std::span<const CounterValue> counts,
+                         std::span<const std::uint64_t> previous) {
   OverflowArm arm;
   arm.periods.assign(counts.size(), 0);
   // Far beyond any budget a window can hold, and below the 63 bits perf's period takes.
@@ -26,22 +27,32 @@ OverflowArm overflow_arm(std::span<const OverflowLimit> limits,
   for (const OverflowLimit& l : limits) {
     if (l.bytes_per_count.size() > counts.size())
       throw ContractError("an overflow limit weighs more events than were counted");
-    double now = 0.0;
+    double now = 0.0, recent_sum = 0.0;
     std::size_t weighed = 0;
+    std::vector<double> recent(l.bytes_per_count.size(), 0.0);  // bytes since `previous`
     for (std::size_t i = 0; i < l.bytes_per_count.size(); ++i) {
       now += l.bytes_per_count[i] * static_cast<double>(counts[i].value);
-      if (l.bytes_per_count[i] > 0.0) ++weighed;
+      if (l.bytes_per_count[i] <= 0.0) continue;
+      ++weighed;
+      if (i < previous.size() && counts[i].value > previous[i])
+        recent[i] = l.bytes_per_count[i] * static_cast<double>(counts[i].value - previous[i]);
+      recent_sum += recent[i];
     }
     if (weighed == 0) continue;
     if (now > l.at_bytes) {
       arm.due = true;
       continue;
     }
-    const double share = (l.at_bytes - now) / static_cast<double>(weighed);
+    const double left = l.at_bytes - now, even = 1.0 / static_cast<double>(weighed);
     for (std::size_t i = 0; i < l.bytes_per_count.size(); ++i) {
       if (l.bytes_per_count[i] <= 0.0) continue;
+      const double fraction =
+          recent_sum > 0.0
+              ? kQuietOverflowShare * even + (1.0 - kQuietOverflowShare) * recent[i] / recent_sum
+              : even;
       // Overflowing after p counts: strictly past the share (the limit fires on exceeding).
-      const double p = std::min(kMaxPeriod, std::floor(share / l.bytes_per_count[i]) + 1.0);
+      const double p =
+          std::min(kMaxPeriod, std::floor(left * fraction / l.bytes_per_count[i]) + 1.0);
       const auto period = static_cast<std::uint64_t>(p);
       if (arm.periods[i] == 0 || period < arm.periods[i]) arm.periods[i] = period;
     }

@@ -62,9 +62,16 @@ struct OverflowLimit {
 
 // How a host whose overflow counters each count one event (perf_event_open: one sample_period
 // per event) arms them for `limits`, from the entity's cumulative raw counter values `counts`
-// now (in the metric's event order). A limit's bytes still left are split evenly among the
-// events it weighs, so that whichever counter overflows first does so at or before the limit's
-// crossing; the host then reads the entity, samples it and arms again with what is left.
+// now (in the metric's event order). A limit's bytes still left are split among the events it
+// weighs, shares that add up to what is left, so that whichever counter overflows first does so
+// at or before the limit's crossing; the host then reads the entity, samples it and arms again
+// with what is left. The split follows each event's bytes since `previous` (the counts when the
+// entity was last armed; empty: none), every event keeping at least kQuietOverflowShare of an
+// even share: an event that was quiet and starts counting overflows early, and the next arm
+// follows the new rates. Without a previous arm, or with no bytes since, the split is even. (An
+// even split spends only half of what is left per signal where one of two events is quiet, as
+// l2d_cache_wb is for a read-only workload: some 14 signals per throttle on the hw backend.)
+inline constexpr double kQuietOverflowShare = 0.125;
 struct OverflowArm {
   bool due = false;  // a limit is exceeded already: read the entity now, arm nothing
   // Per event: counts until its counter must overflow (>= 1), the smallest over the limits;
@@ -73,7 +80,8 @@ struct OverflowArm {
   bool operator==(const OverflowArm&) const = default;
 };
 OverflowArm overflow_arm(std::span<const OverflowLimit> limits,
-                         std::span<const CounterValue> counts);
+                         std::span<const CounterValue> counts,
+                         std::span<const std::uint64_t> previous = {});
 
 struct RegulatorConfig {
   std::size_t rt_count = 1;

@@ -164,6 +164,20 @@ TEST_CASE("overflow_arm: one counter per event, each overflowing at or before it
     // Neither counter reaching its period leaves the sum at or under the limit.
     CHECK(64.0 * (10 + 50) + 64.0 * (20 + 50) <= l[0].at_bytes);
   }
+  SECTION("after a previous arm: shares follow each event's bytes since, a quiet one keeps 1/8") {
+    // 6400 bytes left; since the previous arm only the first event counted (50 lines).
+    const std::vector<OverflowLimit> l{{{64.0, 64.0}, 64.0 * (60 + 20) + 6400}};
+    const std::vector<std::uint64_t> previous{10, 20};
+    const OverflowArm a = overflow_arm(l, counts({60, 20}), previous);
+    // 15/16 and 1/16 of what is left: 93.75 and 6.25 lines, each plus one to exceed.
+    CHECK(a == OverflowArm{false, {94, 7}});
+    CHECK(64.0 * (60 + 93) + 64.0 * (20 + 6) <= l[0].at_bytes);  // still at or before the limit
+    // Both counted alike, or neither did: even, as without a previous arm.
+    CHECK(overflow_arm(l, counts({60, 20}), std::vector<std::uint64_t>{40, 0}) ==
+          OverflowArm{false, {51, 51}});
+    CHECK(overflow_arm(l, counts({60, 20}), std::vector<std::uint64_t>{60, 20}) ==
+          OverflowArm{false, {51, 51}});
+  }
   SECTION("per-event limits: each on its own event; a total and a per-event limit take the least") {
     const std::vector<OverflowLimit> l{{{0.0, 64.0}, 64.0 * 100},  // writes: 100 lines
                                        {{64.0, 64.0}, 64.0 * 1000}};

@@ -21,6 +21,19 @@ void sink(void* self, const dds_log_data_t* d) {
   static_cast<LimitedCycloneLog*>(self)->take(d->file ? d->file : "", d->line, m, monotonic_ns());
 }
 
+// The kind of a line (see the header): its place in Cyclone's source and its message without
+// numbers and packet dumps (`<...>`).
+std::string kind(const std::string& file, std::uint32_t line, std::string_view message) {
+  std::string k = file + ":" + std::to_string(line) + ":";
+  int depth = 0;
+  for (const char c : message) {
+    if (c == '<') ++depth;
+    if (depth == 0 && !(c >= '0' && c <= '9')) k += c;
+    if (c == '>' && depth > 0) --depth;
+  }
+  return k;
+}
+
 }  // namespace
 
 LimitedCycloneLog::LimitedCycloneLog(Write write, std::int64_t every_ns)
@@ -30,18 +43,6 @@ LimitedCycloneLog::LimitedCycloneLog(Write write, std::int64_t every_ns)
 
 LimitedCycloneLog::~LimitedCycloneLog() {
   dds_set_log_sink(nullptr, nullptr);
-}
-
-std::string LimitedCycloneLog::kind(const std::string& file, std::uint32_t line,
-                                    std::string_view message) {
-  std::string k = file + ":" + std::to_string(line) + ":";
-  int depth = 0;
-  for (const char c : message) {
-    if (c == '<') ++depth;
-    if (depth == 0 && !(c >= '0' && c <= '9')) k += c;
-    if (c == '>' && depth > 0) --depth;
-  }
-  return k;
 }
 
 void LimitedCycloneLog::take(const std::string& file, std::uint32_t line, std::string_view message,

@@ -42,8 +42,6 @@ class LimitedCycloneLog {
 
   // What the sink does with one line from `file`:`line` at monotonic time `now_ns` (public for
   // tests: the sink calls it with Cyclone's data).
-  // The kind of a line (see above).
-  static std::string kind(const std::string& file, std::uint32_t line, std::string_view message);
   void take(const std::string& file, std::uint32_t line, std::string_view message,
             std::int64_t now_ns);
 

@@ -171,8 +171,9 @@ class Backend {
   // How many times each distinct isolation baseline of `scenario` is measured: 1 for a
   // deterministic backend (sim), several where the machine is noisy (hw).
   virtual int baseline_repetitions(const Scenario& scenario) const = 0;
-  // Called for every point before anything is written: throws InputError (file + JSON path)
-  // for what this backend cannot run (e.g. a platform without a memory model).
+  // Called for every point before anything is written, from several threads at once: throws
+  // InputError (file + JSON path) for what this backend cannot run (e.g. a platform without a
+  // memory model).
   virtual void validate(const Scenario& point) const = 0;
   // One measurement of a baseline (`seed` differs per measurement). Throws InputError for a
   // scenario this backend cannot run, RunError for failures.

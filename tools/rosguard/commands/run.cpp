@@ -101,6 +101,7 @@ int run_command(RunArgs& args, const std::string& command_line, Loader& loader,
           std::pair{!args.slurm_options.sbatch_args.empty(), "--sbatch-arg"},
           std::pair{args.slurm_options.dry_run, "--dry-run"}})
       if (given) throw InputError("", "", std::string(name) + " goes with --slurm");
+    opt.process_ends = true;
     return run_scenario(opt, loader, backends);
   }
   if (!args.shard.empty())

@@ -43,8 +43,9 @@ unsigned worker_threads(const RunOptions& opt) {
   return static_cast<unsigned>(std::max(1, std::min(requested_jobs(opt), cpus)));
 }
 
-std::unique_ptr<Backend> make_backend(const LoadedScenario& loaded,
-                                      const BackendRegistry& backends) {
+// The run's backend, with every point validated against it (on `threads` threads).
+std::unique_ptr<Backend> make_backend(const LoadedScenario& loaded, const BackendRegistry& backends,
+                                      unsigned threads = 1) {
   const std::string& name = loaded.points.front().scenario.backend;
   const BackendInfo* info = backends.find(name);
   if (!info) {
@@ -55,8 +56,8 @@ std::unique_ptr<Backend> make_backend(const LoadedScenario& loaded,
                    (known.empty() ? "none" : known) + ")");
   }
   std::unique_ptr<Backend> backend = info->make();
-  for (const auto& p : loaded.points)
-    backend->validate(p.scenario);
+  parallel_for(loaded.points.size(), threads,
+               [&](std::size_t i) { backend->validate(loaded.points[i].scenario); });
   return backend;
 }
 
@@ -1066,7 +1067,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   const std::vector<std::unique_ptr<TaskHost>> hosts =
       start_task_hosts(loader, loaded, backends, opt.trace, requested_jobs(opt));
   loader.load_points(loaded, PointSelection::All, worker_threads(opt));
-  std::unique_ptr<Backend> backend = make_backend(loaded, backends);
+  std::unique_ptr<Backend> backend = make_backend(loaded, backends, worker_threads(opt));
   loader.print_warnings(loaded);  // on the console as `check` prints them; and in the manifest
   const Scenario& first = loaded.points.front().scenario;
   const bool adaptive = adaptive_run(loaded, *backend);
@@ -1080,7 +1081,7 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   std::error_code ec;
   if (opt.overwrite) fs::remove(store.dir() / "unregulated.json", ec);
   const ResultsStore::Opened opened =
-      store.open(describe_run(loaded, first.backend, opt.command_line), shard);
+      store.open(describe_run(loaded, first.backend, opt.command_line, worker_threads(opt)), shard);
   const int repetitions = first.repetitions;
   const std::size_t point_count = loaded.points.size();
 
@@ -1156,7 +1157,9 @@ int run_scenario(const RunOptions& opt, Loader& loader, const BackendRegistry& b
   store.finish(report,
                refresh_rows ? row_refresher(loaded, corun_plan, store.dir()) : RowRefresher{},
                point_refresher(loaded, *backend));
-  return report_to_user(opt, report, store.dir(), point_count, precision, repetitions);
+  const int code = report_to_user(opt, report, store.dir(), point_count, precision, repetitions);
+  if (opt.process_ends) new LoadedScenario(std::move(loaded));  // freed by the process's end
+  return code;
 }
 
 }  // namespace rosguard

@@ -376,7 +376,7 @@ std::pair<std::uintmax_t, std::uintmax_t> ResultsStore::sizes() const {
   return {size(points_path()), size(dir_ / "samples.csv")};
 }
 
-ResultsStore::Opened ResultsStore::open(const json& description, const std::string& shard) {
+ResultsStore::Opened ResultsStore::open(json description, const std::string& shard) {
   std::error_code ec;
   fs::create_directories(dir_, ec);
   if (ec) throw RunError("cannot create results folder " + dir_.string() + ": " + ec.message());
@@ -391,7 +391,8 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
   opened.done = tidy_csv_files();
   opened.baselines = read_baselines();
   shard_ = shard;
-  m.update(description);
+  for (auto& [key, value] : description.items())  // moved: it lists every point of the sweep
+    m[key] = std::move(value);
   m["shard"] = shard;
   m["end_time"] = nullptr;
   m["status"] = "running";
@@ -405,8 +406,23 @@ ResultsStore::Opened ResultsStore::open(const json& description, const std::stri
     opened.fallbacks.emplace(f.value("what", ""), f.value("detail", ""));
   // The manifest last: a write that fails before it leaves no shard said to run.
   write_file_atomic(dir_ / "columns.json", columns_json(header_line_).dump(2) + "\n");
-  write_file_atomic(dir_ / "manifest.json", m.dump(2) + "\n");
+  manifest_text_ = m.dump(2) + "\n";
+  write_file_atomic(dir_ / "manifest.json", manifest_text_);
+  manifest_ = std::move(m);
   return opened;
+}
+
+json ResultsStore::take_manifest() {
+  std::string written = std::move(manifest_text_);
+  manifest_text_.clear();
+  json m = std::move(manifest_);
+  manifest_ = json();
+  std::error_code ec;
+  const fs::path path = dir_ / "manifest.json";
+  if (!written.empty() && fs::file_size(path, ec) == written.size() && !ec &&
+      read_file(path) == written)
+    return m;
+  return read_manifest();
 }
 
 void ResultsStore::append_runs(const std::string& samples, const std::string& rows) const {
@@ -506,7 +522,7 @@ std::size_t ResultsStore::finish_locked(const InvocationReport& report, const Ro
                                         const PointRefresher& point_refresh) {
   const std::set<RunKey> done = tidy_csv_files(refresh, point_refresh);
   const std::size_t rows = done.size();
-  json m = read_manifest();
+  json m = take_manifest();
   // Every baseline of the folder (all shards): its measurements, their median and spread, and a
   // warning where the spread is too large for the slowdowns measured against it.
   const Baselines baselines = read_baselines();

@@ -125,7 +125,7 @@ class ResultsStore {
   // (InputError, nothing written), tidies both CSV files, reads what is already done, and
   // writes the manifest: `description` merged over it, this invocation's `shard` ("I/N")
   // marked running.
-  Opened open(const nlohmann::json& description, const std::string& shard);
+  Opened open(nlohmann::json description, const std::string& shard);
 
   // Appends runs' samples.csv lines and their points.csv rows (the same runs, in one order).
   void append_runs(const std::string& samples, const std::string& rows) const;
@@ -153,6 +153,10 @@ class ResultsStore {
                                                        const PointRefresher& points = {}) const;
   Baselines read_baselines() const;
   nlohmann::json read_manifest() const;
+  // The manifest this store wrote at open() while the file still holds exactly that text (no
+  // other shard wrote since: the usual case, and parsing a 10,000-point manifest again took
+  // longer than the rest of finish), else read_manifest(). Once: the document is moved out.
+  nlohmann::json take_manifest();
   std::size_t finish_locked(const InvocationReport& report, const RowRefresher& refresh,
                             const PointRefresher& points);
   // The manifest with this shard (and so the folder) failed with `error`, nothing else changed.
@@ -165,6 +169,8 @@ class ResultsStore {
   bool adaptive_;
   std::string shard_;
   std::unique_ptr<FileLock> shard_lock_;  // claim_shard's
+  std::string manifest_text_;             // what open() wrote (take_manifest)
+  nlohmann::json manifest_;
   // The sizes of points.csv and samples.csv (-1 for one that is missing).
   std::pair<std::uintmax_t, std::uintmax_t> sizes() const;
   // Whether both files are as tidy_csv_files left them plus this store's appends, each of a run

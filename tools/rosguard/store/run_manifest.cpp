@@ -1,27 +1,31 @@
 #include "store/run_manifest.h"
 
 #include <cstdio>
+#include <iterator>
 #include <map>
 #include <set>
 #include <utility>
+#include <vector>
 
 #include "core/hash.h"
 #include "load/host_facts.h"
+#include "run/parallel.h"
 
 namespace rosguard {
 using json = nlohmann::json;
 
 namespace {
 
-json describe_points(const LoadedScenario& loaded) {
-  json points = json::array();
-  for (const auto& p : loaded.points) {
+json describe_points(const LoadedScenario& loaded, unsigned threads) {
+  std::vector<json> each(loaded.points.size());
+  parallel_for(each.size(), threads, [&](std::size_t i) {
+    const SweepPoint& p = loaded.points[i].sweep;
     json params = json::object();
-    for (const auto& q : p.sweep.params)
+    for (const auto& q : p.params)
       params[q.path] = q.value;
-    points.push_back({{"index", p.sweep.index}, {"id", p.sweep.id}, {"params", params}});
-  }
-  return points;
+    each[i] = {{"index", p.index}, {"id", p.id}, {"params", std::move(params)}};
+  });
+  return json::array_t(std::make_move_iterator(each.begin()), std::make_move_iterator(each.end()));
 }
 
 // Every workload the run uses, with the isolation figures it is calibrated against (the paper's
@@ -29,7 +33,10 @@ json describe_points(const LoadedScenario& loaded) {
 json describe_workloads(const LoadedScenario& loaded) {
   json workloads = json::object();
   std::set<std::pair<std::string, std::string>> seen;  // (name, origin): each entry made once
+  const WorkloadInfo* last = nullptr;  // the points of a sweep mostly share their workloads
   const auto add = [&](const WorkloadInfo& w) {
+    if (last && last->name == w.name && last->origin == w.origin) return;
+    last = &w;
     if (!seen.emplace(w.name, w.origin).second) return;
     json entry{{"origin", w.origin}};
     if (w.doc.contains("reference")) entry["reference"] = w.doc["reference"];
@@ -70,7 +77,7 @@ std::string scenario_hash(const LoadedScenario& s) {
 }
 
 json describe_run(const LoadedScenario& loaded, const std::string& backend,
-                  const std::string& command_line) {
+                  const std::string& command_line, unsigned threads) {
   const Scenario& first = loaded.points.front().scenario;
   json m;
   m["schema_version"] = 1;
@@ -79,7 +86,7 @@ json describe_run(const LoadedScenario& loaded, const std::string& backend,
   m["scenario_file"] = loaded.file;
   m["scenario_hash"] = scenario_hash(loaded);
   m["scenario"] = {{"given", loaded.given}, {"expanded", loaded.expanded}};
-  m["scenario"]["points"] = describe_points(loaded);
+  m["scenario"]["points"] = describe_points(loaded, threads);
   m["workloads"] = describe_workloads(loaded);
   m["platform"] = describe_platform(loaded);
   // "platform": "host": the probe and where the model came from, per backend.

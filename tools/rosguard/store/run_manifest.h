@@ -16,7 +16,8 @@ std::string scenario_hash(const LoadedScenario& loaded);
 // schema_version, tool, command, scenario_file, scenario_hash, scenario (given, expanded and
 // the points), workloads (with their reference figures), platform, backend, seed, repetitions,
 // host, start_time, warnings; host_platform (the probe, the model's file) for "platform": "host".
+// The points are described on `threads` threads.
 nlohmann::json describe_run(const LoadedScenario& loaded, const std::string& backend,
-                            const std::string& command_line);
+                            const std::string& command_line, unsigned threads = 1);
 
 }  // namespace rosguard

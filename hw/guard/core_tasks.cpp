@@ -16,7 +16,6 @@
 #include "core/error.h"
 #include "hw/common/clock.h"
 #include "hw/common/sys.h"
-#include "hw/pmc_source/perf.h"
 
 namespace rosguard::hw {
 namespace {
@@ -131,11 +130,6 @@ void CpuTimeGroup::publish(std::vector<pid_t> tids) {
   published_ = std::move(tids);
 }
 
-std::string CpuTimeGroup::fallback() const {
-  std::lock_guard lock(fallback_mutex_);
-  return fallback_;
-}
-
 void CpuTimeGroup::read(std::span<CounterValue> out) {
   if (out.empty()) return;
   const TimeNs now = now_ns();
@@ -149,38 +143,21 @@ void CpuTimeGroup::read(std::span<CounterValue> out) {
       ended_ns_ += it->second;
       total += it->second;
       base_.erase(it->first);
-      clocks_.erase(it->first);
       it = last_.erase(it);
     } else {
       ++it;
     }
   }
   for (pid_t tid : tids_) {
+    const long long ns = thread_cpu_ns_of(tid);
     auto it = last_.find(tid);
+    if (ns < 0) continue;  // gone: dropped at the next list
     // Counted from when it was first seen pinned (its earlier CPU time is not this core's).
     if (it == last_.end()) {
-      const long long ns = thread_cpu_ns_of(tid);
-      if (ns < 0) continue;  // gone: dropped at the next list
-      try {
-        static const PerfEventCode task_clock = *software_event("task_clock");
-        clocks_[tid] =
-            open_perf_group({{"task_clock", task_clock}}, {PmcTarget::Kind::Thread, tid});
-      } catch (const RunError& e) {
-        std::lock_guard lock(fallback_mutex_);
-        if (fallback_.empty()) fallback_ = e.what();
-        base_[tid] = static_cast<std::uint64_t>(ns);
-      }
       it = last_.emplace(tid, 0).first;
+      base_[tid] = static_cast<std::uint64_t>(ns);
     }
-    if (const auto clock = clocks_.find(tid); clock != clocks_.end()) {
-      CounterValue v;
-      clock->second->read({&v, 1});
-      it->second = v.value;
-    } else {
-      const long long ns = thread_cpu_ns_of(tid);
-      if (ns < 0) continue;  // gone: dropped at the next list
-      it->second = static_cast<std::uint64_t>(ns) - base_[tid];
-    }
+    it->second = static_cast<std::uint64_t>(ns) - base_[tid];
     total += it->second;
   }
   out[0] = {total, static_cast<std::uint64_t>(now - first_),

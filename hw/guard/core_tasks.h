@@ -8,11 +8,7 @@
 //   still alive back as it was (policy, nice value, cgroup). fifo needs nothing of them.
 // - CpuTimeGroup is a CounterGroup read by the controller thread: the CPU time (ns) of the threads
 //   pinned to its core, cumulative (threads that ended keep their last reading). It never blocks
-//   on the main thread: it takes the latest list rescan() published with a try_lock. Each thread's
-//   time comes from a perf task_clock event opened on it when first seen: reading it brings a
-//   running thread's count up to date. Where the kernel refuses the event, the thread's time comes
-//   from /proc/<tid>/schedstat, which a running thread updates only at scheduler ticks (4 ms at
-//   250 Hz: a 1 ms sampling period then sees it in 4 ms steps); fallback() says why.
+//   on the main thread: it takes the latest list rescan() published with a try_lock.
 // - Threads under a real-time policy are left alone (noted once): the guard regulates work that
 //   the scheduler can preempt, not another real-time program.
 // - Crash safety: with a record file (the guard's `state_dir`), every change CoreTasks makes to
@@ -42,9 +38,6 @@ class CpuTimeGroup : public CounterGroup {
   void read(std::span<CounterValue> out) override;
   // Main thread: the threads pinned to the core now.
   void publish(std::vector<pid_t> tids);
-  // Why some thread's time is read from /proc/<tid>/schedstat (the first refusal of its perf
-  // event), "" while every thread has its event. Any thread.
-  std::string fallback() const;
 
  private:
   std::mutex mutex_;
@@ -52,10 +45,7 @@ class CpuTimeGroup : public CounterGroup {
   // Controller thread only:
   std::vector<pid_t> tids_;
   std::map<pid_t, std::uint64_t> last_;  // CPU time since first seen pinned
-  std::map<pid_t, std::uint64_t> base_;  // schedstat: its CPU time when first seen
-  std::map<pid_t, std::unique_ptr<CounterGroup>> clocks_;  // its task_clock, counting since then
-  mutable std::mutex fallback_mutex_;
-  std::string fallback_;  // guarded by fallback_mutex_
+  std::map<pid_t, std::uint64_t> base_;  // its CPU time when first seen
   std::uint64_t ended_ns_ = 0;
   TimeNs first_ = -1;
 };

@@ -126,8 +126,8 @@ void Guard::choose_source() {
     source_why_ =
         "cputime: " + (s_.source == GuardSource::Auto ? no_pmu + ", so " : std::string()) +
         "the budget is CPU time, not bandwidth: the CPU time of the processes pinned to each core "
-        "(a perf task_clock event per thread) x reference_mbps; a core may run its processes "
-        "threshold_pct % of each window";
+        "(/proc/<tid>/schedstat) x reference_mbps; a core may run its processes threshold_pct % "
+        "of each window";
     MetricSpec& m = s_.regulation.metric;
     m.line_bytes = 64;
     m.events = {{"task_clock", s_.regulation.params.reference_mbps * kBytesPerMb / 1e9 / 64.0}};
@@ -363,15 +363,6 @@ void Guard::rescan() {
           " tid " + std::to_string(c.tid) + (c.comm.empty() ? "" : " (" + c.comm + ")") +
           (c.note.empty() ? "" : ": " + c.note));
   }
-  // The controller opens a thread's event when it first reads it: a refusal shows here after.
-  for (const auto* g : cputime_)
-    if (const std::string why = g->fallback(); !why.empty() && !cputime_fallback_logged_) {
-      logln(
-          "warning: fallback (cputime_schedstat): some threads' CPU time comes from "
-          "/proc/<tid>/schedstat, which a running thread updates only at scheduler ticks (" +
-          why + ")");
-      cputime_fallback_logged_ = true;
-    }
   next_rescan_ = now_ns() + s_.rescan_ns;
 }
 

@@ -239,7 +239,6 @@ class Guard {
   std::vector<std::unique_ptr<Topic<ControlMsg>>> controls_;
   std::vector<std::unique_ptr<NrtRunner>> nodes_;
   std::vector<CpuTimeGroup*> cputime_;
-  bool cputime_fallback_logged_ = false;
   std::unique_ptr<Controller> controller_;
   std::unique_ptr<CoreTasks> tasks_;
   std::shared_ptr<ErrorSink> error_sink_;

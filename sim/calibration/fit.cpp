@@ -330,6 +330,7 @@ struct RunSelection {
   // and beyond it (co-runners beyond the L3).
   std::set<std::size_t> l3_counts, dram_counts;
   std::map<std::string, bool> beyond_l3;  // kernel measured beyond the L3 (iso or co-run)
+  bool dram_writer_corun = false;         // a co-run beyond the L3 in which a kernel there writes
 };
 
 // Sorts the runs into those the model covers and those it does not: each in rep.runs, the latter
@@ -361,12 +362,17 @@ RunSelection select_runs(const Measurements& m, int cores_per_cluster, FitReport
       if (r.corunners.empty()) sel.iso[r.kernel][lv].push_back(r.ns_per_line);
       if (lv == Level::Dram) sel.beyond_l3[r.kernel] = true;
       std::size_t co_l3 = 0, co_dram = 0;
+      bool writes_beyond = lv == Level::Dram && lines_moved(r.kernel) > 1.0;
       for (const auto& c : r.corunners) {
         co_l3 += c.working_set_kb > host.l2_kb ? 1 : 0;
-        co_dram += c.working_set_kb > host.l3_kb_per_cluster ? 1 : 0;
+        const bool beyond = c.working_set_kb > host.l3_kb_per_cluster;
+        co_dram += beyond ? 1 : 0;
+        writes_beyond = writes_beyond || (beyond && lines_moved(c.kernel) > 1.0);
       }
       if (lv == Level::L3 && co_l3 > 0) sel.l3_counts.insert(co_l3);
       if (lv == Level::Dram && co_dram > 0) sel.dram_counts.insert(co_dram);
+      sel.dram_writer_corun =
+          sel.dram_writer_corun || (lv == Level::Dram && co_dram > 0 && writes_beyond);
     }
     rep.runs.push_back(fr);
   }
@@ -575,6 +581,26 @@ Parameters free_parameters(const RunSelection& sel, const Priors& pr, const FitO
   add(
       "dram.bandwidth_mbps", [](SimPlatform& p) -> double& { return p.dram.bandwidth_mbps; },
       "co-runs beyond the L3", pr.dram_bandwidth);
+  // A write-back's share of the DRAM's bandwidth shows only where a writer's traffic meets
+  // another's there; without such a co-run it is held at 1 (a line each way).
+  if (sel.dram_writer_corun) {
+    add("dram.writeback_weight", [](SimPlatform& p) -> double& { return p.dram.writeback_weight; },
+        "co-runs beyond the L3 with a writing kernel beside a reading or writing one",
+        {1.0, kLn2,
+         "a write-back moves one line to DRAM as a refill moves one from it (1), a factor 2 "
+         "either way (a controller that batches writes costs less, read-write turnarounds more)"});
+  } else {
+    FittedParameter p;
+    p.name = "dram.writeback_weight";
+    const auto it = opt.fixed.find(p.name);
+    p.value = it != opt.fixed.end() ? it->second : 1.0;
+    p.how = it != opt.fixed.end()
+                ? "fixed by the caller"
+                : "held at 1, a line each way (not identified: no co-run beyond the L3 with a "
+                  "writing kernel)";
+    base.dram.writeback_weight = p.value;
+    params.held.push_back(p);
+  }
   return params;
 }
 
@@ -630,7 +656,8 @@ double solve_map(Residuals& fn, Eigen::VectorXd& x, const FitOptions& opt, int d
   for (int pass = 0; pass < 4; ++pass) {
     fn.sigma = std::sqrt(s2);
     Eigen::LevenbergMarquardt<Residuals> lm(fn);
-    lm.parameters.maxfev = opt.max_evaluations;
+    lm.parameters.maxfev =
+        opt.max_evaluations > 0 ? opt.max_evaluations : 100 * (static_cast<int>(x.size()) + 1);
     lm.parameters.ftol = 1e-12;
     lm.parameters.xtol = 1e-10;
     status = lm.minimize(x);
@@ -893,9 +920,10 @@ void model_sections(const FitReport& rep, const std::string& by, json& doc) {
        {{"latency_ns", sig(p.dram.latency_ns)},
         {"queue_ns", sig(p.dram.queue_ns)},
         {"bandwidth_mbps", sig(p.dram.bandwidth_mbps)},
-        {"source",
-         "fitted by " + by + ", " + residual + ": " +
-             describe(rep, {"dram.latency_ns", "dram.queue_ns", "dram.bandwidth_mbps"})}}},
+        {"writeback_weight", sig(p.dram.writeback_weight)},
+        {"source", "fitted by " + by + ", " + residual + ": " +
+                       describe(rep, {"dram.latency_ns", "dram.queue_ns", "dram.bandwidth_mbps",
+                                      "dram.writeback_weight"})}}},
       {"mshr",
        {{"per_core", sig(p.mshr.per_core)},
         {"per_cluster", sig(p.mshr.per_cluster)},

@@ -19,8 +19,9 @@
 //   fitted: per kernel ns_per_line_l2 (isolation within the L2), ns_per_line_l3 (isolation within
 //     the L3), mlp (runs beyond the L3, given the DRAM latency); l3.queue_ns and
 //     l3.bandwidth_mbps (co-runs within the L3); dram.latency_ns (the latency kernel beyond the
-//     L3); dram.queue_ns and dram.bandwidth_mbps (co-runs beyond the L3). With one co-runner count
-//     the runs cannot separate a queue from its bandwidth: the queue's prior (the level's
+//     L3); dram.queue_ns and dram.bandwidth_mbps (co-runs beyond the L3); dram.writeback_weight
+//     (co-runs beyond the L3 with a writing kernel: held at 1 without one). With one co-runner
+//     count the runs cannot separate a queue from its bandwidth: the queue's prior (the level's
 //     unloaded latency) decides between them. Runs whose working sets together overflow the L3
 //     are predicted by the shared-LRU model (no parameter).
 //   fixed or derived: kernels.latency.mlp = 1 (a pointer chase has one load in flight);
@@ -49,7 +50,9 @@
 namespace rosguard::calibration {
 
 struct FitOptions {
-  int max_evaluations = 400;      // LM residual evaluations (each one predicts every run)
+  // LM residual evaluations per solve (each one predicts every run); 0: MINPACK's default for
+  // lmder, 100 x (free parameters + 1).
+  int max_evaluations = 0;
   double max_rms_residual = 0.5;  // refuse a fit worse than this (log units: 0.5 is ~65 %)
   // A fitted parameter whose prior the runs narrowed by less than this share of its variance is
   // prior-dominated.

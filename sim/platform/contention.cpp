@@ -123,7 +123,8 @@ CoreRates ContentionModel::rates(const Phase& ph, double hit, int cluster, const
   r.refill_per_ns = r.inst_per_ns * ph.refill_pki / 1000.0;
   r.wb_per_ns = r.inst_per_ns * ph.wb_pki / 1000.0;
   r.l3_refill_per_ns = (1.0 - h) * r.refill_per_ns;
-  r.dram_lines_per_ns = (1.0 - h) * ((1.0 - g) * r.refill_per_ns + r.wb_per_ns);
+  r.dram_wb_per_ns = (1.0 - h) * r.wb_per_ns;
+  r.dram_lines_per_ns = (1.0 - h) * (1.0 - g) * r.refill_per_ns + r.dram_wb_per_ns;
   return r;
 }
 
@@ -240,7 +241,9 @@ double ContentionModel::l3_traffic(std::span<const CoreDemand> demands,
     if (d.cluster != cluster || d.phase == nullptr) continue;
     const CoreRates r = rates(*d.phase, hits[i], cluster, st, slc[i]);
     bytes += (r.refill_per_ns + r.wb_per_ns) * line_;
-    if (dram_bytes) *dram_bytes += r.dram_lines_per_ns * line_;
+    if (dram_bytes)
+      *dram_bytes +=
+          (r.dram_lines_per_ns - (1.0 - p_.dram.writeback_weight) * r.dram_wb_per_ns) * line_;
   }
   return bytes;
 }

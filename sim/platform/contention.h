@@ -7,7 +7,8 @@
 //     L   = l3_latency(cluster) + (1 - h) * dram_latency,   n = min(mlp, mshr.per_core) * s
 // (with a system-level cache, below, dram_latency is the L3 miss's mix of SLC and DRAM latency)
 // (f in cycles per ns), and moves (refill_pki + wb_pki) / 1000 L3 lines per instruction, of which
-// the fraction (1 - h) also goes to DRAM.
+// the fraction (1 - h) also goes to DRAM. The DRAM's utilisation counts a write-back as
+// dram.writeback_weight of a refill (1 by default: a line each way; rosguard calibrate fits it).
 //
 // Memory-level parallelism as a limit: a core has at most n L2 refills in flight (its phase's
 // mlp, cut at the platform's mshr.per_core); the cores of a cluster together at most
@@ -81,10 +82,11 @@ struct MemoryState {
 // Progress and traffic of one core, per ns.
 struct CoreRates {
   double inst_per_ns = 0.0;
-  double refill_per_ns = 0.0;     // L2 refills (L3 reads)
-  double wb_per_ns = 0.0;         // L2 write-backs (L3 writes)
-  double l3_refill_per_ns = 0.0;  // L2 refills that miss in the L3 (DRAM reads)
-  double dram_lines_per_ns = 0.0;
+  double refill_per_ns = 0.0;      // L2 refills (L3 reads)
+  double wb_per_ns = 0.0;          // L2 write-backs (L3 writes)
+  double l3_refill_per_ns = 0.0;   // L2 refills that miss in the L3 (DRAM reads)
+  double dram_lines_per_ns = 0.0;  // lines read from and written to DRAM
+  double dram_wb_per_ns = 0.0;     // of those, write-backs
 };
 
 class ContentionModel {

@@ -124,6 +124,7 @@ SimPlatform parse_sim_platform(const PlatformInfo& p) {
   s.dram.latency_ns = dram.at("latency_ns").get<double>();
   s.dram.queue_ns = dram.at("queue_ns").get<double>();
   s.dram.bandwidth_mbps = dram.at("bandwidth_mbps").get<double>();
+  s.dram.writeback_weight = dram.value("writeback_weight", 1.0);
   if (mem.contains("slc")) {
     const auto& slc = mem.at("slc");
     s.slc = SlcParams{slc.at("size_kb").get<double>(), slc.at("latency_ns").get<double>()};

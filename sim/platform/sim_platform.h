@@ -43,6 +43,9 @@ struct DramParams {
   double latency_ns = 95.0;
   double queue_ns = 25.0;
   double bandwidth_mbps = 90000.0;
+  // A write-back's share of the DRAM's bandwidth relative to a refill's (platform
+  // "writeback_weight"; 1: a line each way).
+  double writeback_weight = 1.0;
 };
 
 // A system-level cache shared by all clusters below their L3s (the platform's optional

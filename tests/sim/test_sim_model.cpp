@@ -69,6 +69,37 @@ TEST_CASE("memory model: the solved latencies are a fixed point of the traffic t
   CHECK(m.solve(d) == st);
 }
 
+TEST_CASE("memory model: the DRAM counts a write-back at dram.writeback_weight of a refill",
+          "[sim][memory]") {
+  SimPlatform p = orin();
+  p.slc.reset();  // every L3 miss goes to DRAM
+  // A reader and a writer streaming 2 MB each through one 2 MB L3: both miss on every line.
+  const WorkloadProfile br = profile("bandwidth_read");
+  const WorkloadProfile bw = profile("bandwidth_write");
+  const std::vector<CoreDemand> d = {demand(br, 0), demand(bw, 0)};
+  const auto dram_util = [&](double weight) {
+    p.dram.writeback_weight = weight;
+    const ContentionModel m(p);
+    const MemoryState st = m.solve(d);
+    double reads = 0.0, wbs = 0.0;
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      const CoreRates r = m.rates(*d[i].phase, st.l3_hit[i], 0, st, st.slc_hit[i]);
+      CHECK(r.dram_lines_per_ns == Approx(r.l3_refill_per_ns + r.dram_wb_per_ns));
+      reads += r.l3_refill_per_ns;
+      wbs += r.dram_wb_per_ns;
+    }
+    REQUIRE(wbs > 0.0);
+    // The utilisation is the weighted traffic over the bandwidth, at the fixed point.
+    CHECK(st.dram_util == Approx((reads + weight * wbs) * p.line_bytes /
+                                 ContentionModel::bytes_per_ns(p.dram.bandwidth_mbps))
+                              .epsilon(1e-6));
+    return st.dram_util;
+  };
+  const double one = dram_util(1.0);
+  CHECK(dram_util(0.5) < one);
+  CHECK(dram_util(2.0) > one);
+}
+
 TEST_CASE("memory model: co-runners in a cluster slow each other, across clusters far less",
           "[sim][memory]") {
   const SimPlatform p = orin();

@@ -179,7 +179,9 @@ class HwBackend : public Backend {
     ctx.fact("isolation", std::string("each workload alone on its core, unregulated, measured ") +
                               when +
                               "; the scenario's other cores held by idle spinner threads "
-                              "meanwhile");
+                              "meanwhile; a built-in kernel's run that was on its core less "
+                              "than 95 % of its time (RT throttling, a higher priority) is taken "
+                              "again, up to 3 attempts (hw/common/clock.h: kMinOnCore)");
     const auto rt_before = realtime_tids();
     try {
       warm_up(s, plan, w, core, ctx);

@@ -43,10 +43,8 @@ constexpr double kLineBytes = 64.0;
 const char* const kBwRead = "bandwidth_read";
 const char* const kBwWrite = "bandwidth_write";
 const char* const kLatency = "latency";
-// A window counts only if every kernel in it was on its core this much of the time; else it is
-// taken again, at most kAttempts times in all.
-constexpr double kMinOnCore = 0.95;
-constexpr int kAttempts = 3;
+// A window counts only if every kernel in it was on its core kMinOnCore of the time (clock.h);
+// else it is taken again, at most kOnCoreAttempts times in all.
 constexpr double kReferenceMbps = 10000.0;  // the synthetic controller's (any value works)
 
 std::uint64_t lines_of(double kb) {
@@ -484,13 +482,13 @@ void Suite::measure_block(const Block& block, const std::string& label) {
            (c.n ? " with " + std::to_string(c.n) + "x " + co->kernel + " " + kb_text(co->kb) : "") +
            " (window " + std::to_string(rounds[i] + 1) +
            (std::isfinite(ci) ? ", +-" + pct_text(ci) : "") + ")");
-      for (int attempt = 0; attempt < kAttempts && !stopping(); ++attempt) {
+      for (int attempt = 0; attempt < kOnCoreAttempts && !stopping(); ++attempt) {
         if (auto v =
                 window(measured_kernel(c.kernel, c.kb), c.kb, co_work, co ? co->kb : 0.0, c.n)) {
           ns[i].push_back(*v);
           break;
         }
-        ++(attempt + 1 < kAttempts ? retaken_ : dropped_);
+        ++(attempt + 1 < kOnCoreAttempts ? retaken_ : dropped_);
       }
       ++rounds[i];
       if (repetitions_done(ns[i], rounds[i], rule)) {
@@ -1085,7 +1083,7 @@ SuiteResult Suite::run() {
                std::to_string(static_cast<int>(std::lround((1.0 - kMinOnCore) * 100))) +
                " % of the window (RT throttling, other tasks): " + std::to_string(retaken_) +
                " taken again, " + std::to_string(dropped_) + " dropped after " +
-               std::to_string(kAttempts) + " attempts");
+               std::to_string(kOnCoreAttempts) + " attempts");
 
   SuiteResult r;
   r.stopped = stopping();

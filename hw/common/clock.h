@@ -25,6 +25,14 @@ inline TimeNs thread_cpu_ns() {
   return static_cast<TimeNs>(ts.tv_sec) * kNsPerS + ts.tv_nsec;
 }
 
+// A timed measurement counts only if its thread was on its core at least this share of the wall
+// time (its CPU time over the elapsed time); else it is taken again, at most kOnCoreAttempts times
+// in all. SCHED_FIFO threads still lose the CPU to RT throttling (sched_rt_runtime_us: 50 ms of
+// every second once a core's real-time tasks used the rest, which a run of back-to-back
+// SCHED_FIFO measurements reaches) and to higher priorities; under SCHED_OTHER to anything.
+inline constexpr double kMinOnCore = 0.95;
+inline constexpr int kOnCoreAttempts = 3;
+
 inline timespec to_timespec(TimeNs t) {
   return {static_cast<time_t>(t / kNsPerS), static_cast<long>(t % kNsPerS)};
 }

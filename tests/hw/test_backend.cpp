@@ -18,6 +18,7 @@
 #include "hw/backend.h"
 #include "hw/common/clock.h"
 #include "hw/common/sys.h"
+#include "hw/executor/executor.h"
 #include "load/loader.h"
 #include "policy/builtin_registry.h"
 #include "results/results.h"
@@ -348,6 +349,36 @@ TEST_CASE("a failing nRT command fails the point cleanly", "[hw][integration][sa
   baselines.put(Baselines::key(s, s.nodes.rt[0].workload, s.nodes.rt[0].core), {1e5, 0, 0});
   CHECK_THROWS_WITH(backend->run_point(s, baselines, 0, 0, ctx),
                     Catch::Contains("false") && Catch::Contains("exit 1"));
+  CHECK(realtime_threads().empty());
+}
+
+TEST_CASE("an isolation run that loses its core is taken again, and named when every attempt did",
+          "[hw][isolation]") {
+  const auto loaded = load("rt-vs-nrt-bandwidth-read.json");
+  const Scenario& s = loaded.points[0].scenario;
+  const NrtNodeSpec& nrt = s.nodes.nrt[0];
+  auto backend = make_hw_backend(builtin_registry());
+  // A thread above the node's priority on its core, computing 2 ms of every 4: each attempt is on
+  // its core about half of its time (under SCHED_FIFO; where it is refused, the nice values
+  // that replace the priorities share the core the same way).
+  std::atomic<bool> stop{false};
+  RtThread hog(ThreadSpec{"rg-test-hog", nrt.core, SchedClass::Fifo, prio::kThr}, [&] {
+    while (!stop.load()) {
+      const TimeNs until = now_ns() + 2 * kNsPerMs;
+      while (now_ns() < until)
+        cpu_relax();
+      sleep_until(now_ns() + 2 * kNsPerMs);
+    }
+  });
+  TestContext ctx;
+  const IsolationResult r = backend->isolation(s, nrt.workload, nrt.core, 0, ctx);
+  stop.store(true);
+  hog.join();
+  CHECK(r.time_us > 0);
+  REQUIRE(ctx.fallbacks.count("isolation_off_core"));
+  CHECK_THAT(ctx.fallbacks.at("isolation_off_core"),
+             Catch::Contains("in each of 3 attempts") && Catch::Contains("on core 1"));
+  CHECK_THAT(ctx.facts.at("isolation"), Catch::Contains("taken again"));
   CHECK(realtime_threads().empty());
 }
 

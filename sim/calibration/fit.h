@@ -2,11 +2,14 @@
 //
 // Called by the calibrate command with what the hw suite measured (model/calibration/
 // measurements.h). fit() is a maximum a posteriori (regularised) non-linear least-squares fit
-// (Eigen's Levenberg-Marquardt) of the model's free parameters, on a log scale: the runs' relative
-// residuals log(predicted / measured ns_per_line), each weighted by the run's repeatability
-// (0.02 / max(cv, 0.02): a run whose repetitions scatter counts less), plus one residual per
-// parameter for its prior (lognormal: a median and a spread, each with its source: the runs that
-// show it most directly, or a typical value where the runs cannot show it). The priors are scaled
+// (Eigen's Levenberg-Marquardt, started from the priors' medians and from each bandwidth at a half
+// and a quarter of its median, the lowest objective kept: a queue and its bandwidth trade off
+// along a ridge with more than one local minimum) of the model's free parameters, on a log
+// scale: the runs' relative residuals log(predicted / measured ns_per_line), each weighted by the
+// run's repeatability (0.02 / max(cv, 0.02): a run whose repetitions scatter counts less), plus
+// one residual per parameter for its prior (lognormal: a median and a spread, each with its
+// source: the runs that show it most directly, or a typical value where the runs cannot show
+// it). The priors are scaled
 // by the runs' residual standard deviation, so a prior weighs as one measurement of its
 // parameter. Every parameter is reported with its posterior standard error and how far the runs
 // narrowed its prior (data_share); one the runs narrowed by less than half is prior-dominated: a

@@ -3,20 +3,19 @@
 // Called by the calibrate command with what the hw suite measured (model/calibration/
 // measurements.h). fit() is a maximum a posteriori (regularised) non-linear least-squares fit
 // (Eigen's Levenberg-Marquardt, started from the priors' medians and from each bandwidth at a half
-// and a quarter of its median, the lowest objective kept: a queue and its bandwidth trade off
-// along a ridge with more than one local minimum) of the model's free parameters, on a log
-// scale: the runs' relative residuals log(predicted / measured ns_per_line), each weighted by the
-// run's repeatability (0.02 / max(cv, 0.02): a run whose repetitions scatter counts less), plus
-// one residual per parameter for its prior (lognormal: a median and a spread, each with its
-// source: the runs that show it most directly, or a typical value where the runs cannot show
-// it). The priors are scaled
-// by the runs' residual standard deviation, so a prior weighs as one measurement of its
+// and a quarter of its median, the lowest objective kept: a queue and its bandwidth trade off along
+// a ridge with more than one local minimum) of the model's free parameters, on a log scale: the
+// runs' relative residuals log(predicted / measured ns_per_line), each weighted by the run's
+// repeatability (0.02 / max(cv, 0.02): a run whose repetitions scatter counts less), plus one
+// residual per parameter for its prior (lognormal: a median and a spread, each with its source: the
+// runs that show it most directly, or a typical value where the runs cannot show it). The priors
+// are scaled by the runs' residual standard deviation, so a prior weighs as one measurement of its
 // parameter. Every parameter is reported with its posterior standard error and how far the runs
 // narrowed its prior (data_share); one the runs narrowed by less than half is prior-dominated: a
 // note says so, and the model is still written. Predictions are exactly the sim's: the kernel's
 // profile (sim/workload/profile.h: kernel_profile) on the memory model's steady state
-// (sim/platform/contention.h), the measured kernel on core 0 of cluster 0 and its co-runners on
-// the next cores of that cluster.
+// (sim/platform/contention.h), the measured kernel on core 0 of cluster 0 and its co-runners on the
+// next cores of that cluster.
 //
 // Parameters (all strictly positive: fitted as logarithms, which keeps them in bounds):
 //   fitted: per kernel ns_per_line_l2 (isolation within the L2), ns_per_line_l3 (isolation within

@@ -76,6 +76,13 @@ Measurements synthetic(const sim::SimPlatform& p, const HostFacts& h, double noi
   return m;
 }
 
+// The measurements of a calibration.json in tests/sim/fixtures/measured/.
+Measurements measured(const std::string& file) {
+  const auto path = test::source_dir() / "tests/sim/fixtures/measured" / file;
+  return measurements_from_json(json::parse(test::read_text(path)).at("measurements"),
+                                path.string());
+}
+
 const FittedParameter& param(const FitReport& r, const std::string& name) {
   for (const auto& p : r.parameters)
     if (p.name == name) return p;
@@ -455,9 +462,7 @@ TEST_CASE("fit: the measured suites of two real hosts fit, prior-dominated param
        {"devvm-xeon-2026-11-26-quick-1.json", "devvm-xeon-2026-11-26-quick-2.json",
         "devvm-xeon-2026-11-26-quick-3.json", "devvm-xeon-2026-11-26-full-1.json",
         "xeon16-2026-11-26-quick.json"}) {
-    const auto path = test::source_dir() / "tests/sim/fixtures/measured" / file;
-    const json doc = json::parse(test::read_text(path));
-    const Measurements m = measurements_from_json(doc.at("measurements"), path.string());
+    const Measurements m = measured(file);
     const FitReport r = fit(m);
     INFO(file << ": " << to_json(r).dump(1));
     CHECK(r.converged);
@@ -524,10 +529,7 @@ TEST_CASE("fit: the measured suites of two real hosts fit, prior-dominated param
 // fast; fitted, the weight closes that gap.
 TEST_CASE("fit: the write-back weight the EPYC VM's writer co-runs show is fitted",
           "[sim][fit][measured]") {
-  const auto path =
-      test::source_dir() / "tests/sim/fixtures/measured/devvm-epyc-2026-11-27-quick.json";
-  const json doc = json::parse(test::read_text(path));
-  const Measurements m = measurements_from_json(doc.at("measurements"), path.string());
+  const Measurements m = measured("devvm-epyc-2026-11-27-quick.json");
   const auto reader_pair = [](const FitReport& r) {
     for (const auto& run : r.runs)
       if (run.label == "bandwidth_read 131072 KB + bandwidth_read 131072 KB") return run.residual;
@@ -554,10 +556,7 @@ TEST_CASE("fit: the write-back weight the EPYC VM's writer co-runs show is fitte
 // lowest objective.
 TEST_CASE("fit: a local minimum along the DRAM's queue-bandwidth ridge is left for a better one",
           "[sim][fit][measured]") {
-  const auto path =
-      test::source_dir() / "tests/sim/fixtures/measured/devvm-epyc-2026-11-27-quick-2.json";
-  const json doc = json::parse(test::read_text(path));
-  const Measurements m = measurements_from_json(doc.at("measurements"), path.string());
+  const Measurements m = measured("devvm-epyc-2026-11-27-quick-2.json");
   const FitReport r = fit(m);
   INFO(to_json(r).dump(1));
   CHECK(r.converged);

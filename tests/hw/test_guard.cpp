@@ -294,17 +294,26 @@ TEST_CASE("guard reload: a new threshold from the next window, regulation never 
   CHECK(rec.samples[before - 1].budget_bytes == Approx(b50));
   CHECK(rec.samples.back().budget_bytes == Approx(b5));
   bool switched = false;
-  TimeNs longest = 0;
+  TimeNs at_switch = -1, longest = 0;
   for (std::size_t i = before; i < rec.samples.size(); ++i) {
     const double b = rec.samples[i].budget_bytes;
     CHECK((b == Approx(b50) || b == Approx(b5)));
     if (switched) CHECK(b == Approx(b5));  // never back
+    const TimeNs gap = rec.samples[i].t - rec.samples[i - 1].t;
+    if (!switched && b == Approx(b5)) at_switch = gap;
     switched = switched || b == Approx(b5);
-    longest = std::max(longest, rec.samples[i].t - rec.samples[i - 1].t);
+    longest = std::max(longest, gap);
   }
   CHECK(switched);
-  // No window without samples: the longest silence is well under one 10 ms window.
-  CHECK(longest < 10 * kNsPerMs);
+  // The reload does not pause sampling: the last sample under the old budget and the first under
+  // the new one are less than one 10 ms window apart. (Elsewhere a gap may be longer without the
+  // guard pausing: its sampler is a SCHED_FIFO thread, and RT throttling takes 50 ms of a second
+  // from a core whose real-time threads used the rest, which other tests running beside this one
+  // can do; one pass of the hw suite in 8 saw a 10.7 ms gap.)
+  INFO("gap at the switch " << at_switch << " ns, longest gap after the reload " << longest
+                            << " ns");
+  CHECK(at_switch >= 0);
+  CHECK(at_switch < 10 * kNsPerMs);
   CHECK(std::count(rec.actives.begin(), rec.actives.end(), false) == 1);  // only at the end
   CHECK_THAT(log.str(), Catch::Contains("reload: threshold_pct 50 -> 5") &&
                             Catch::Contains("new policy parameters in force from the next window"));

@@ -180,8 +180,11 @@ class HwBackend : public Backend {
                               when +
                               "; the scenario's other cores held by idle spinner threads "
                               "meanwhile; a built-in kernel's run that was on its core less "
-                              "than 95 % of its time (RT throttling, a higher priority) is taken "
-                              "again, up to 3 attempts (hw/common/clock.h: kMinOnCore)");
+                              "than " +
+                              std::to_string(std::lround(kMinOnCore * 100)) +
+                              " % of its time (RT throttling, a higher priority) is taken again, "
+                              "up to " +
+                              std::to_string(kOnCoreAttempts) + " attempts");
     const auto rt_before = realtime_tids();
     try {
       warm_up(s, plan, w, core, ctx);

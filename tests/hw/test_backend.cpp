@@ -253,7 +253,6 @@ void check_command_regulated(TransportKind transport) {
        << "): " << o.nrt[0].throttle_count << " throttles, " << o.nrt[0].throttled_us / 1e3
        << " ms throttled, metric bandwidth " << o.nrt[0].bandwidth_mbps << " MB/s");
   CHECK(o.nrt[0].throttle_count > 0);
-  CHECK(o.nrt[0].throttled_us > 0.3 * o.rt[0].time_us);  // threshold 20 %: mostly throttled
   if (ctx.facts["pmc_source"] == "software") {
     CHECK(ctx.fallbacks.count("metric"));
     // Time-based budget: CPU share of the command close to the threshold (plus overshoot).
@@ -265,6 +264,18 @@ void check_command_regulated(TransportKind transport) {
                                                        static_cast<double>(r.regulation_period_us);
     INFO("CPU share " << share << ", bound " << bound);
     CHECK(share <= bound + 0.05);  // + the command's restarts inside the window
+    // Mostly throttled: held back longer than half the time it ran. Not a share of the point's
+    // wall time: the command is SCHED_OTHER, so a busy process on its core takes part of that
+    // time, and the command then asks for, and is throttled for, less. Measured (AMD EPYC VM):
+    // throttled / ran 1.5-1.9 idle (6 runs), 0.9-1.9 beside a spinner (18 runs; 0.9 where the
+    // spinner slowed the command's start so that it ran 7 ms of the point).
+    const double ran_us = share * o.rt[0].time_us;
+    INFO("ran " << ran_us / 1e3 << " ms, throttled " << o.nrt[0].throttled_us / 1e3 << " ms");
+    CHECK(o.nrt[0].throttled_us > 0.5 * ran_us);
+  } else {
+    // Bytes from a PMU: the command's CPU time is not in the outcome. Threshold 20 % of a core
+    // it has to itself: throttled for most of the point.
+    CHECK(o.nrt[0].throttled_us > 0.3 * o.rt[0].time_us);
   }
   CHECK(realtime_threads().empty());
   // No process of the command outlives the point.

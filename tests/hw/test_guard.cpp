@@ -157,7 +157,10 @@ void serve_for(Guard& g, std::chrono::milliseconds d) {
 // guard reads without a PMU) up to date, in ns: a child spins alone on `core` for 60 ms and its
 // schedstat is read every 200 us from 10 ms in; the largest step between two readings. Where it
 // is updated at the scheduler tick only (seen: 4 ms steps, HZ 250, on 6.18 under Firecracker), a
-// budget is seen up to one step late.
+// budget is seen up to one step late. The child spins at SCHED_FIFO 1 where the host allows it:
+// a busy process sharing the core would switch it out between ticks, and each switch brings its
+// CPU time up to date (seen: a 0.26 ms step in a run beside a spinner, 4 ms without), so the step
+// would be measured smaller than it is for a thread that keeps its core.
 long long cpu_time_step_ns(int core) {
   const pid_t child = ::fork();
   if (child == 0) {
@@ -165,6 +168,8 @@ long long cpu_time_step_ns(int core) {
     CPU_ZERO(&set);
     CPU_SET(core, &set);
     ::sched_setaffinity(0, sizeof set, &set);
+    const sched_param fifo{1};
+    ::sched_setscheduler(0, SCHED_FIFO, &fifo);  // refused: spins as SCHED_OTHER
     const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(60);
     while (std::chrono::steady_clock::now() < end) {
     }

@@ -525,6 +525,28 @@ struct Parameters {
   std::vector<FittedParameter> held;
 };
 
+// The caller's value of `name` (FitOptions::fixed), if it names one.
+std::optional<double> fixed_value(const FitOptions& opt, const std::string& name) {
+  const auto it = opt.fixed.find(name);
+  if (it == opt.fixed.end()) return std::nullopt;
+  if (!(it->second > 0))
+    throw RunError("calibration: fixed value of " + name + " must be positive");
+  return it->second;
+}
+
+// A parameter the fit does not estimate, put into base: the caller's value where it fixes one,
+// else `value`, held for the reason `why`.
+void hold(const FitOptions& opt, SimPlatform& base, Parameters& params, const std::string& name,
+          const std::function<double&(SimPlatform&)>& ref, double value, const std::string& why) {
+  FittedParameter p;
+  p.name = name;
+  const auto fixed = fixed_value(opt, name);
+  p.value = fixed.value_or(value);
+  p.how = fixed ? "fixed by the caller" : why;
+  ref(base) = p.value;
+  params.held.push_back(p);
+}
+
 // The parameters the runs identify, each free unless the caller fixes it (then held at the
 // caller's value in base).
 Parameters free_parameters(const RunSelection& sel, const Priors& pr, const FitOptions& opt,
@@ -532,16 +554,9 @@ Parameters free_parameters(const RunSelection& sel, const Priors& pr, const FitO
   Parameters params;
   const auto add = [&](const std::string& name, std::function<double&(SimPlatform&)> ref,
                        const std::string& how, Prior prior) {
-    if (const auto it = opt.fixed.find(name); it != opt.fixed.end()) {
-      if (!(it->second > 0))
-        throw RunError("calibration: fixed value of " + name + " must be positive");
-      ref(base) = it->second;
-      FittedParameter p;
-      p.name = name;
-      p.value = it->second;
-      p.how = "fixed by the caller";
-      params.held.push_back(p);
-      rep.notes.push_back(name + " fixed by the caller at " + fmt("%g", it->second));
+    if (const auto v = fixed_value(opt, name)) {
+      hold(opt, base, params, name, ref, *v, "");
+      rep.notes.push_back(name + " fixed by the caller at " + fmt("%g", *v));
       return;
     }
     params.free.push_back({name, std::move(ref), how, std::move(prior)});
@@ -591,16 +606,11 @@ Parameters free_parameters(const RunSelection& sel, const Priors& pr, const FitO
          "a write-back moves one line to DRAM as a refill moves one from it (1), a factor 2 "
          "either way (a controller that batches writes costs less, read-write turnarounds more)"});
   } else {
-    FittedParameter p;
-    p.name = "dram.writeback_weight";
-    const auto it = opt.fixed.find(p.name);
-    p.value = it != opt.fixed.end() ? it->second : 1.0;
-    p.how = it != opt.fixed.end()
-                ? "fixed by the caller"
-                : "held at 1, a line each way (not identified: no co-run beyond the L3 with a "
-                  "writing kernel)";
-    base.dram.writeback_weight = p.value;
-    params.held.push_back(p);
+    hold(
+        opt, base, params, "dram.writeback_weight",
+        [](SimPlatform& p) -> double& { return p.dram.writeback_weight; }, 1.0,
+        "held at 1, a line each way (not identified: no co-run beyond the L3 with a writing "
+        "kernel)");
   }
   return params;
 }
@@ -610,27 +620,16 @@ Parameters free_parameters(const RunSelection& sel, const Priors& pr, const FitO
 // do not bind unless the caller fixes them. The runs that overflow the L3 together are
 // predicted by the shared-LRU model, which has no parameter. A pointer chase's mlp is 1.
 void hold_unidentified(const FitOptions& opt, SimPlatform& base, Parameters& params) {
-  for (const auto& [name, value, ref] :
-       {std::tuple{std::string("mshr.per_core"), base.mshr.per_core,
-                   std::function<double&(SimPlatform&)>(
-                       [](SimPlatform& p) -> double& { return p.mshr.per_core; })},
-        std::tuple{std::string("mshr.per_cluster"), base.mshr.per_cluster,
-                   std::function<double&(SimPlatform&)>(
-                       [](SimPlatform& p) -> double& { return p.mshr.per_cluster; })}}) {
-    FittedParameter p;
-    p.name = name;
-    if (const auto it = opt.fixed.find(name); it != opt.fixed.end()) {
-      ref(base) = it->second;
-      p.value = it->second;
-      p.how = "fixed by the caller";
-    } else {
-      p.value = value;
-      p.how = "held at " + fmt("%g", value) +
-              " (not identified: the runs cannot tell a kernel's misses in flight from the "
-              "buffers' bound; this value does not bind)";
-    }
-    params.held.push_back(p);
-  }
+  const std::string why =
+      " (not identified: the runs cannot tell a kernel's misses in flight from the buffers' "
+      "bound; this value does not bind)";
+  hold(
+      opt, base, params, "mshr.per_core", [](SimPlatform& p) -> double& { return p.mshr.per_core; },
+      base.mshr.per_core, "held at " + fmt("%g", base.mshr.per_core) + why);
+  hold(
+      opt, base, params, "mshr.per_cluster",
+      [](SimPlatform& p) -> double& { return p.mshr.per_cluster; }, base.mshr.per_cluster,
+      "held at " + fmt("%g", base.mshr.per_cluster) + why);
   FittedParameter p;
   p.name = "kernels.latency.mlp";
   p.value = 1.0;

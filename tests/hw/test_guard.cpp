@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -154,44 +155,64 @@ void serve_for(Guard& g, std::chrono::milliseconds d) {
 }
 
 // How finely this kernel brings a running thread's CPU time (/proc/<tid>/schedstat, what the
-// guard reads without a PMU) up to date, in ns: a child spins alone on `core` for 60 ms and its
-// schedstat is read every 200 us from 10 ms in; the largest step between two readings. Where it
+// guard reads without a PMU) up to date, in ns: a child spins alone on `core` and its schedstat is
+// read every 200 us for 40 ms from 10 ms in; the largest step between two readings. Where it
 // is updated at the scheduler tick only (seen: 4 ms steps, HZ 250, on 6.18 under Firecracker), a
 // budget is seen up to one step late. The child spins at SCHED_FIFO 1 where the host allows it:
 // a busy process sharing the core would switch it out between ticks, and each switch brings its
 // CPU time up to date (seen: a 0.26 ms step in a run beside a spinner, 4 ms without), so the step
-// would be measured smaller than it is for a thread that keeps its core.
+// would be measured smaller than it is for a thread that keeps its core. It spins until it has
+// been read (a reading after it ended would show no step), and the measurement is taken again
+// where it never ran; 0 after 3 attempts.
 long long cpu_time_step_ns(int core) {
-  const pid_t child = ::fork();
-  if (child == 0) {
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    CPU_SET(core, &set);
-    ::sched_setaffinity(0, sizeof set, &set);
-    const sched_param fifo{1};
-    ::sched_setscheduler(0, SCHED_FIFO, &fifo);  // refused: spins as SCHED_OTHER
-    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(60);
-    while (std::chrono::steady_clock::now() < end) {
+  // The reader keeps off `core`: there the spinner at SCHED_FIFO would hold it off until the end,
+  // and every reading would come after the spinner stopped (seen: steps of 0 in 4 of 17 hw-suite
+  // passes).
+  cpu_set_t saved, away;
+  ::sched_getaffinity(0, sizeof saved, &saved);
+  away = saved;
+  CPU_CLR(core, &away);
+  if (CPU_COUNT(&away) > 0) ::sched_setaffinity(0, sizeof away, &away);
+  struct Restore {
+    cpu_set_t& set;
+    ~Restore() { ::sched_setaffinity(0, sizeof set, &set); }
+  } restore{saved};
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const pid_t child = ::fork();
+    if (child == 0) {
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      CPU_SET(core, &set);
+      ::sched_setaffinity(0, sizeof set, &set);
+      const sched_param fifo{1};
+      ::sched_setscheduler(0, SCHED_FIFO, &fifo);  // refused: spins as SCHED_OTHER
+      // Until the parent has read it and kills it; 1 s at most.
+      const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+      while (std::chrono::steady_clock::now() < end) {
+      }
+      ::_exit(0);
     }
-    ::_exit(0);
+    const auto read_ns = [child] {
+      std::ifstream f("/proc/" + std::to_string(child) + "/schedstat");
+      long long ns = -1;
+      f >> ns;
+      return ns;
+    };
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const long long first = read_ns();
+    long long last = first, step = 0;
+    for (int i = 0; i < 200; ++i) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      const long long now = read_ns();
+      step = std::max(step, now - last);
+      last = now;
+    }
+    ::kill(child, SIGKILL);
+    ::waitpid(child, nullptr, 0);
+    if (first >= 0 && last > first) return step;  // it ran: a measurement
   }
-  const auto read_ns = [child] {
-    std::ifstream f("/proc/" + std::to_string(child) + "/schedstat");
-    long long ns = -1;
-    f >> ns;
-    return ns;
-  };
-  std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  long long last = read_ns(), step = 0;
-  for (int i = 0; i < 200; ++i) {
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-    const long long now = read_ns();
-    step = std::max(step, now - last);
-    last = now;
-  }
-  int status = 0;
-  ::waitpid(child, &status, 0);
-  return step;
+  return 0;  // the spinner never ran on the core (held by something above SCHED_FIFO 1)
 }
 
 double share_while_serving(Guard& g, const Stress& st, std::chrono::milliseconds d) {
@@ -247,7 +268,13 @@ TEST_CASE("guard holds a pinned stress-ng to its budget while the RT node is act
                                                                                << " us");
       // ... plus one step of the CPU-time clock the budget is read from (a budget is seen up to
       // one step late).
-      CHECK(active < 0.35 + static_cast<double>(cpu_step_ns) / (10.0 * kNsPerMs));
+      if (cpu_step_ns > 0)
+        CHECK(active < 0.35 + static_cast<double>(cpu_step_ns) / (10.0 * kNsPerMs));
+      else
+        WARN(
+            "SKIPPED (budget bound): the CPU-time step could not be measured (a spinner at "
+            "SCHED_FIFO 1 never ran on CPU "
+            << core << " in 3 attempts)");
       CHECK(active < 0.5 * before);
       CHECK(after > 2.0 * active);
     }

@@ -274,6 +274,11 @@ void check_command_regulated(TransportKind transport) {
        << ctx.facts["pmc_source"] << " (" << ctx.facts["metric_basis"]
        << "): " << o.nrt[0].throttle_count << " throttles, " << o.nrt[0].throttled_us / 1e3
        << " ms throttled, metric bandwidth " << o.nrt[0].bandwidth_mbps << " MB/s");
+  // Whether the command ran in the point at all: its runs (fractions of its isolation run) and
+  // the point's length.
+  INFO("command: " << o.nrt[0].runs << " run(s) of its isolation work in the point ("
+                   << o.nrt[0].time_us / 1e3 << " ms per run); RT node: " << o.rt[0].jobs
+                   << " job(s), " << o.rt[0].time_us / 1e3 << " ms per job");
   CHECK(o.nrt[0].throttle_count > 0);
   if (ctx.facts["pmc_source"] == "software") {
     CHECK(ctx.fallbacks.count("metric"));

@@ -14,12 +14,14 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "hw/common/clock.h"
 #include "hw/common/sys.h"
 #include "hw/guard/dds_guard.h"
 #include "hw/guard/guard.h"
@@ -67,6 +69,13 @@ class Stress {
   // CPU time (ns) of every thread in the process group so far.
   std::uint64_t cpu_ns() const {
     std::uint64_t total = 0;
+    for (const auto& f : schedstats())
+      total += std::strtoull(slurp(f).c_str(), nullptr, 10);
+    return total;
+  }
+  // The schedstat files of every thread in the process group now.
+  std::vector<fs::path> schedstats() const {
+    std::vector<fs::path> out;
     for (const auto& p :
          fs::directory_iterator("/proc", fs::directory_options::skip_permission_denied)) {
       const std::string name = p.path().filename();
@@ -81,9 +90,9 @@ class Stress {
       if (pgrp != pid_) continue;
       std::error_code ec;
       for (const auto& t : fs::directory_iterator(p.path() / "task", ec))
-        total += std::strtoull(slurp(t.path() / "schedstat").c_str(), nullptr, 10);
+        out.push_back(t.path() / "schedstat");
     }
-    return total;
+    return out;
   }
   // Share of one CPU the group got over `d`.
   double share(std::chrono::milliseconds d) const {
@@ -147,11 +156,70 @@ struct Recorder : GuardPublisher {
   std::vector<bool> actives;
 };
 
-// Serves the guard for `d` on this thread (its main thread).
-void serve_for(Guard& g, std::chrono::milliseconds d) {
+// The stress-ng group's CPU time as the test read it (time, ns), once per serve() call. The
+// group's threads are looked up in /proc every 20 readings only (a walk of /proc takes a few ms,
+// a reading of their schedstat files a few us), so the trace costs the guard's thread little.
+class CpuTrace {
+ public:
+  void read(const Stress& st) {
+    if (points_.size() % 20 == 0) schedstats_ = st.schedstats();
+    std::uint64_t total = 0;
+    for (const auto& f : schedstats_)
+      total += std::strtoull(slurp(f).c_str(), nullptr, 10);
+    points_.emplace_back(now_ns(), total);
+  }
+  const std::vector<std::pair<TimeNs, std::uint64_t>>& points() const { return points_; }
+
+ private:
+  std::vector<fs::path> schedstats_;
+  std::vector<std::pair<TimeNs, std::uint64_t>> points_;
+};
+
+// Serves the guard for `d` on this thread (its main thread); with `st` and `trace`, reads the
+// group's CPU time into the trace after each serve() call.
+void serve_for(Guard& g, std::chrono::milliseconds d, const Stress* st = nullptr,
+               CpuTrace* trace = nullptr) {
   const auto end = std::chrono::steady_clock::now() + d;
-  while (std::chrono::steady_clock::now() < end)
+  while (std::chrono::steady_clock::now() < end) {
     g.serve(5 * kNsPerMs);
+    if (st && trace) trace->read(*st);
+  }
+}
+
+// Window by window (100 ms each) from the trace's start: what stress-ng ran as the test read it,
+// what the guard's counter gained (ns of CPU time under the cputime source, shown in ms), and the
+// commands it sent. A failure then shows
+// whether the guard saw what stress-ng ran (a counter that stalls: it reads other tasks) and
+// whether its THR held the core (THR every window, stress-ng running anyway).
+std::string timeline(const CpuTrace& cpu, const Recorder& rec) {
+  const auto& trace = cpu.points();
+  if (trace.size() < 2) return "no CPU-time trace";
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1);
+  const TimeNs start = trace.front().first, bucket = 100 * kNsPerMs;
+  const auto counter_at = [&](TimeNs t) {  // the guard's last reading at or before t
+    double c = -1.0;
+    for (const auto& s : rec.samples)
+      if (s.t <= t) c = s.counter;
+    return c;
+  };
+  std::size_t i = 0;
+  for (TimeNs from = start; from < trace.back().first; from += bucket) {
+    const TimeNs to = from + bucket;
+    std::size_t j = i;
+    while (j + 1 < trace.size() && trace[j + 1].first <= to)
+      ++j;
+    const double ran_ms = static_cast<double>(trace[j].second - trace[i].second) / 1e6;
+    const double span_ms = static_cast<double>(trace[j].first - trace[i].first) / 1e6;
+    int thr = 0, other = 0;
+    for (const auto& c : rec.commands)
+      if (c.t >= from && c.t < to) ++(c.command == Command::Thr ? thr : other);
+    out << "  +" << (from - start) / kNsPerMs << " ms: stress-ng ran " << ran_ms << " of "
+        << span_ms << " ms; guard counter +" << (counter_at(to) - counter_at(from)) / 1e6
+        << " ms; THR " << thr << ", other commands " << other << "\n";
+    i = j;
+  }
+  return out.str();
 }
 
 // How finely this kernel brings a running thread's CPU time (/proc/<tid>/schedstat, what the
@@ -215,10 +283,11 @@ long long cpu_time_step_ns(int core) {
   return 0;  // the spinner never ran on the core (held by something above SCHED_FIFO 1)
 }
 
-double share_while_serving(Guard& g, const Stress& st, std::chrono::milliseconds d) {
+double share_while_serving(Guard& g, const Stress& st, std::chrono::milliseconds d,
+                           CpuTrace* trace = nullptr) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::uint64_t c0 = st.cpu_ns();
-  serve_for(g, d);
+  serve_for(g, d, &st, trace);
   const std::uint64_t c1 = st.cpu_ns();
   const double wall =
       std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count();
@@ -247,11 +316,13 @@ TEST_CASE("guard holds a pinned stress-ng to its budget while the RT node is act
     const double before = share_while_serving(g, st, std::chrono::milliseconds(500));
     activity.signal(0, true);
     serve_for(g, std::chrono::milliseconds(50));
-    const double active = share_while_serving(g, st, std::chrono::milliseconds(1000));
+    CpuTrace trace;
+    const double active = share_while_serving(g, st, std::chrono::milliseconds(1000), &trace);
     activity.signal(0, false);
     serve_for(g, std::chrono::milliseconds(50));
     const double after = share_while_serving(g, st, std::chrono::milliseconds(500));
     INFO(log.str());
+    INFO("while active:\n" << timeline(trace, rec));
     INFO("CPU share of stress-ng: before " << before << ", active " << active << ", after " << after
                                            << "; throttle " << to_string(g.throttle().kind));
     CHECK_THAT(log.str(), Catch::Contains("regulating pid " + std::to_string(st.pid())) ||
@@ -305,14 +376,16 @@ TEST_CASE("guard reload: a new threshold from the next window, regulation never 
   serve_for(g, std::chrono::milliseconds(300));
   const double free = share_while_serving(g, st, std::chrono::milliseconds(400));
   activity.signal(0, true);
-  const double at50 = share_while_serving(g, st, std::chrono::milliseconds(800));
+  CpuTrace trace;
+  const double at50 = share_while_serving(g, st, std::chrono::milliseconds(800), &trace);
   const std::size_t before = rec.samples.size();
   REQUIRE(g.reload(settings_for(ctl, core, 5.0)));
-  const double at5 = share_while_serving(g, st, std::chrono::milliseconds(800));
+  const double at5 = share_while_serving(g, st, std::chrono::milliseconds(800), &trace);
   activity.signal(0, false);
   serve_for(g, std::chrono::milliseconds(50));
   g.shutdown();
   INFO(log.str());
+  INFO("at 50 %, then at 5 % from the reload:\n" << timeline(trace, rec));
   INFO("CPU share unregulated: " << free << ", at 50 %: " << at50 << ", at 5 %: " << at5);
   if (free < kQuiet)
     WARN("SKIPPED (CPU shares): other work held the core (stress-ng got " << free

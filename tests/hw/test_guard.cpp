@@ -188,9 +188,9 @@ void serve_for(Guard& g, std::chrono::milliseconds d, const Stress* st = nullptr
 
 // Window by window (100 ms each) from the trace's start: what stress-ng ran as the test read it,
 // what the guard's counter gained (ns of CPU time under the cputime source, shown in ms), and the
-// commands it sent. A failure then shows
-// whether the guard saw what stress-ng ran (a counter that stalls: it reads other tasks) and
-// whether its THR held the core (THR every window, stress-ng running anyway).
+// commands it sent. A failure then shows whether the guard saw what stress-ng ran (a counter
+// that falls behind: it reads other tasks) and whether its THR held the core (THR every window,
+// stress-ng running anyway).
 std::string timeline(const CpuTrace& cpu, const Recorder& rec) {
   const auto& trace = cpu.points();
   if (trace.size() < 2) return "no CPU-time trace";

@@ -67,9 +67,11 @@ class Stress {
     ::waitpid(pid_, nullptr, 0);
   }
   // CPU time (ns) of every thread in the process group so far.
-  std::uint64_t cpu_ns() const {
+  std::uint64_t cpu_ns() const { return cpu_ns_of(schedstats()); }
+  // The CPU time (ns) the schedstat files `files` hold, summed (a thread gone counts 0).
+  static std::uint64_t cpu_ns_of(const std::vector<fs::path>& files) {
     std::uint64_t total = 0;
-    for (const auto& f : schedstats())
+    for (const auto& f : files)
       total += std::strtoull(slurp(f).c_str(), nullptr, 10);
     return total;
   }
@@ -163,10 +165,7 @@ class CpuTrace {
  public:
   void read(const Stress& st) {
     if (points_.size() % 20 == 0) schedstats_ = st.schedstats();
-    std::uint64_t total = 0;
-    for (const auto& f : schedstats_)
-      total += std::strtoull(slurp(f).c_str(), nullptr, 10);
-    points_.emplace_back(now_ns(), total);
+    points_.emplace_back(now_ns(), Stress::cpu_ns_of(schedstats_));
   }
   const std::vector<std::pair<TimeNs, std::uint64_t>>& points() const { return points_; }
 

@@ -40,7 +40,10 @@ void to_json(json& j, const Measurements& m) {
              {"kernel", h.kernel}}},
            {"runs", json::array()},
            {"costs_us", m.costs_us},
-           {"wall_s", m.wall_s}};
+           {"wall_s", m.wall_s},
+           {"contention", json::array()}};
+  for (const ContentionProbe& p : m.contention)
+    j["contention"].push_back(probe_to_json(p));
   for (const KernelRun& r : m.runs) {
     json co = json::array();
     for (const auto& c : r.corunners)
@@ -98,6 +101,13 @@ Measurements measurements_from_json(const json& j, const std::string& file,
   }
   m.costs_us = field<std::map<std::string, std::vector<double>>>(j, "costs_us", file, base);
   m.wall_s = field<double>(j, "wall_s", file, base);
+  if (j.contains("contention")) {  // optional: older files lack it
+    const json probes = field<json>(j, "contention", file, base);
+    if (!probes.is_array()) throw InputError(file, base + "/contention", "not an array");
+    for (std::size_t i = 0; i < probes.size(); ++i)
+      m.contention.push_back(
+          probe_from_json(probes[i], file, base + "/contention/" + std::to_string(i)));
+  }
   return m;
 }
 
@@ -169,6 +179,7 @@ json identity_to_json(const MachineIdentity& id) {
   if (!id.kernel.empty()) j["kernel"] = id.kernel;
   if (!id.hostname.empty()) j["hostname"] = id.hostname;
   if (!id.date.empty()) j["date"] = id.date;
+  if (id.dram_contention) j["dram_contention"] = probe_to_json(*id.dram_contention);
   return j;
 }
 
@@ -184,7 +195,72 @@ MachineIdentity identity_from_json(const json& j, const std::string& file,
   if (j.contains("kernel")) id.kernel = field<std::string>(j, "kernel", file, base);
   if (j.contains("hostname")) id.hostname = field<std::string>(j, "hostname", file, base);
   if (j.contains("date")) id.date = field<std::string>(j, "date", file, base);
+  if (j.contains("dram_contention"))
+    id.dram_contention = probe_from_json(j.at("dram_contention"), file, base + "/dram_contention");
   return id;
+}
+
+bool same_contention_state(const ContentionProbe& a, const ContentionProbe& b) {
+  const double ci = (a.ci95_pct.value_or(0.0) + b.ci95_pct.value_or(0.0)) / 100.0;
+  const double tolerance = std::max(kContentionTolerance, ci);
+  return std::fabs(std::log(a.ratio / b.ratio)) <= std::log1p(tolerance);
+}
+
+std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes) {
+  if (probes.empty()) return std::nullopt;
+  ContentionProbe state = probes.front();
+  std::vector<double> ratios;
+  state.rounds = 0;
+  for (const ContentionProbe& p : probes) {
+    if (!same_contention_state(probes.front(), p)) continue;
+    ratios.push_back(p.ratio);
+    state.rounds += p.rounds;
+    if (p.ci95_pct && state.ci95_pct) state.ci95_pct = std::max(*state.ci95_pct, *p.ci95_pct);
+  }
+  std::sort(ratios.begin(), ratios.end());
+  const std::size_t n = ratios.size();
+  state.ratio = n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
+  state.when = std::to_string(n) + " of " + std::to_string(probes.size()) +
+               " probes of the suite agree with its first";
+  return state;
+}
+
+std::string describe(const ContentionProbe& p) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%.2fx", p.ratio);
+  std::string s = buf;
+  if (p.ci95_pct) {
+    std::snprintf(buf, sizeof buf, " +- %.1f %%", *p.ci95_pct);
+    s += buf;
+  }
+  s += " (bandwidth_read " + kb(p.working_set_kb);
+  if (p.cores.size() == 2)
+    s += " on CPU " + std::to_string(p.cores[0]) + " beside CPU " + std::to_string(p.cores[1]);
+  return s + ")";
+}
+
+json probe_to_json(const ContentionProbe& p) {
+  json j{{"cores", p.cores},   {"working_set_kb", p.working_set_kb},
+         {"ratio", p.ratio},   {"ci95_pct", p.ci95_pct ? json(*p.ci95_pct) : json(nullptr)},
+         {"rounds", p.rounds}, {"date", p.date}};
+  if (!p.when.empty()) j["when"] = p.when;
+  return j;
+}
+
+ContentionProbe probe_from_json(const json& j, const std::string& file, const std::string& base) {
+  if (!j.is_object()) throw InputError(file, base, "not an object");
+  ContentionProbe p;
+  p.cores = field<std::vector<int>>(j, "cores", file, base);
+  if (p.cores.size() != 2) throw InputError(file, base + "/cores", "must name two CPUs");
+  p.working_set_kb = field<double>(j, "working_set_kb", file, base);
+  p.ratio = field<double>(j, "ratio", file, base);
+  if (!(p.ratio > 0.0)) throw InputError(file, base + "/ratio", "must be positive");
+  if (j.contains("ci95_pct") && !j.at("ci95_pct").is_null())
+    p.ci95_pct = field<double>(j, "ci95_pct", file, base);
+  p.rounds = field<int>(j, "rounds", file, base);
+  p.date = field<std::string>(j, "date", file, base);
+  if (j.contains("when")) p.when = field<std::string>(j, "when", file, base);
+  return p;
 }
 
 }  // namespace rosguard::calibration

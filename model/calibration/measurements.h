@@ -34,6 +34,44 @@ struct HostFacts {
   std::string kernel{};
 };
 
+// The DRAM interference between two CPUs at one moment, as a contention probe measures it: a
+// DRAM-bound reader (bandwidth_read over `working_set_kb`, beyond the last-level cache) on
+// cores[0], timed alone and beside one such reader on cores[1], a window of each per round;
+// `ratio` is the median over the rounds of beside / alone, `ci95_pct` the half-width of the 95 %
+// confidence interval of that median in % of it (absent: too few rounds for one). Under a
+// hypervisor this is a state, not a fact of the machine: the host may move the vCPUs between
+// places that share the memory path and places that do not, over minutes (1.0x and 1.6-1.8x on
+// the development VM within ten minutes, docs/validation.md), and a model calibrated in one
+// state describes the machine in that state.
+struct ContentionProbe {
+  std::vector<int> cores;
+  double working_set_kb = 0.0;
+  double ratio = 1.0;
+  std::optional<double> ci95_pct = std::nullopt;
+  int rounds = 0;
+  std::string date;  // ISO 8601 UTC, when it was measured
+  std::string when;  // where in a calibration suite ("before the co-runs", "after ..."); optional
+};
+
+// Two probes agree when their ratios differ by at most kContentionTolerance (relative), or by
+// the sum of their confidence intervals where that is wider. The 10 % lies between the probe's
+// repeatability within one state (its rounds agree to 2-4 % on the development VM, 2026-11-28)
+// and the smallest step between the states seen there (1.0x, 1.23x, 1.6-1.8x).
+inline constexpr double kContentionTolerance = 0.10;
+bool same_contention_state(const ContentionProbe& a, const ContentionProbe& b);
+
+// The state a suite's co-runs were measured in, from its probes in suite order: the first
+// probe's state, its ratio the median of the probes that agree with the first (ci95_pct the
+// widest of theirs, rounds their sum), `when` saying how many agreed. Empty for no probes.
+std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes);
+
+// "1.74x +- 2.1 % (bandwidth_read 131072 KB on CPU 0 beside CPU 1)".
+std::string describe(const ContentionProbe& p);
+
+nlohmann::json probe_to_json(const ContentionProbe& p);
+ContentionProbe probe_from_json(const nlohmann::json& j, const std::string& file,
+                                const std::string& base);
+
 // Which machine a host model was measured on (the platform's "measured_on"), or which machine
 // rosguard runs on now: what decides whether a model's numbers describe this machine. Compared:
 // the CPU model, the usable CPUs, the L1d / L2 / L3 sizes (per core, per core, per cluster) and
@@ -46,6 +84,10 @@ struct MachineIdentity {
   std::string kernel;                                         // empty: not recorded
   std::string hostname;
   std::string date;  // ISO 8601 UTC: when it was measured (a model) or read (this machine)
+  // A model's: the DRAM-interference state its co-runs were measured in (contention_state of
+  // its suite); not compared with the machine's identity (a state changes on the same machine).
+  // Absent in models calibrated before rosguard recorded it.
+  std::optional<ContentionProbe> dram_contention = std::nullopt;
 };
 
 // The identity of the machine a calibration suite measured.
@@ -99,6 +141,9 @@ struct Measurements {
   // platform's "costs" object).
   std::map<std::string, std::vector<double>> costs_us;
   double wall_s = 0.0;  // how long the suite took
+  // The contention probes around the co-run blocks, in suite order (empty in measurements made
+  // before rosguard took them, and on one core).
+  std::vector<ContentionProbe> contention{};
 };
 
 void to_json(nlohmann::json& j, const Measurements& m);

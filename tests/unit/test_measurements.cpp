@@ -144,3 +144,77 @@ TEST_CASE("machine identity: the platform's measured_on round trip and its error
                     "p.json: /measured_on/cpus: missing");
   CHECK(describe(a) == "AMD EPYC, 2 CPUs, L1d 32 KB, L2 512 KB, L3 32768 KB, Linux 6.1.0");
 }
+
+namespace {
+
+ContentionProbe probe(double ratio, std::optional<double> ci) {
+  return {{0, 1}, 131072, ratio, ci, 7, "2026-11-28T07:00:00Z", ""};
+}
+
+}  // namespace
+
+TEST_CASE("contention probes: two agree within 10 %, or within their intervals where wider",
+          "[calibration]") {
+  CHECK(same_contention_state(probe(1.70, 2.0), probe(1.80, 2.0)));  // 5.9 %
+  CHECK_FALSE(same_contention_state(probe(1.02, 2.0), probe(1.72, 2.0)));
+  CHECK_FALSE(same_contention_state(probe(1.35, 1.0), probe(1.51, 1.0)));     // 11.9 % > 10 %
+  CHECK(same_contention_state(probe(1.35, 6.0), probe(1.51, 7.0)));           // ... < 13 %
+  CHECK(same_contention_state(probe(1.51, std::nullopt), probe(1.40, 1.0)));  // 7.9 %
+  // Symmetric.
+  CHECK(same_contention_state(probe(1.0, 1.0), probe(1.105, 1.0)) ==
+        same_contention_state(probe(1.105, 1.0), probe(1.0, 1.0)));
+}
+
+TEST_CASE("contention probes: a suite's state is its first probe's, the median of those agreeing",
+          "[calibration]") {
+  CHECK_FALSE(contention_state({}));
+  const auto s =
+      contention_state({probe(1.80, 3.0), probe(1.02, 2.0), probe(1.70, 6.0), probe(1.84, 4.0)});
+  REQUIRE(s);
+  CHECK(s->ratio == Approx(1.80));  // 1.70, 1.80, 1.84; 1.02 is another state
+  CHECK(s->ci95_pct == Approx(6.0));
+  CHECK(s->rounds == 21);
+  CHECK(s->when == "3 of 4 probes of the suite agree with its first");
+  CHECK(describe(*s) == "1.80x +- 6.0 % (bandwidth_read 131072 KB on CPU 0 beside CPU 1)");
+}
+
+TEST_CASE("contention probes: in the measurements and in measured_on, and their errors",
+          "[calibration]") {
+  Measurements m = sample();
+  m.contention = {probe(1.80, 3.0), probe(1.75, std::nullopt)};
+  m.contention[0].when = "before the co-runs";
+  json j;
+  to_json(j, m);
+  const Measurements r = measurements_from_json(json::parse(j.dump()), "c.json");
+  REQUIRE(r.contention.size() == 2);
+  CHECK(r.contention[0].ratio == 1.80);
+  CHECK(r.contention[0].when == "before the co-runs");
+  CHECK_FALSE(r.contention[1].ci95_pct);
+  json again;
+  to_json(again, r);
+  CHECK(again == j);
+  // Older measurements have no probes.
+  j.erase("contention");
+  CHECK(measurements_from_json(j, "c.json").contention.empty());
+
+  MachineIdentity id = machine_identity(m.host);
+  id.dram_contention = contention_state(m.contention);
+  const json p = identity_to_json(id);
+  const MachineIdentity back = identity_from_json(json::parse(p.dump()), "p.json", "/measured_on");
+  REQUIRE(back.dram_contention);
+  CHECK(back.dram_contention->ratio == Approx(1.775));
+  CHECK(identity_differences(id, back).empty());
+  // A state is not part of the machine's identity.
+  MachineIdentity other_state = back;
+  other_state.dram_contention = probe(1.02, 2.0);
+  CHECK(identity_differences(id, other_state).empty());
+
+  json bad = p;
+  bad["dram_contention"]["cores"] = {0};
+  CHECK_THROWS_WITH(identity_from_json(bad, "p.json", "/measured_on"),
+                    "p.json: /measured_on/dram_contention/cores: must name two CPUs");
+  bad = j;
+  bad["contention"] = {{{"cores", {0, 1}}, {"ratio", 0.0}}};
+  CHECK_THROWS_WITH(measurements_from_json(bad, "c.json"),
+                    "c.json: /contention/0/working_set_kb: missing");
+}

@@ -301,12 +301,24 @@ std::string pct_text(double pct) {
   return buf;
 }
 
+std::string iso_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  ::gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
 class Suite {
  public:
   Suite(const SuiteOptions& o, const SuiteShape& shape, std::vector<int> cores)
       : opt_(o), shape_(shape), cores_(std::move(cores)) {}
 
   SuiteResult run();
+  // The contention probe alone (measure_contention), on cores_[0] beside cores_[1].
+  std::optional<calibration::ContentionProbe> contention_only();
+  std::vector<std::string> take_notes() { return notes_.take(); }
 
  private:
   bool stopping() const { return opt_.stop && opt_.stop->load(std::memory_order_relaxed); }
@@ -318,6 +330,8 @@ class Suite {
   std::vector<std::unique_ptr<BuiltinWorkload>> build_corunners(const Corunner& co, int n);
   void build_measured(const std::vector<Config>& configs);
   void measure_block(const Block& block, const std::string& label);
+  std::optional<calibration::ContentionProbe> probe_contention(const std::string& when);
+  void measure_corun_block(const Block& block);
   std::optional<double> window(BuiltinWorkload& w, double kb,
                                const std::vector<std::unique_ptr<BuiltinWorkload>>& co_work,
                                double co_kb, int n);
@@ -343,10 +357,12 @@ class Suite {
   Notes notes_;
   Measurements m_;
   int step_ = 0, steps_ = 0;
-  int retaken_ = 0, dropped_ = 0;  // windows where a kernel was off its core
-  int precise_ = 0, capped_ = 0;   // measurements that reached the precision / the cap
-  double widest_ = 0.0;            // the widest CI (%) of those stopped at the cap
-  std::vector<int> windows_;       // windows per measurement
+  int retaken_ = 0, dropped_ = 0;       // windows where a kernel was off its core
+  int precise_ = 0, capped_ = 0;        // measurements that reached the precision / the cap
+  double widest_ = 0.0;                 // the widest CI (%) of those stopped at the cap
+  std::vector<int> windows_;            // windows per measurement
+  int blocks_retaken_ = 0;              // co-run blocks taken again: the DRAM interference changed
+  std::vector<std::string> unsettled_;  // co-run blocks kept in another state than the first's
   std::map<std::pair<std::string, double>, std::unique_ptr<BuiltinWorkload>> measured_;
 };
 
@@ -499,6 +515,87 @@ void Suite::measure_block(const Block& block, const std::string& label) {
   }
   for (std::size_t i = 0; i < configs.size(); ++i)
     record(configs[i], co, ns[i], rounds[i]);
+}
+
+// The contention probe (calibration::ContentionProbe): bandwidth_read over the DRAM set on
+// cores_[0], a window alone and a window beside one on cores_[1] per round, kContentionRounds
+// rounds; the ratio of each round's pair, so that drift between rounds cancels. Recorded in the
+// measurements with `when`. Empty when stopped before a round completed.
+std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::string& when) {
+  const double kb = shape_.dram_kb;
+  step("contention probe: bandwidth_read " + kb_text(kb) + " alone and beside one on CPU " +
+       std::to_string(cores_[1]) + (when.empty() ? "" : " (" + when + ")"));
+  build_measured({{kBwRead, kb, 0}});
+  // Its own co-runner buffer, built for the probe and freed after it (between co-run blocks, so
+  // the buffers held at once stay within a DRAM block's).
+  std::vector<std::unique_ptr<BuiltinWorkload>> co;
+  if (!stopping()) co = build_corunners({kBwRead, kb}, 1);
+  BuiltinWorkload& w = measured_kernel(kBwRead, kb);
+  const auto timed = [&](int n) -> std::optional<double> {
+    for (int attempt = 0; attempt < kOnCoreAttempts && !stopping(); ++attempt) {
+      if (auto v = window(w, kb, co, kb, n)) return v;
+      ++(attempt + 1 < kOnCoreAttempts ? retaken_ : dropped_);
+    }
+    return std::nullopt;
+  };
+  std::vector<double> ratios;
+  for (int r = 0; r < kContentionRounds && !stopping(); ++r) {
+    const auto alone = timed(0);
+    const auto beside = timed(1);
+    if (alone && beside) ratios.push_back(*beside / *alone);
+  }
+  if (ratios.empty()) return std::nullopt;
+  calibration::ContentionProbe p;
+  p.cores = {cores_[0], cores_[1]};
+  p.working_set_kb = kb;
+  p.ratio = median(ratios);
+  if (const double ci = median_ci95_pct(ratios); std::isfinite(ci)) p.ci95_pct = ci;
+  p.rounds = static_cast<int>(ratios.size());
+  p.date = iso_now();
+  p.when = when;
+  m_.contention.push_back(p);
+  return p;
+}
+
+// A co-run block between two contention probes (the one before it is the previous block's
+// after-probe): taken again, up to kStateAttempts times in all, while a probe around it is in
+// another state than the suite's first probe (the host moved the vCPUs under it), so that every
+// co-run block is measured in one state; kept after the last attempt (unsettled_ says so).
+void Suite::measure_corun_block(const Block& block) {
+  const std::string co = block.co->kernel + " " + kb_text(block.co->kb);
+  if (m_.contention.empty() && !probe_contention("before the co-runs")) return;
+  for (int attempt = 1; !stopping(); ++attempt) {
+    const calibration::ContentionProbe before = m_.contention.back();
+    const std::size_t runs = m_.runs.size(), windows = windows_.size();
+    const int precise = precise_, capped = capped_;
+    const double widest = widest_;
+    measure_block(block, "co-run");
+    const auto after = probe_contention("after the co-runs beside " + co);
+    if (!after) return;
+    const auto& first = m_.contention.front();
+    if (calibration::same_contention_state(first, before) &&
+        calibration::same_contention_state(first, *after))
+      return;
+    if (attempt == kStateAttempts) {
+      unsettled_.push_back(co + " (" + calibration::describe(before) + " before, " +
+                           calibration::describe(*after) + " after)");
+      return;
+    }
+    m_.runs.resize(runs);
+    windows_.resize(windows);
+    precise_ = precise;
+    capped_ = capped;
+    widest_ = widest;
+    ++blocks_retaken_;
+    steps_ += static_cast<int>(block.configs.size()) * shape_.repetitions.max_windows + 1;
+  }
+}
+
+std::optional<calibration::ContentionProbe> Suite::contention_only() {
+  ScopedSched engine(ThreadSpec{"", -1, SchedClass::Fifo, prio::kEngine});
+  notes_.sched(engine.outcome());
+  steps_ = 1;
+  return probe_contention("");
 }
 
 // Runs sample(i) for i < count on the calling thread, one every cost_spacing_us (absolute
@@ -1033,14 +1130,7 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
 SuiteResult Suite::run() {
   const auto t_start = std::chrono::steady_clock::now();
   m_.host = opt_.host;
-  if (m_.host.date.empty()) {
-    const std::time_t now = std::time(nullptr);
-    std::tm tm{};
-    ::gmtime_r(&now, &tm);
-    char buf[32];
-    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    m_.host.date = buf;
-  }
+  if (m_.host.date.empty()) m_.host.date = iso_now();
   // The engine thread sleeps while kernels stream; above them, so it ends each window on time.
   ScopedSched engine(ThreadSpec{"", -1, SchedClass::Fifo, prio::kEngine});
   notes_.sched(engine.outcome());
@@ -1051,15 +1141,45 @@ SuiteResult Suite::run() {
   // Every configuration to its cap, and the cost blocks; lowered as configurations finish early.
   steps_ = kCostSteps - (cores_.size() < 2 ? 1 : 0);  // no local callback block on one core
   for (const auto& b : blocks)
-    steps_ += static_cast<int>(b.configs.size()) * shape_.repetitions.max_windows;
+    steps_ += static_cast<int>(b.configs.size()) * shape_.repetitions.max_windows +
+              (b.co ? 1 : 0);       // a co-run block's contention probe after it
+  if (blocks.size() > 1) ++steps_;  // the probe before the first
 
   const auto keep = corun_measured(blocks);
   for (const auto& b : blocks) {
     if (stopping()) break;
     if (b.configs.empty()) continue;
-    measure_block(b, b.co ? "co-run" : "isolation");
-    if (!b.co)  // the isolation-only buffers, before the co-runners' own
-      std::erase_if(measured_, [&](const auto& kv) { return !keep.count(kv.first); });
+    if (b.co) {
+      measure_corun_block(b);
+      continue;
+    }
+    measure_block(b, "isolation");
+    // the isolation-only buffers, before the co-runners' own
+    std::erase_if(measured_, [&](const auto& kv) { return !keep.count(kv.first); });
+  }
+  if (!m_.contention.empty()) {
+    std::string text = "DRAM-interference probes (bandwidth_read " + kb_text(shape_.dram_kb) +
+                       " on CPU " + std::to_string(cores_[0]) + ", alone and beside one on CPU " +
+                       std::to_string(cores_[1]) + "), around the co-run blocks:";
+    for (const auto& p : m_.contention) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, " %.2fx", p.ratio);
+      text += buf;
+    }
+    if (blocks_retaken_ > 0)
+      text += "; " + std::to_string(blocks_retaken_) +
+              " co-run block(s) taken again: a probe around them was in another state than the "
+              "first (the host moved the vCPUs?)";
+    notes_.add(text);
+  }
+  if (!unsettled_.empty()) {
+    std::string text =
+        "co-run blocks kept in another DRAM-interference state than the suite's "
+        "first probe after " +
+        std::to_string(kStateAttempts) + " attempts, so the fit mixes states:";
+    for (const auto& u : unsettled_)
+      text += (u == unsettled_.front() ? " " : "; ") + u;
+    notes_.add(text);
   }
   measured_.clear();  // the buffers, before the costs' own
   if (!stopping()) measure_costs();
@@ -1143,13 +1263,19 @@ SuitePlan plan_suite(const SuiteShape& shape, int cores) {
   for (const auto& [kernel, kb] : corun_measured(blocks))
     kept_kb += kb;
   double peak_kb = iso_kb;
+  int probes = 0;
   for (const auto& b : blocks)
     if (b.co) {
       const double co_kb = max_corunners(b) * b.co->kb;
       touched_kb += co_kb;
       peak_kb = std::max(peak_kb, kept_kb + co_kb);
+      probes += probes == 0 ? 2 : 1;  // before the first block, and after each
     }
-  p.max_windows = p.configurations * std::max(0, shape.repetitions.max_windows);
+  // Each contention probe builds one co-runner DRAM set (the measured one is kept); between
+  // blocks, so within the peak of a block of DRAM co-runners.
+  touched_kb += probes * shape.dram_kb;
+  p.max_windows = p.configurations * std::max(0, shape.repetitions.max_windows) +
+                  probes * 2 * kContentionRounds;
   p.touched_mb = touched_kb / 1024.0;
   p.peak_mb = peak_kb / 1024.0;
   p.seconds = p.max_windows * (shape.window_ms + shape.warmup_ms + kWindowOverheadMs) / 1e3 +
@@ -1256,6 +1382,29 @@ SuiteShape shape_for(const calibration::HostFacts& host, bool quick, int cores,
                       std::to_string(static_cast<int>(budget_s)) + " s on " +
                       std::to_string(cores) + " cores");
   return s;
+}
+
+ContentionResult measure_contention(const ContentionOptions& options) {
+  std::vector<int> cores = options.cores;
+  if (cores.empty()) {
+    const auto usable = usable_cpus();
+    cores.assign(usable.begin(),
+                 usable.begin() + static_cast<long>(std::min<std::size_t>(2, usable.size())));
+  }
+  if (cores.size() != 2)
+    throw RunError("contention probe: needs two CPUs (one measured, one co-runner); " +
+                   std::to_string(cores.size()) + " given or usable");
+  SuiteOptions suite_options;
+  suite_options.host = options.host;
+  suite_options.stop = options.stop;
+  const double avail_kb =
+      options.mem_available_kb > 0.0 ? options.mem_available_kb : read_mem_available_kb();
+  SuiteShape shape = shape_for(options.host, true, 2, avail_kb);
+  if (options.working_set_kb > 0.0) shape.dram_kb = options.working_set_kb;
+  Suite suite(suite_options, shape, cores);
+  auto probe = suite.contention_only();
+  if (!probe) throw RunError("contention probe: stopped before a round completed");
+  return {*probe, suite.take_notes()};
 }
 
 SuiteResult run_suite(const SuiteOptions& options) {

@@ -13,6 +13,10 @@
 //   half-width reached is the run's ci95_pct. Rounds are interleaved over the configurations of
 //   one block (round r of every unfinished configuration before round r + 1 of any), so drift
 //   hits them all alike.
+// - Contention probes (calibration::ContentionProbe) before the first co-run block and after each:
+//   a co-run block is taken again (at most kStateAttempts times in all) while a probe around it
+//   is in another DRAM-interference state than the first probe, so that the co-runs the fit reads
+//   come from one state of a host that moves its vCPUs; the probes go into the measurements.
 // - `stop` (set by a SIGINT handler) ends the suite between two windows: the result holds what
 //   was measured so far and `stopped` is true. progress is called from the calling thread.
 // - Throws RunError when the host has too little memory for a working set beyond its last-level
@@ -94,7 +98,8 @@ struct SuiteOptions {
   std::vector<int> cores;
   // After each step: a round of one configuration (its window, retakes included) or a cost
   // block. `steps` is the steps done plus the most that can remain (every unfinished
-  // configuration to its cap), so it only shrinks, as configurations reach their precision.
+  // configuration to its cap), so it shrinks as configurations reach their precision, and grows
+  // only when a co-run block is taken again (the DRAM interference changed during it).
   std::function<void(int step, int steps, const std::string& what)> progress;
   const std::atomic<bool>* stop = nullptr;  // SIGINT: stop between windows
   const SuiteShape* shape = nullptr;        // tests: instead of shape_for(host, quick, ...)
@@ -144,5 +149,25 @@ SuiteShape shape_for(const calibration::HostFacts& host, bool quick, int cores,
 double read_mem_available_kb();
 
 SuiteResult run_suite(const SuiteOptions& options);
+
+// A contention probe: kContentionRounds rounds of one window alone and one beside; a co-run
+// block is taken at most kStateAttempts times in all.
+inline constexpr int kContentionRounds = 7;  // >= 6 for a 95 % interval of the median; odd
+inline constexpr int kStateAttempts = 3;
+
+// One contention probe now (rosguard platform contention), on cores[0] beside cores[1], with the
+// quick suite's windows. Throws RunError with fewer than two usable CPUs, or when stopped.
+struct ContentionOptions {
+  calibration::HostFacts host;
+  std::vector<int> cores;         // two CPUs; empty: the first two the suite would use
+  double working_set_kb = 0.0;    // 0: the quick suite's DRAM set on this host (shape_for)
+  double mem_available_kb = 0.0;  // 0: /proc/meminfo
+  const std::atomic<bool>* stop = nullptr;
+};
+struct ContentionResult {
+  calibration::ContentionProbe probe;
+  std::vector<std::string> notes;  // as SuiteResult's (SCHED_FIFO refused)
+};
+ContentionResult measure_contention(const ContentionOptions& options);
 
 }  // namespace rosguard::hw

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "hw/calibration/suite.h"
 #include "hw/common/sys.h"
 #include "hw/workload/workload.h"
@@ -104,27 +105,54 @@ TEST_CASE("a tiny calibration suite returns well-formed measurements", "[hw][cal
   opt.host.cpus = 2;
   opt.cores = test_cores();
   opt.shape = &shape;
-  int last_step = 0, steps = 0;
-  bool monotonic = true, shrinking = true;
+  int last_step = 0, steps = 0, grew = 0;
+  bool monotonic = true;
   std::vector<std::string> labels;
   opt.progress = [&](int step, int n, const std::string& what) {
-    monotonic = monotonic && step == last_step + 1 && !what.empty();
-    shrinking = shrinking && (steps == 0 || n <= steps) && step <= n;
+    monotonic = monotonic && step == last_step + 1 && !what.empty() && step <= n;
+    grew += steps != 0 && n > steps ? 1 : 0;
     last_step = step;
     steps = n;
     labels.push_back(what);
   };
+  const bool co = opt.cores.size() > 1;
   int plans = 0;
   opt.planned = [&](const SuitePlan& p) {
     ++plans;
-    CHECK(p.configurations == 12 + (opt.cores.size() > 1 ? 32 : 0));
-    CHECK(p.max_windows == p.configurations * shape.repetitions.max_windows);
+    CHECK(p.configurations == 12 + (co ? 32 : 0));
+    // The contention probes: before the first of the 4 co-run blocks and after each.
+    CHECK(p.max_windows ==
+          p.configurations * shape.repetitions.max_windows + (co ? 5 * 2 * kContentionRounds : 0));
   };
   const SuiteResult r = run_suite(opt);
   const auto& m = r.measurements;
   CHECK_FALSE(r.stopped);
   CHECK(monotonic);
-  CHECK(shrinking);  // the total is re-estimated downwards only
+  // The total is re-estimated downwards only, but for a co-run block taken again (the probes
+  // around it found another DRAM-interference state than the first), which adds its steps.
+  int retaken = 0;
+  for (const auto& n : r.notes) {
+    std::smatch hit;
+    if (std::regex_search(n, hit, std::regex("(\\d+) co-run block\\(s\\) taken again")))
+      retaken = std::stoi(hit[1]);
+  }
+  CHECK(grew == retaken);
+  if (co) {
+    // One probe before the co-runs, one after each block and each retake.
+    REQUIRE(m.contention.size() == 5u + static_cast<std::size_t>(retaken));
+    CHECK(m.contention.front().when == "before the co-runs");
+    for (const auto& p : m.contention) {
+      INFO(p.when);
+      CHECK(p.cores == std::vector<int>{opt.cores[0], opt.cores[1]});
+      CHECK(p.working_set_kb == shape.dram_kb);
+      CHECK(p.ratio > 0.0);
+      CHECK(p.rounds >= 1);
+      CHECK(p.rounds <= kContentionRounds);
+      CHECK_FALSE(p.date.empty());
+    }
+  } else {
+    CHECK(m.contention.empty());
+  }
   CHECK(last_step == steps);
   CHECK(plans == 1);
   // Rounds interleaved: within a block, window w + 1 of any configuration only after window w of
@@ -216,6 +244,30 @@ TEST_CASE("a calibration suite asked to stop returns at once, marked partial",
   CHECK(r.stopped);
   CHECK(r.measurements.runs.empty());
   CHECK(r.measurements.costs_us.empty());
+  CHECK(r.measurements.contention.empty());
+}
+
+TEST_CASE("a contention probe on its own: a ratio from paired rounds, two CPUs needed",
+          "[hw][calibration]") {
+  ContentionOptions opt;
+  opt.host.l2_kb = 64;
+  opt.host.l3_kb_per_cluster = 128;
+  opt.working_set_kb = 256;
+  opt.cores = test_cores();
+  if (opt.cores.size() < 2) {
+    CHECK_THROWS_AS(measure_contention(opt), RunError);
+    return;
+  }
+  const ContentionResult r = measure_contention(opt);
+  CHECK(r.probe.cores == opt.cores);
+  CHECK(r.probe.working_set_kb == 256);
+  CHECK(r.probe.ratio > 0.0);
+  CHECK(r.probe.rounds >= 1);
+  CHECK(r.probe.rounds <= kContentionRounds);
+  CHECK(r.probe.when.empty());
+  opt.cores = {opt.cores[0]};
+  CHECK_THROWS_WITH(measure_contention(opt),
+                    Catch::Contains("needs two CPUs (one measured, one co-runner); 1 given"));
 }
 
 namespace {

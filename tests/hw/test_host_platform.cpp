@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <set>
 
 #include "core/error.h"
@@ -294,4 +295,55 @@ TEST_CASE("a host scenario passes check and runs a short hw point, the manifest 
     CHECK(e.message().find("no calibrated model of this host: run `rosguard calibrate "
                            "--install` (or use --backend hw)") != std::string::npos);
   }
+}
+
+TEST_CASE("platform contention measures now and says whether it is the model's state",
+          "[hw][host][cli]") {
+  Tmp tmp;
+  const fs::path log = tmp.path / "log";
+  const fs::path out = tmp.path / "probe.json";
+  const std::string cmd = "platform contention --out '" + out.string() + "'";
+  if (usable_cpus().size() < 2) {  // nothing to probe against
+    CHECK(run_rosguard(cmd, tmp.path / "no-model.json", log) == 1);
+    CHECK(test::slurp(log.string() + ".err").find("needs two CPUs") != std::string::npos);
+    return;
+  }
+  // No model: measured, said, exit 3 (validate calibrates).
+  REQUIRE(run_rosguard(cmd, tmp.path / "no-model.json", log) == 3);
+  CHECK(test::slurp(log).find("DRAM interference now: ") != std::string::npos);
+  CHECK(test::slurp(log).find("no host model installed") != std::string::npos);
+  json probe = json::parse(test::slurp(out));
+  CHECK(probe.at("ratio").get<double>() > 0.0);
+  CHECK(probe.at("rounds").get<int>() >= 1);
+  CHECK(probe.at("model").is_null());
+  CHECK(probe.at("matches").is_null());
+
+  // A model that records no state (calibrated before rosguard recorded it): exit 3, said.
+  json model = json::parse(test::slurp(kSource / "scenarios/platforms/vm-2core.json"));
+  const fs::path model_file = tmp.path / "model.json";
+  std::ofstream(model_file) << model.dump();
+  REQUIRE(run_rosguard(cmd, model_file, log) == 3);
+  CHECK(test::slurp(log).find("does not record the DRAM-interference state") != std::string::npos);
+
+  // A recorded state no machine is in (a reader 50x slower beside another, on this machine's
+  // first two CPUs, over 20 MB): measured on the model's cores and working set, another state.
+  const auto cpus = usable_cpus();
+  model["measured_on"]["dram_contention"] = {{"cores", {cpus[0], cpus[1]}},
+                                             {"working_set_kb", 20480},
+                                             {"ratio", 50.0},
+                                             {"ci95_pct", 2.0},
+                                             {"rounds", 35},
+                                             {"date", "2026-11-28T07:00:00Z"}};
+  std::ofstream(model_file) << model.dump();
+  REQUIRE(run_rosguard(cmd, model_file, log) == 3);
+  CHECK(test::slurp(log).find("a different state from the host model's") != std::string::npos);
+  probe = json::parse(test::slurp(out));
+  CHECK(probe.at("working_set_kb") == 20480.0);
+  CHECK(probe.at("cores") == json{cpus[0], cpus[1]});
+  CHECK(probe.at("model").at("ratio") == 50.0);
+  CHECK(probe.at("matches") == false);
+
+  // A bad --out: refused before measuring.
+  CHECK(run_rosguard("platform contention --out '" + tmp.path.string() + "'", model_file, log) ==
+        2);
 }

@@ -30,7 +30,7 @@ _rosguard() {
   fi
   case $cmd in
     list) COMPREPLY=($(compgen -W "workloads platforms policies backends pmc-sources columns" -- "$cur")) ;;
-    platform) COMPREPLY=($(compgen -W "probe model" -- "$cur")) ;;
+    platform) COMPREPLY=($(compgen -W "probe model contention" -- "$cur")) ;;
     run | check | tune) _filedir json ;;
     status) _filedir -d ;;
     *) _filedir ;;

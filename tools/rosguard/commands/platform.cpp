@@ -1,5 +1,6 @@
-// `rosguard platform probe | model`: this machine as a platform, and whether the installed host
-// model was measured on it (load/host_model.h).
+// `rosguard platform probe | model | contention`: this machine as a platform, whether the
+// installed host model was measured on it, and whether it is in the model's DRAM-interference
+// state now (load/host_model.h).
 #include "commands/command.h"
 #include "load/host_model.h"
 #include "load/schema.h"
@@ -28,9 +29,25 @@ CommandHandler setup_platform(CLI::App& sub) {
       "Exit status 0 when it was; 3 when no model is installed, the model was measured on another "
       "machine (what differs is printed), or it does not record its machine (calibrated before "
       "rosguard wrote \"measured_on\"). make validate recalibrates then.");
-  return [out, probe](const CommandContext& c) {
+  auto* contention = sub.add_subcommand(
+      "contention",
+      "Measure the DRAM interference between two CPUs now (a DRAM-bound bandwidth_read alone and "
+      "beside one on the other CPU, 7 rounds, about a second) and say whether it is the state the "
+      "installed host model was calibrated in.");
+  contention->add_option("--out", *out,
+                         "Also write the probe, the model's state and whether they match, as "
+                         "JSON, to this file (atomically)");
+  contention->footer(
+      "Under a hypervisor the host may move this machine's CPUs between places that share the "
+      "memory path and places that do not, over minutes: the same machine then shows two or more "
+      "states, and a model calibrated in one describes that one. Exit status 0 in the model's "
+      "state; 3 in another, or when no model or no recorded state is installed. make validate "
+      "uses it before and after each hw run.");
+  return [out, probe, contention](const CommandContext& c) {
     const SchemaSet schemas(c.loader.home().schemas());
-    return *probe ? platform_probe_command(schemas, *out) : platform_model_command(schemas);
+    if (*probe) return platform_probe_command(schemas, *out);
+    if (*contention) return platform_contention_command(schemas, *out);
+    return platform_model_command(schemas);
   };
 }
 

@@ -152,8 +152,17 @@ void write_band(const fs::path& folder, const Band& band) {
 }
 
 // The fit's summary: residual, parameters, notes and the machine measured.
+// " 1.02x 1.71x ...": the ratios of `probes`.
+std::string ratios(const std::vector<calibration::ContentionProbe>& probes) {
+  std::string s;
+  for (const auto& p : probes)
+    s += " " + fmt(p.ratio, 3) + "x";
+  return s;
+}
+
 void print_fit(const calibration::FitReport& report,
-               const calibration::MachineIdentity& measured_on, const fs::path& cal_file) {
+               const calibration::MachineIdentity& measured_on,
+               const std::vector<calibration::ContentionProbe>& probes, const fs::path& cal_file) {
   std::size_t used = 0;
   for (const auto& r : report.runs)
     used += r.used ? 1 : 0;
@@ -171,6 +180,19 @@ void print_fit(const calibration::FitReport& report,
     std::cout << "  note: " << note << "\n";
   std::cout << "measured on " << calibration::describe(measured_on)
             << (measured_on.hostname.empty() ? "" : " (" + measured_on.hostname + ")") << "\n";
+  if (const auto& state = measured_on.dram_contention) {
+    std::cout << "DRAM-interference state of the co-runs: " << calibration::describe(*state) << " ("
+              << state->when << ")\n";
+    std::size_t agree = 0;  // the probes in the recorded state
+    for (const auto& p : probes)
+      agree += calibration::same_contention_state(probes.front(), p) ? 1 : 0;
+    if (agree < probes.size())
+      std::cerr << "warning: the DRAM interference between CPU " << state->cores[0] << " and CPU "
+                << state->cores[1] << " changed during the suite (probes:" << ratios(probes)
+                << "): the host moved this machine's CPUs; co-run blocks measured in another "
+                   "state were taken again, and any kept are named in "
+                << cal_file.string() << " (suite_notes)\n";
+  }
   if (measured_on.kernel.empty())
     std::cout << "  note: the measurements do not record their kernel (made before rosguard "
                  "recorded it): a run with \"platform\": \"host\" on this model will say that "
@@ -235,7 +257,8 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   json platform = calibration::fitted_platform(m, report, opt.name);
   // The machine the measurements come from (not the one refitting them: --from may run
   // anywhere): "platform": "host" compares it with the machine it runs on.
-  const calibration::MachineIdentity measured_on = calibration::machine_identity(m.host);
+  calibration::MachineIdentity measured_on = calibration::machine_identity(m.host);
+  measured_on.dram_contention = calibration::contention_state(m.contention);
   platform["measured_on"] = calibration::identity_to_json(measured_on);
   const fs::path platform_file = dir / "platform.json";
   SchemaSet(loader.home().schemas())
@@ -249,7 +272,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   const Band band = calibration::band_platforms(platform, report);
   write_band(dir / "band", band);
 
-  print_fit(report, measured_on, cal_file);
+  print_fit(report, measured_on, m.contention, cal_file);
 
   const int plot = run_analysis(loader.home(), {"calibration", dir.string()});
   if (plot != 0) std::cerr << "warning: the calibration figures could not be drawn\n";

@@ -13,6 +13,7 @@
 #include "load/loader.h"
 
 #ifdef ROSGUARD_WITH_HW
+#include "hw/calibration/suite.h"
 #include "hw/host_probe.h"
 #endif
 
@@ -164,22 +165,88 @@ int platform_model_command(const SchemaSet& schemas) {
   return kNoModelOfThisMachine;
 }
 
-int platform_probe_command(const SchemaSet& schemas, const std::string& out) {
-  if (!out.empty()) {
-    // Refuse a bad destination before spending the probe's time.
-    const fs::path dest(out);
-    const fs::path dir = dest.parent_path().empty() ? fs::path(".") : dest.parent_path();
-    std::error_code ec;
-    if (fs::is_directory(dest, ec))
-      throw InputError(out, "", "--out names a folder; give the path of the JSON file to write");
-    if (!fs::is_directory(dir, ec))
-      throw InputError(out, "",
-                       "cannot write here: the folder " + dir.string() + " does not exist");
-    if (::access(dir.c_str(), W_OK) != 0)
-      throw InputError(out, "",
-                       "cannot write here: the folder " + dir.string() + " is not writable (" +
-                           std::strerror(errno) + ")");
+namespace {
+
+// Refuses a bad --out destination before the measurement's time is spent.
+void check_out_file(const std::string& out) {
+  if (out.empty()) return;
+  const fs::path dest(out);
+  const fs::path dir = dest.parent_path().empty() ? fs::path(".") : dest.parent_path();
+  std::error_code ec;
+  if (fs::is_directory(dest, ec))
+    throw InputError(out, "", "--out names a folder; give the path of the JSON file to write");
+  if (!fs::is_directory(dir, ec))
+    throw InputError(out, "", "cannot write here: the folder " + dir.string() + " does not exist");
+  if (::access(dir.c_str(), W_OK) != 0)
+    throw InputError(out, "",
+                     "cannot write here: the folder " + dir.string() + " is not writable (" +
+                         std::strerror(errno) + ")");
+}
+
+}  // namespace
+
+int platform_contention_command(const SchemaSet& schemas, const std::string& out) {
+#ifdef ROSGUARD_WITH_HW
+  check_out_file(out);
+  const auto installed = installed_host_model(schemas);
+  std::optional<calibration::ContentionProbe> model;
+  if (installed && installed->doc.contains("measured_on"))
+    model = calibration::identity_from_json(installed->doc.at("measured_on"), installed->origin,
+                                            "/measured_on")
+                .dram_contention;
+  hw::ContentionOptions options;
+  options.host = hw::host_facts(hw::probe_host({.measure_reference = false}));
+  if (model) {
+    options.cores = model->cores;
+    options.working_set_kb = model->working_set_kb;
   }
+  const hw::ContentionResult now = hw::measure_contention(options);
+  for (const auto& note : now.notes)
+    std::cerr << "note: " << note << "\n";
+  std::cout << "DRAM interference now: " << calibration::describe(now.probe) << "\n";
+  json doc = calibration::probe_to_json(now.probe);
+  doc["model"] = nullptr;
+  doc["matches"] = nullptr;
+  int rc = kNoModelOfThisMachine;
+  if (!installed) {
+    std::cout << "no host model installed (looked for " << host_model_path().string()
+              << "): rosguard calibrate --install makes one\n";
+  } else if (!model) {
+    std::cout << "the host model " << installed->origin
+              << " does not record the DRAM-interference state it was calibrated in (calibrated "
+                 "before rosguard recorded it): rosguard calibrate --install records it\n";
+  } else {
+    const bool same = calibration::same_contention_state(*model, now.probe);
+    doc["model"] = calibration::probe_to_json(*model);
+    doc["matches"] = same;
+    std::cout << "host model:            " << calibration::describe(*model) << ", calibrated at "
+              << model->date << "\n";
+    if (same) {
+      std::cout << "the same state as the host model's\n";
+      rc = 0;
+    } else {
+      std::cout << "a different state from the host model's (the host places this machine's CPUs "
+                   "differently now?): its predictions of co-runs that share the DRAM describe "
+                   "the other state; make validate waits for the model's state before each hw "
+                   "run, rosguard calibrate --install measures this one\n";
+    }
+  }
+  if (!out.empty()) {
+    write_file_atomic(out, doc.dump(2) + "\n");
+    std::cerr << "wrote " << out << "\n";
+  }
+  return rc;
+#else
+  (void)schemas;
+  (void)out;
+  throw RunError(
+      "this rosguard is built without the hw backend (ROSGUARD_WITH_HW=OFF): it cannot measure "
+      "the host");
+#endif
+}
+
+int platform_probe_command(const SchemaSet& schemas, const std::string& out) {
+  check_out_file(out);
   const HostPlatform host = probed_host_platform(schemas);
   for (const auto& note : host.record.at("probe").at("notes"))
     std::cerr << "note: " << note.get<std::string>() << "\n";

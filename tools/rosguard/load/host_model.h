@@ -68,6 +68,14 @@ HostPlatform probed_host_platform(const SchemaSet& schemas);
 inline constexpr int kNoModelOfThisMachine = 3;
 int platform_model_command(const SchemaSet& schemas);
 
+// `rosguard platform contention [--out F]`: one contention probe now (hw::measure_contention),
+// on the cores and working set of the installed model's recorded state when it has one (else
+// the first two usable CPUs and the quick suite's DRAM set), printed beside that state. `out`
+// gets the probe as JSON with "model" (the recorded state, or null) and "matches" (or null).
+// Returns 0 when the machine is in the model's state, kNoModelOfThisMachine when it is not, or
+// no model or no recorded state is installed. Throws RunError in a build without the hw backend.
+int platform_contention_command(const SchemaSet& schemas, const std::string& out);
+
 // `rosguard platform probe [--out F]`: prints the probed platform, or writes it to `out`
 // atomically; notes go to stderr. A missing or unwritable folder for `out` is an InputError.
 int platform_probe_command(const SchemaSet& schemas, const std::string& out);

@@ -88,6 +88,14 @@ band platforms of the sim's model (make validate makes them when the host model 
 folder). Each point's prediction band is min..max of the sim mean over the nominal run and the
 band runs; the report adds per scenario and overall its coverage of the hw means and its median
 width, and the figure draws it on each sim point.
+
+--state-dir DIR (default: OUT/state): DIR/<scenario>.json, the machine's DRAM-interference state
+right before and after each scenario's hw run (a DRAM-bound reader's slowdown beside another on
+the other CPU, `rosguard platform contention`) and the model's; make validate writes them. The
+report's table adds it per scenario, marks the scenarios measured in another state than the
+model's and, when some were, adds a row over the others alone (the goals stay marked over all).
+A scenario without its file (or a missing DIR): "not probed"; a file that is not JSON of that
+form is invalid input.
 """
 
 VALIDATE_TABLE_HELP = """\
@@ -171,6 +179,10 @@ def build_parser() -> argparse.ArgumentParser:
                           help="the machine's CPU as lscpu names it (its 'Model name'), shown "
                                "with the date in the report and the README block (default: "
                                "the hw manifest's cpu_model, from /proc/cpuinfo)")
+    validate.add_argument("--state-dir", metavar="DIR",
+                          help="the machine state of each scenario's hw run, DIR/<scenario>.json "
+                               "(contention probes before and after it; default: OUT/state; "
+                               "none there: not probed)")
 
     table = sub.add_parser("validate-table", help="the README's validation block",
                            description=VALIDATE_TABLE_HELP)
@@ -230,7 +242,7 @@ def main(argv=None) -> int:
                        for f in args.skipped]
             return validation.run(args.hw_root, args.sim_root, args.out, names, failed,
                                   args.note, cpu=args.cpu, band_root=args.band_root,
-                                  skipped=skipped)
+                                  skipped=skipped, state_dir=args.state_dir)
         return validation.table(args.report, args.readme, args.figure_dir)
     except InvalidInput as e:
         print(f"error: {e}", file=sys.stderr)

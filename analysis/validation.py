@@ -30,6 +30,15 @@ per node (the first RT and nRT node), the band's median width and its coverage (
 the band), the points their band, and the figure draws it on each sim point. Without it the
 report is as before.
 
+The **machine state** (``STATE_DIR/<scenario>.json``, by default ``DIR/state/``):
+``tools/validate.sh`` measures the machine's DRAM interference (``rosguard platform
+contention``, ``PROBE_WORDS``) right before and right after each scenario's hw run and compares
+it with the state the installed host model was calibrated in (a VM's changes over minutes, as
+the host moves its vCPUs). The report gives it per scenario (``machine_state``), says which scenarios were measured in another
+state than the model's and, when some were and some were not, the errors over those in the
+model's state alone (``in_model_state``); the goals stay marked over every scenario. A missing
+folder, file or probe: that scenario's state is not known ("not probed").
+
 ``readme_section(report)`` is the README's table (``tools/validate.sh --readme``).
 """
 
@@ -62,6 +71,8 @@ GOALS = {
 }
 FIGURE_STEM = "validation_scatter"
 NODE_WORDS = {"rt": "RT", "nrt": "nRT"}
+PROBE_WORDS = ("a DRAM-bound reader's time per line beside one DRAM-bound reader on the other "
+               "CPU over its time alone")
 DEFINITIONS = {
     "slowdown": "per point, mean over repetitions of the node's time / its isolation time",
     "mape_pct": "mean over points of |s_sim - s_hw| / s_hw x 100",
@@ -74,7 +85,13 @@ DEFINITIONS = {
     "overall": "every common point of every scenario pooled",
     "k": ("co-runners: the scenario's nRT nodes; per k, every scenario with k of them pooled, "
           "the nRT errors over every co-runner's pairs and the range of the per-node nRT MAPEs"),
+    "machine_state": ("per scenario, the probe (before and after its hw run; the model's: "
+                      "when it was calibrated): " + PROBE_WORDS + "; matches: true when "
+                      "both probes found the model's state, false when either did not, "
+                      "null when not known"),
+    "in_model_state": "the scenarios whose both probes found the model's state, pooled",
 }
+STATE_KEYS = ("before", "after", "model", "matches", "waited_s", "attempts")
 
 
 @dataclass
@@ -246,13 +263,77 @@ def per_k(scenarios, pairs) -> list:
     return out
 
 
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and \
+        math.isfinite(value)
+
+
+def _state_problem(data) -> str:
+    """What makes ``data`` (a parsed STATE_DIR/<scenario>.json) not a machine-state file; ''
+    when nothing does. Any value may be missing or null."""
+    if not isinstance(data, dict):
+        return "not a JSON object"
+    checks = [("waited_s", data.get("waited_s"), (_is_number, "a number")),
+              ("attempts", data.get("attempts"),
+               (lambda v: isinstance(v, int) and not isinstance(v, bool), "a whole number"))]
+    for key in ("before", "after"):
+        probe = data.get(key)
+        if probe is not None and not isinstance(probe, dict):
+            return f"'{key}' is not an object"
+        model = (probe or {}).get("model")
+        if model is not None and not isinstance(model, dict):
+            return f"'{key}.model' is not an object"
+        checks += [(f"{key}.ratio", (probe or {}).get("ratio"), (_is_number, "a number")),
+                   (f"{key}.matches", (probe or {}).get("matches"),
+                    (lambda v: isinstance(v, bool), "true or false")),
+                   (f"{key}.model.ratio", (model or {}).get("ratio"), (_is_number, "a number"))]
+    for where, value, (ok, words) in checks:
+        if value is not None and not ok(value):
+            return f"'{where}' is {json.dumps(value)}, not {words} or null"
+    return ""
+
+
+def machine_state(state_dir, name: str) -> dict:
+    """The machine state of scenario ``name`` during its hw run (STATE_KEYS): the contention
+    probes' ratios before and after it and the model's, whether both found the model's state
+    (True), either did not (False) or that is not known (None), how long validate waited for
+    it and how many times it ran the scenario; from STATE_DIR/<name>.json (tools/validate.sh).
+    Every value None without the folder or the file; InvalidInput when the file is not one."""
+    state = dict.fromkeys(STATE_KEYS)
+    path = Path(state_dir) / f"{name}.json" if state_dir is not None else None
+    if path is None or not path.is_file():
+        return state
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as e:
+        raise InvalidInput(f"{path}: cannot read a machine-state file ({e})") from e
+    problem = _state_problem(data)
+    if problem:
+        raise InvalidInput(f"{path}: not a machine-state file ({problem}); tools/validate.sh "
+                           "writes one per scenario")
+    probes = [data.get("before") or {}, data.get("after") or {}]
+    flags = [probe.get("matches") for probe in probes]
+    models = [(probe.get("model") or {}).get("ratio") for probe in probes]
+    state.update(before=probes[0].get("ratio"), after=probes[1].get("ratio"),
+                 model=next((r for r in models if r is not None), None),
+                 matches=False if False in flags else (True if flags == [True, True] else None),
+                 waited_s=data.get("waited_s"), attempts=data.get("attempts"))
+    return state
+
+
+def _pooled(pairs) -> dict:
+    """The errors of the pairs (every scenario's pooled) with their goal marks."""
+    errors = _errors(pairs)
+    return {**errors, "goals": goal_marks(errors)}
+
+
 def _description(results) -> str:
     scenario = (results.manifest.get("scenario") or {}).get("given") or {}
     return str(scenario.get("description", "")) if isinstance(scenario, dict) else ""
 
 
 def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
-                 cpu=None, band_root=None, skipped=()) -> tuple:
+                 cpu=None, band_root=None, skipped=(), state_dir=None) -> tuple:
     """(report dict, [Pair]) for the scenarios in ``names`` (default: every folder of
     hw_root). ``failed``: [{'scenario', 'reason'}] of scenarios that could not be run;
     ``skipped``: [{'scenario', 'reason'}] of those not run on purpose (e.g. more CPUs than
@@ -261,7 +342,9 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
     compared. ``notes``: lines about the conditions (e.g. the load), shown with the host.
     ``cpu``: the machine's CPU as lscpu names it (default: the hw manifest's cpu_model).
     ``band_root``: BAND_ROOT/<variant>/<scenario>/, the sim runs on the band platforms (see
-    the module docstring); None, or a root without variant folders: no band."""
+    the module docstring); None, or a root without variant folders: no band. ``state_dir``:
+    STATE_DIR/<scenario>.json, the machine state of each compared scenario's hw run
+    (``machine_state``); None: not probed."""
     variants = band_variants(band_root) if band_root is not None else []
     band_warnings = []
     hw_root, sim_root = Path(hw_root), Path(sim_root)
@@ -282,6 +365,7 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
         except InvalidInput as e:
             failed.append({"scenario": name, "reason": str(e)})
             continue
+        state = machine_state(state_dir, name)
         band_warnings += warned
         manifests.append(hw.manifest)
         sim_manifests.append(sim.manifest)
@@ -302,8 +386,9 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
             **errors,
             "goals": goal_marks(errors),
             **({"band": {"variants": used, **band_coverage(found)}} if variants else {}),
+            "machine_state": state,
         })
-    overall = _errors(pairs)
+    matched = [s["name"] for s in scenarios if s["machine_state"]["matches"] is True]
     manifest = manifests[0] if manifests else {}
     starts = sorted(str(m["start_time"]) for m in manifests if m.get("start_time"))
     ends = sorted(str(m["end_time"]) for m in manifests if m.get("end_time"))
@@ -321,11 +406,12 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
                      "sim": scenarios[0]["sim"]["platform"] if scenarios else None},
         "hw_root": str(hw_root),
         "sim_root": str(sim_root),
+        "state_dir": str(state_dir) if state_dir is not None else None,
         "goals": {k: {"node": n, "metric": m, "bound_pct": b, "words": w}
                   for k, (n, m, b, w) in GOALS.items()},
         "excess_min": EXCESS_MIN,
         "definitions": DEFINITIONS,
-        "overall": {**overall, "goals": goal_marks(overall)},
+        "overall": _pooled(pairs),
         "per_k": per_k(scenarios, pairs),
         "scenarios": scenarios,
         "failed": failed,
@@ -347,6 +433,11 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
                           "median_width": ("median over points of high - low, in slowdown "
                                            "units (x isolation)"),
                           "warnings": band_warnings, **band_coverage(pairs)}
+    if matched and any(s["machine_state"]["matches"] is False for s in scenarios):
+        report["in_model_state"] = {
+            "scenarios": matched,
+            "points": sum(s["common_points"] for s in scenarios if s["name"] in matched),
+            **_pooled([p for p in pairs if p.scenario in matched])}
     return report, pairs
 
 
@@ -407,22 +498,81 @@ def _cell(errors: dict, goals: dict, node: str, metric: str) -> str:
     return f"{pct(value, digits)}{extra} {_mark(goals[key])}"
 
 
+def _state_of(scenario: dict) -> dict:
+    """A scenario's machine_state (every value None in a report from before the probes)."""
+    return scenario.get("machine_state") or dict.fromkeys(STATE_KEYS)
+
+
+def _probed(state: dict) -> bool:
+    return any(state[k] is not None for k in ("before", "after", "matches"))
+
+
+def _ratio(value) -> str:
+    return f"{value:.2f}x" if _finite(value) else "n/a"
+
+
+def _state_cell(state: dict) -> str:
+    """'1.72x / 1.70x, model 1.74x' (before / after the hw run, the model's), in bold with
+    ': differs' when the probes found another state; 'not probed'."""
+    if not _probed(state):
+        return "not probed"
+    text = (f"{_ratio(state['before'])} / {_ratio(state['after'])}, model "
+            f"{_ratio(state['model'])}")
+    return f"**{text}: differs**" if state["matches"] is False else text
+
+
+def state_summary(report: dict, short: bool = False) -> str:
+    """One line on the machine state of the scenarios' hw runs: how many were measured in the
+    model's DRAM-interference state, how long validate waited for it, which scenarios were
+    measured in another and which are not known; ``short`` (the README): without the probe's
+    description and the wait."""
+    states = {s["name"]: _state_of(s) for s in report["scenarios"]}
+    if not any(_probed(state) for state in states.values()):
+        return "machine state: not probed" + ("" if short else (
+            " (the DRAM interference between the CPUs during the hw runs is not known)"))
+    named = {flag: ", ".join(n for n, state in states.items() if state["matches"] is flag)
+             for flag in (False, None)}
+    matched = sum(1 for state in states.values() if state["matches"] is True)
+    line = (f"machine state: {matched} of {len(states)} scenarios measured in the model's "
+            "DRAM-interference state")
+    waited = [state["waited_s"] for state in states.values() if _finite(state["waited_s"])]
+    if not short:
+        line += f" (the probe: {PROBE_WORDS}, before and after each hw run)"
+        line += f"; waited {sum(waited):.0f} s for it" if waited else ""
+    if named[False]:
+        line += (f". In another state: {named[False]}; their errors compare the model with the "
+                 "machine in another state")
+    if named[None]:
+        line += f". Not known for {named[None]}"
+    return line
+
+
 def summary_table(report: dict) -> list:
-    """Markdown lines: one row per scenario and one for the whole suite."""
+    """Markdown lines: one row per scenario, one for the whole suite and, when some scenarios
+    were measured in the model's machine state and some in another, one for the former."""
     lines = ["| scenario | points | RT MAPE (≤ 5 %) | nRT MAPE (≤ 10 %) | RT excess error "
-             "(≤ 20 %) | nRT excess error (≤ 20 %) | hw noise RT / nRT |",
-             "|---|---:|---:|---:|---:|---:|---:|"]
-    rows = [(s["name"], s["common_points"], s, s["goals"]) for s in report["scenarios"]]
-    overall = report["overall"]
-    rows.append(("**all**", sum(s["common_points"] for s in report["scenarios"]), overall,
-                 overall["goals"]))
-    for name, points, errors, goals in rows:
+             "(≤ 20 %) | nRT excess error (≤ 20 %) | hw noise RT / nRT | DRAM state (beside "
+             "one reader) |",
+             "|---|---:|---:|---:|---:|---:|---:|---|"]
+    scenarios = report["scenarios"]
+    rows = [(s["name"], s["common_points"], s, _state_cell(_state_of(s))) for s in scenarios]
+    matched = sum(1 for s in scenarios if _state_of(s)["matches"] is True)
+    rows.append(("**all**", sum(s["common_points"] for s in scenarios), report["overall"],
+                 f"{matched} of {len(scenarios)} in the model's state"
+                 if any(_probed(_state_of(s)) for s in scenarios) else "not probed"))
+    if report.get("in_model_state"):
+        mine = report["in_model_state"]
+        rows.append(("**in the model's state**", mine["points"], mine,
+                     f"{len(mine['scenarios'])} scenario(s)"))
+    for name, points, errors, state in rows:
+        goals = errors["goals"]
         lines.append(
             f"| {name} | {points} | {_cell(errors, goals, 'rt', 'mape_pct')} | "
             f"{_cell(errors, goals, 'nrt', 'mape_pct')} | "
             f"{_cell(errors, goals, 'rt', 'excess_error_pct')} | "
             f"{_cell(errors, goals, 'nrt', 'excess_error_pct')} | "
-            f"{pct(errors['rt']['hw_spread_pct'])} / {pct(errors['nrt']['hw_spread_pct'])} |")
+            f"{pct(errors['rt']['hw_spread_pct'])} / {pct(errors['nrt']['hw_spread_pct'])} | "
+            f"{state} |")
     return lines
 
 
@@ -482,6 +632,7 @@ def markdown(report: dict) -> str:
              f"{EXCESS_MIN:g} (mean over those points). hw noise: median spread "
              "(max − min) / mean of a point's hw repetitions.", ""]
     lines += summary_table(report)
+    lines += ["", state_summary(report) + "."]
     lines += ["", "## Errors per number of co-runners (k)", "",
               "k: the scenario's nRT nodes (co-runners of the RT node). The nRT MAPE pools "
               "every co-runner's pairs; per node: the nRT MAPE of each co-runner of each "
@@ -612,14 +763,16 @@ def headline(report: dict) -> str:
 
 def readme_section(report: dict, figure_path: str) -> str:
     """The README's validation block (between its markers): figure, the day and the CPU,
-    verdict, table."""
+    verdict, the machine state, table."""
     band = band_summary(report)
+    state = state_summary(report, short=True)
     return "\n".join([
         f"![sim vs hw validation]({figure_path})", "",
         f"**{headline(report)}.** {_host_line(report)}. "
         f"{verdict(report)[0].upper() + verdict(report)[1:]}."
         + (f" The sim's {band} (min..max over the model and the band platforms, one "
-           "prior-dominated parameter ±1 standard error at a time)." if band else ""), "",
+           "prior-dominated parameter ±1 standard error at a time)." if band else "")
+        + f" {state[0].upper()}{state[1:]}.", "",
         *summary_table(report), ""])
 
 
@@ -648,11 +801,13 @@ def _figure(report: dict, pairs):
 
 
 def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdout,
-        cpu=None, band_root=None, skipped=()) -> int:
-    """Builds the report and writes report.json, report.md and the figure into ``out``."""
-    report, pairs = build_report(hw_root, sim_root, names, failed, notes, cpu=cpu,
-                                 band_root=band_root, skipped=skipped)
+        cpu=None, band_root=None, skipped=(), state_dir=None) -> int:
+    """Builds the report and writes report.json, report.md and the figure into ``out``; the
+    machine state from ``state_dir`` (default: ``out``/state)."""
     out = Path(out)
+    report, pairs = build_report(hw_root, sim_root, names, failed, notes, cpu=cpu,
+                                 band_root=band_root, skipped=skipped,
+                                 state_dir=state_dir if state_dir is not None else out / "state")
     out.mkdir(parents=True, exist_ok=True)
     written = style.save(_figure(report, pairs), out, FIGURE_STEM)
     report["figure"] = [p.name for p in written]
@@ -663,6 +818,7 @@ def run(hw_root, sim_root, out, names=None, failed=(), notes=(), stream=sys.stdo
     print("per number of co-runners k:", file=stream)
     print("\n".join(per_k_table(_clean(report))), file=stream)
     print(verdict(report), file=stream)
+    print(state_summary(report), file=stream)
     if report.get("band"):
         print(band_summary(report), file=stream)
         for line in report["band"]["warnings"]:

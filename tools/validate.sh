@@ -119,6 +119,27 @@ if ((report_only)); then
   exit 0
 fi
 
+# Field $2 of JSON file $1 as Python prints it ("None" for null, a ratio to 3 digits).
+json_field() {
+  py -c 'import json,sys; v=json.load(open(sys.argv[1])).get(sys.argv[2])
+print(f"{v:.3g}" if isinstance(v, float) else v)' "$1" "$2"
+}
+
+# Each hw run waits for the host model's DRAM-interference state (probing every 5 s, at most
+# ROSGUARD_VALIDATE_STATE_WAIT_S seconds over the whole suite, default 300), is probed again
+# after, and is taken once more when the state changed during it; $out/state/<scenario>.json
+# records the probes (before, after), the wait and the attempts, and the report shows them.
+state_check=0
+if [[ $platform == host ]] &&
+   "$rosguard" platform --help 2>/dev/null | grep -E '^ +contention +' >/dev/null; then
+  state_check=1
+fi
+state_wait_left=${ROSGUARD_VALIDATE_STATE_WAIT_S:-300}
+if [[ ! $state_wait_left =~ ^[0-9]+$ ]]; then
+  echo "validate: ROSGUARD_VALIDATE_STATE_WAIT_S='$state_wait_left' is not a number of seconds" >&2
+  exit 1
+fi
+
 # The sim side of `platform: host` is the installed calibrated model; it must be a model of THIS
 # machine. Calibrate (quick) when there is none, or when the installed one was measured on another
 # machine or does not say which (`rosguard platform model`: exit 0 this machine, 3 not), and say
@@ -141,6 +162,19 @@ $(sed 's/^/  /' <<<"$said")"
   else
     echo "validate: this rosguard cannot tell which machine the host model at $model was" \
          "measured on (no 'rosguard platform model'); using it as it is"
+  fi
+  # The DRAM-interference state (`rosguard platform contention`: a DRAM-bound reader alone and
+  # beside one on the other CPU, about a second). Under a hypervisor it changes over minutes on
+  # the same machine (docs/validation.md), and the model describes the state it was calibrated
+  # in; a model that does not record its state is calibrated again.
+  if [[ -z $why ]] && ((state_check)); then
+    mkdir -p "$out/state"
+    "$rosguard" platform contention --out "$out/state/start.json" >/dev/null 2>&1 || true
+    if [[ -f $out/state/start.json ]] && [[ $(json_field "$out/state/start.json" model) == None ]]
+    then
+      why="the host model at $model does not record the DRAM-interference state it was"
+      why+=" calibrated in"
+    fi
   fi
   if [[ -n $why ]]; then
     # (`rosguard calibrate --help` is no test: the top-level --help answers an unknown command.)
@@ -218,8 +252,51 @@ d.pop("$schema", None)
 open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' "$1" "$2" "$3"
 }
 
-rm -rf "$out/sim-band"
+# Scenario $1's hw run (rosguard run $2 > log $3, exit status in rc) in the model's
+# DRAM-interference state, as the comment of state_check says; sets state_text to
+# " (state B/A, model M)": the probes' ratios before and after, the model's.
+hw_in_state() {
+  local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 t0 prc
+  while :; do
+    t0=$(date +%s)
+    prc=0
+    "$rosguard" platform contention --out "$st.before.json" >/dev/null 2>&1 || prc=$?
+    while ((prc == 3 && state_wait_left > 0)) && [[ $(json_field "$st.before.json" model) != None ]]
+    do
+      sleep 5
+      prc=0
+      "$rosguard" platform contention --out "$st.before.json" >/dev/null 2>&1 || prc=$?
+      state_wait_left=$((state_wait_left - 5))
+    done
+    waited=$((waited + $(date +%s) - t0))
+    rc=0
+    "$rosguard" run "$file" --backend hw --out "$out/hw/$name" --overwrite > "$log" 2>&1 || rc=$?
+    attempts=$((attempts + 1))
+    ((rc == 0)) || return 0
+    prc=0
+    "$rosguard" platform contention --out "$st.after.json" >/dev/null 2>&1 || prc=$?
+    ((prc == 3 && attempts < 2 && state_wait_left > 0)) || break
+    [[ $(json_field "$st.after.json" model) != None ]] || break
+  done
+  py -c 'import json,os,sys
+def load(p):
+    return json.load(open(p)) if os.path.exists(p) else None
+d={"before": load(sys.argv[1]), "after": load(sys.argv[2]), "waited_s": float(sys.argv[3]),
+   "attempts": int(sys.argv[4])}
+d={k: v for k, v in d.items() if v is not None}
+open(sys.argv[5], "w").write(json.dumps(d, indent=2) + "\n")' \
+    "$st.before.json" "$st.after.json" "$waited" "$attempts" "$st.json"
+  rm -f "$st.before.json" "$st.after.json"
+  state_text=$(py -c 'import json,sys; d=json.load(open(sys.argv[1]))
+f=lambda k: "%.2fx" % d[k]["ratio"] if k in d else "?"
+m=(d.get("before") or {}).get("model")
+w=" after %d s and %d runs" % (d["waited_s"], d["attempts"]) if d["attempts"] > 1 or d["waited_s"] >= 5 else ""
+print(" (state %s/%s, model %s%s)" % (f("before"), f("after"), "%.2fx" % m["ratio"] if m else "none", w))' "$st.json")
+}
+
+rm -rf "$out/sim-band" "$out/state"
 mkdir -p "$out"/{hw,sim,compare,logs,scenarios}
+((state_check)) && mkdir -p "$out/state"
 start=$(date +%s)
 load_start=$(cut -d' ' -f1 /proc/loadavg)
 ok=() runs_ok=() failed=() band_failed=() skipped=()
@@ -250,8 +327,13 @@ print(d.get("platform"), max(cores)+1)' "$file")
     t0=$(date +%s%N)
     log=$out/logs/$name-$backend.log
     rc=0
-    "$rosguard" run "$file" --backend "$backend" --out "$out/$backend/$name" --overwrite \
-      > "$log" 2>&1 || rc=$?
+    state_text=
+    if [[ $backend == hw ]] && ((state_check)); then
+      hw_in_state "$name" "$file" "$log"
+    else
+      "$rosguard" run "$file" --backend "$backend" --out "$out/$backend/$name" --overwrite \
+        > "$log" 2>&1 || rc=$?
+    fi
     if ((rc == 130 || rc == 143)); then
       echo " $backend interrupted; stopping (the folders hold the complete rows)" >&2
       exit "$rc"
@@ -264,7 +346,7 @@ print(d.get("platform"), max(cores)+1)' "$file")
       break
     fi
     tenths=$((($(date +%s%N) - t0) / 100000000))
-    printf ' %s %3d.%d s' "$backend" $((tenths / 10)) $((tenths % 10))
+    printf ' %s %3d.%d s%s' "$backend" $((tenths / 10)) $((tenths % 10)) "$state_text"
   done
   [[ $status == ok ]] || continue
   # The band: the same scenario in sim on each band platform of the host model.

@@ -571,3 +571,198 @@ def test_a_suite_of_skipped_scenarios_only_is_reported(tmp_path):
                                                       "reason": "needs 4 CPUs"}])
     assert report["scenarios"] == [] and report["per_k"] == [] and not pairs
     assert report["skipped"][0]["scenario"] == "scale-k3-llc"
+
+
+# The machine state (tools/validate.sh: STATE_DIR/<scenario>.json, the DRAM-interference probes
+# right before and after the scenario's hw run, against the state the host model was calibrated
+# in: `rosguard platform contention`'s output).
+def probe(ratio, matches, model=1.74):
+    """One contention probe as `rosguard platform contention --out F` writes it."""
+    return {"cores": [0, 1], "working_set_kb": 131072, "ratio": ratio, "ci95_pct": 2.1,
+            "rounds": 7, "date": "2026-11-28T07:40:00Z",
+            "model": None if model is None else {
+                "ratio": model, "ci95_pct": 1.8, "cores": [0, 1], "working_set_kb": 131072,
+                "date": "2026-11-28T07:30:00Z"},
+            "matches": matches}
+
+
+def write_state(folder, name, before, after, waited_s=12.5, attempts=1):
+    """STATE_DIR/<name>.json; a probe of None is left out (as when it failed)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    state = {"waited_s": waited_s, "attempts": attempts}
+    state.update({k: p for k, p in (("before", before), ("after", after)) if p is not None})
+    (folder / f"{name}.json").write_text(json.dumps(state))
+
+
+def without_state(report):
+    """The report without what the machine state adds, to compare the rest."""
+    rest = {k: v for k, v in report.items() if k not in ("state_dir", "in_model_state")}
+    rest["scenarios"] = [{k: v for k, v in s.items() if k != "machine_state"}
+                         for s in report["scenarios"]]
+    return rest
+
+
+def without_state_lines(md):
+    """report.md's lines without the state line and the summary table's state column."""
+    lines, in_table = [], False
+    for line in md.splitlines():
+        in_table = "DRAM state" in line or (in_table and line.startswith("|"))
+        if not line.startswith("machine state:"):
+            lines.append(line.rsplit(" | ", 1)[0] if in_table else line)
+    return lines
+
+
+def test_every_scenario_in_the_model_s_state(suite, tmp_path):
+    out = tmp_path / "out"
+    write_state(out / "state", "alpha", probe(1.72, True), probe(1.70, True))
+    write_state(out / "state", "beta", probe(1.75, True), probe(1.73, True), waited_s=3.0)
+    done = run_cli("validate", *suite, "--out", out)
+    assert done.returncode == 0, done.stderr
+    report = json.loads((out / "report.json").read_text())
+    assert report["scenarios"][0]["machine_state"] == {
+        "before": 1.72, "after": 1.70, "model": 1.74, "matches": True, "waited_s": 12.5,
+        "attempts": 1}
+    assert "in_model_state" not in report
+    md = (out / "report.md").read_text()
+    assert "| DRAM state (beside one reader) |" in md
+    assert "| alpha | 2 | 4.0 % met | 15.0 % **missed** |" in md
+    assert md.count("| 1.72x / 1.70x, model 1.74x |") == 1
+    assert "| 1.75x / 1.73x, model 1.74x |" in md
+    assert "| 2 of 2 in the model's state |" in md
+    assert "in the model's state**" not in md and "differs" not in md
+    line = ("machine state: 2 of 2 scenarios measured in the model's DRAM-interference state "
+            f"(the probe: {validation.PROBE_WORDS}, before and after each hw run); waited 16 s "
+            "for it.")
+    assert line in md.splitlines()
+    assert line[:-1] in done.stdout.splitlines()
+    block = validation.readme_section(validation.load_report(out / "report.json"), "f.png")
+    assert ("Machine state: 2 of 2 scenarios measured in the model's DRAM-interference "
+            "state.") in block
+    assert "| 1.72x / 1.70x, model 1.74x |" in block
+
+
+def test_a_scenario_in_another_state_is_marked_and_left_out_of_the_extra_row(suite, tmp_path):
+    out, states = tmp_path / "out", tmp_path / "probes"
+    write_state(states, "alpha", probe(1.72, True), probe(1.70, True))
+    write_state(states, "beta", probe(1.02, False), probe(1.71, True), waited_s=300.0,
+                attempts=2)
+    done = run_cli("validate", *suite, "--out", out, "--state-dir", states)
+    assert done.returncode == 0, done.stderr
+    report = validation.load_report(out / "report.json")
+    assert report["state_dir"] == str(states)
+    assert report["scenarios"][1]["machine_state"] == {
+        "before": 1.02, "after": 1.71, "model": 1.74, "matches": False, "waited_s": 300.0,
+        "attempts": 2}
+    # The extra row: the errors of alpha alone, as a report of alpha alone has them overall.
+    alone, _ = validation.build_report(*suite, ["alpha"])
+    mine = report["in_model_state"]
+    assert mine["scenarios"] == ["alpha"] and mine["points"] == 2
+    for node in ("rt", "nrt"):
+        assert mine[node]["mape_pct"] == pytest.approx(alone["overall"][node]["mape_pct"])
+        assert mine[node]["excess_error_pct"] == pytest.approx(
+            alone["overall"][node]["excess_error_pct"])
+    assert mine["goals"] == validation._restore(validation._clean(alone["overall"]["goals"]))
+    assert mine["rt"]["mape_pct"] != pytest.approx(report["overall"]["rt"]["mape_pct"]) or \
+        mine["nrt"]["mape_pct"] != pytest.approx(report["overall"]["nrt"]["mape_pct"])
+    md = (out / "report.md").read_text()
+    assert "| beta | 1 | " in md and "| **1.02x / 1.71x, model 1.74x: differs** |" in md
+    assert "| **all** | 3 | 4.0 % met | 13.3 % **missed** |" in md
+    assert ("| **in the model's state** | 2 | 4.0 % met | 15.0 % **missed** | 88.0 % (n=1) "
+            "**missed** | 25.0 % (n=2) **missed** | 18.2 % / 0.0 % | 1 scenario(s) |") in md
+    assert md.index("| **all** |") < md.index("| **in the model's state** |")
+    assert ("machine state: 1 of 2 scenarios measured in the model's DRAM-interference state "
+            f"(the probe: {validation.PROBE_WORDS}, before and after each hw run); waited 312 s "
+            "for it. In another state: beta; their errors compare the model with the machine "
+            "in another state.") in md
+    # The goals stay marked over every scenario.
+    plain, _ = validation.build_report(*suite)
+    assert validation.verdict(report) == validation.verdict(plain)
+    assert f"**{validation.verdict(plain)}.**" in md
+    assert report["overall"]["goals"] == validation._restore(
+        validation._clean(plain["overall"]["goals"]))
+    block = validation.readme_section(report, "f.png")
+    assert ("Machine state: 1 of 2 scenarios measured in the model's DRAM-interference state. "
+            "In another state: beta; their errors compare the model with the machine in "
+            "another state.") in block
+    assert "| **in the model's state** | 2 |" in block
+
+
+def test_without_state_files_the_state_is_not_probed_and_nothing_else_changes(suite, tmp_path):
+    out = tmp_path / "out"
+    done = run_cli("validate", *suite, "--out", out)
+    assert done.returncode == 0, done.stderr
+    report = validation.load_report(out / "report.json")
+    assert all(s["machine_state"] == dict.fromkeys(validation.STATE_KEYS)
+               for s in report["scenarios"])
+    assert "in_model_state" not in report
+    md = (out / "report.md").read_text()
+    assert ("| alpha | 2 | 4.0 % met | 15.0 % **missed** | 88.0 % (n=1) **missed** | 25.0 % "
+            "(n=2) **missed** | 18.2 % / 0.0 % | not probed |") in md
+    assert "| **all** | 3 |" in md and md.count("not probed |") == 3
+    assert ("machine state: not probed (the DRAM interference between the CPUs during the hw "
+            "runs is not known).") in md.splitlines()
+    # Everything else as with every scenario probed in the model's state.
+    now = validation.datetime(2026, 1, 2, tzinfo=validation.timezone.utc)
+    states = tmp_path / "probes"
+    for name in ("alpha", "beta"):
+        write_state(states, name, probe(1.72, True), probe(1.70, True))
+    probed, _ = validation.build_report(*suite, now=now, state_dir=states)
+    plain, _ = validation.build_report(*suite, now=now, state_dir=tmp_path / "missing")
+    assert all(not any(s["machine_state"].values()) for s in plain["scenarios"])
+    assert without_state(plain) == without_state(probed)
+    assert without_state_lines(validation.markdown(validation._clean(plain))) == \
+        without_state_lines(validation.markdown(validation._clean(probed)))
+    # A report from before the probes (no machine_state) still gives the README block.
+    old = without_state(report)
+    assert "Machine state: not probed." in validation.readme_section(old, "f.png")
+
+
+# before / after: a probe that matched (True), did not (False) or is missing (None).
+@pytest.mark.parametrize("before, after, matches, cell", [
+    (None, None, None, "not probed"),
+    (True, None, None, "1.70x / n/a, model 1.74x"),
+    (False, None, False, "**1.70x / n/a, model 1.74x: differs**"),
+    (True, False, False, "**1.70x / 1.60x, model 1.74x: differs**"),
+    (None, True, None, "n/a / 1.60x, model 1.74x"),
+], ids=["none", "before-matched", "before-differs", "after-differs", "after-matched"])
+def test_a_missing_probe_leaves_the_state_unknown_unless_the_other_differs(
+        tmp_path, before, after, matches, cell):
+    write_state(tmp_path, "s", probe(1.7, before) if before is not None else None,
+                probe(1.6, after) if after is not None else None)
+    found = validation.machine_state(tmp_path, "s")
+    assert found["matches"] is matches
+    assert validation._state_cell(found) == cell
+
+
+def test_a_model_without_a_state_leaves_it_unknown(tmp_path):
+    write_state(tmp_path, "s", probe(1.7, None, model=None), probe(1.6, None, model=None))
+    found = validation.machine_state(tmp_path, "s")
+    assert (found["before"], found["model"], found["matches"]) == (1.7, None, None)
+    assert validation._state_cell(found) == "1.70x / 1.60x, model n/a"
+    report = {"scenarios": [{"name": "s", "machine_state": found}]}
+    assert validation.state_summary(report, short=True) == (
+        "machine state: 0 of 1 scenarios measured in the model's DRAM-interference state. Not "
+        "known for s")
+
+
+@pytest.mark.parametrize("text, words", [
+    ("{not json", "cannot read a machine-state file"),
+    ("[1.7]", "not a machine-state file (not a JSON object)"),
+    ('{"before": {"ratio": "fast", "matches": true}}',
+     "not a machine-state file ('before.ratio' is \"fast\", not a number or null)"),
+    ('{"after": {"ratio": 1.7, "matches": "yes"}}',
+     "'after.matches' is \"yes\", not true or false or null"),
+    ('{"before": 1.7}', "'before' is not an object"),
+    ('{"attempts": 1.5}', "'attempts' is 1.5, not a whole number or null"),
+], ids=["not-json", "not-an-object", "ratio-text", "matches-text", "probe-number",
+        "attempts-fraction"])
+def test_a_malformed_state_file_is_an_input_error_naming_it(suite, tmp_path, text, words):
+    out = tmp_path / "out"
+    (out / "state").mkdir(parents=True)
+    write_state(out / "state", "alpha", probe(1.72, True), probe(1.70, True))
+    (out / "state" / "beta.json").write_text(text)
+    done = run_cli("validate", *suite, "--out", out)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith(f"error: {out / 'state' / 'beta.json'}: ")
+    assert words in done.stderr and "Traceback" not in done.stderr
+    assert not (out / "report.md").exists() and not (out / "report.json").exists()

@@ -5,7 +5,8 @@
 # OUT/sim-band/<variant>/<scenario>/, the console says how many band runs and how long, compare
 # and the report get the band; a band run that fails is named and the band made from the others;
 # a stale OUT/sim-band is removed; without a band folder, or with one older than the model,
-# there is no band. Stand-ins: `rosguard platform model` says the model is of this machine and
+# there is no band. Stand-ins: `rosguard platform model` says the model is of this machine,
+# `rosguard platform contention` that it is in the model's state (contention_stand_in.sh) and
 # `rosguard run --backend hw` runs sim (no hw, no second CPU, no calibration); everything else is
 # the real rosguard. The model is vm-2core; the band moves its L3 queue x/ 3.
 # Usage: validate_band.sh ROSGUARD SOURCE_DIR
@@ -20,6 +21,7 @@ cat >"$tmp/rosguard" <<EOF
 #!/bin/bash
 if [[ \$1 == platform && \${2:-} == model ]]; then echo "stand-in: a model of this machine"; exit 0; fi
 if [[ \$1 == calibrate ]]; then echo "stand-in: calibrate must not run in this test" >&2; exit 1; fi
+if [[ \$1 == platform && \${2:-} == contention ]]; then exec "$src/tests/app/contention_stand_in.sh" "\$@"; fi
 args=()
 prev=
 for a in "\$@"; do
@@ -69,7 +71,7 @@ validate band
 [ "$code" -eq 0 ] || fail "band: exit $code, expected 0 (a failed band run is a warning)"
 grep -q "prediction band: the host model has 3 band platform(s) in $tmp/host/band/" "$log" ||
   fail "band: the band platforms are not announced"
-grep -Eq '^\[1/1\] small +hw +[0-9.]+ s sim +[0-9.]+ s band 2 run\(s\) +[0-9]+\.[0-9] s \(1 FAILED\) +RT MAPE [0-9.]+ % +nRT MAPE [0-9.]+ %$' \
+grep -Eq '^\[1/1\] small +hw +[0-9.]+ s \(state 1.40x/1.40x, model 1.40x\) sim +[0-9.]+ s band 2 run\(s\) +[0-9]+\.[0-9] s \(1 FAILED\) +RT MAPE [0-9.]+ % +nRT MAPE [0-9.]+ %$' \
   "$log" || fail "band: no band runs on the progress line (or not as expected)"
 grep -Eq "prediction band: 2 band run\(s\) on 3 platform\(s\) in [0-9]+\.[0-9] s" "$log" ||
   fail "band: no band summary"

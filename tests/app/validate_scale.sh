@@ -4,9 +4,10 @@
 # (tools/validate.sh) runs the k = 1 ones on a host of 2 CPUs and skips the others, each with its
 # reason (console and report), and on a host of 6 CPUs also runs the generated k = N - 2 = 4.
 # The CPU count is faked (ROSGUARD_VALIDATE_CPUS); a run without the analysis's Python modules
-# (faked: ROSGUARD_VALIDATE_ANALYSIS=0) runs the scenarios only, and --report reports them later. Stand-ins: `rosguard platform model` says the
-# model is of this machine and `rosguard run --backend hw` runs sim (no hw here); everything else
-# is the real rosguard. The host model is vm-2core with 16 cores in its cluster.
+# (faked: ROSGUARD_VALIDATE_ANALYSIS=0) runs the scenarios only, and --report reports them later.
+# Stand-ins: `rosguard platform model` says the model is of this machine, `rosguard platform
+# contention` that it is in the model's state (contention_stand_in.sh) and `rosguard run
+# --backend hw` runs sim (no hw here); everything else is the real rosguard. The host model is vm-2core with 16 cores in its cluster.
 # Usage: validate_scale.sh ROSGUARD SOURCE_DIR
 set -euo pipefail
 real=$(realpath "$1")
@@ -60,6 +61,7 @@ cat >"$tmp/rosguard" <<EOF
 #!/bin/bash
 if [[ \$1 == platform && \${2:-} == model ]]; then echo "stand-in: a model of this machine"; exit 0; fi
 if [[ \$1 == calibrate ]]; then echo "stand-in: calibrate must not run in this test" >&2; exit 1; fi
+if [[ \$1 == platform && \${2:-} == contention ]]; then exec "$src/tests/app/contention_stand_in.sh" "\$@"; fi
 args=()
 prev=
 for a in "\$@"; do
@@ -85,8 +87,10 @@ validate() {  # $1: CPUs, $2: out folder; sets $log
 validate 2 "$tmp/out2"
 for k in 1; do
   for ws in llc dram; do
-    grep -qE "scale-k$k-$ws +hw +[0-9.]+ s +sim" "$log" || fail "scale-k$k-$ws did not run"
+    grep -qE "scale-k$k-$ws +hw +[0-9.]+ s \(state 1.40x/1.40x, model 1.40x\) +sim" "$log" ||
+      fail "scale-k$k-$ws did not run, or not with its machine state"
     [ -f "$tmp/out2/hw/scale-k$k-$ws/points.csv" ] || fail "no hw results of scale-k$k-$ws"
+    [ -f "$tmp/out2/state/scale-k$k-$ws.json" ] || fail "no machine state of scale-k$k-$ws"
   done
 done
 for k in 3 7 14; do
@@ -108,7 +112,10 @@ assert rows[0]["points"] == 8 and rows[0]["rt"]["pairs"] == 8, rows[0]
 # sim against sim (the stand-in): the same model and seed, no error.
 assert rows[0]["rt"]["mape_pct"] == 0 and rows[0]["nrt"]["mape_pct"] == 0, rows[0]
 assert len(report["skipped"]) == 6
-print("report: k = 1 compared, 6 skipped")
+for s in report["scenarios"]:
+    assert s["machine_state"] == {"before": 1.4, "after": 1.4, "model": 1.4, "matches": True,
+                                  "waited_s": 0.0, "attempts": 1}, s["machine_state"]
+print("report: k = 1 compared, 6 skipped, each in the model's machine state")
 PY
 
 # 4. Without the analysis's Python modules (faked): the runs only, then --report elsewhere.

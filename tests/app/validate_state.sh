@@ -1,0 +1,104 @@
+#!/bin/bash
+# make validate and the machine's DRAM-interference state (tools/validate.sh, issue 22): a host
+# model that records no state is calibrated again; each hw run waits for the model's state
+# (bounded by ROSGUARD_VALIDATE_STATE_WAIT_S), is probed after and taken once more when the state
+# changed during it; $out/state/<scenario>.json and the report say so. Stand-ins: `rosguard
+# platform model` says the model is of this machine, `rosguard platform contention` answers from
+# a list of states (contention_stand_in.sh), `rosguard calibrate` only leaves a mark, `rosguard
+# run --backend hw` runs sim; everything else is the real rosguard, on vm-2core.
+# Usage: validate_state.sh ROSGUARD SOURCE_DIR
+set -euo pipefail
+real=$(realpath "$1")
+src=$(realpath "$2")
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+cat >"$tmp/rosguard" <<STANDIN
+#!/bin/bash
+if [[ \$1 == platform && \${2:-} == model ]]; then echo "stand-in: a model of this machine"; exit 0; fi
+if [[ \$1 == platform && \${2:-} == contention ]]; then exec "$src/tests/app/contention_stand_in.sh" "\$@"; fi
+if [[ \$1 == calibrate ]]; then echo "stand-in: rosguard \$*"; touch "$tmp/calibrated"; exit 0; fi
+args=()
+prev=
+for a in "\$@"; do
+  [[ \$prev == --backend && \$a == hw ]] && a=sim
+  args+=("\$a")
+  prev=\$a
+done
+exec "$real" "\${args[@]}"
+STANDIN
+chmod +x "$tmp/rosguard"
+cp "$src/scenarios/platforms/vm-2core.json" "$tmp/host.json"
+export ROSGUARD_HOST_MODEL=$tmp/host.json
+mkdir -p "$tmp/suite" "$tmp/empty"
+cp "$src/scenarios/validation/corun-unregulated.json" "$tmp/suite/"
+
+# $1: case, $2: suite folder, $3...: the states, one per probe ("RATIO MODEL_RATIO"); sets $log
+# and $code.
+validate() {
+  local name=$1 suite=$2
+  shift 2
+  printf '%s\n' "$@" >"$tmp/$name.states"
+  rm -f "$tmp/calibrated"
+  log=$tmp/$name.log
+  code=0
+  ROSGUARD_TEST_STATES=$tmp/$name.states ROSGUARD_VALIDATE_SUITE=$suite \
+    ROSGUARD_VALIDATE_OUT=$tmp/out-$name ROSGUARD_VALIDATE_CPUS=2 \
+    "$src/tools/validate.sh" "$tmp/rosguard" >"$log" 2>&1 || code=$?
+  cat "$log"
+}
+state() {  # $1: case; prints the scenario's state file as "before after waited attempts"
+  /usr/bin/python3 -c 'import json,sys; d=json.load(open(sys.argv[1]))
+print(d["before"]["ratio"], d["after"]["ratio"], d["waited_s"], d["attempts"])' \
+    "$tmp/out-$1/state/corun-unregulated.json"
+}
+
+# 1. A model that records no state: calibrated again, and says why.
+validate stateless "$tmp/empty" "1.40 none"
+[ "$code" -eq 1 ] && grep -q "no scenario in $tmp/empty" "$log" || fail "stateless: exit $code"
+grep -q "does not record the DRAM-interference state it was calibrated in" "$log" ||
+  fail "stateless: no reason given"
+[ -e "$tmp/calibrated" ] || fail "stateless: calibrate was not run"
+
+# 2. A model in another state now: not calibrated again (each run waits instead).
+validate elsewhere "$tmp/empty" "1.02 1.40"
+[ "$code" -eq 1 ] || fail "elsewhere: exit $code"
+[ ! -e "$tmp/calibrated" ] || fail "elsewhere: calibrated, though the model records its state"
+
+# 3. In the model's state throughout: one run, no wait.
+validate steady "$tmp/suite" "1.40 1.40"
+[ "$code" -eq 0 ] || fail "steady: exit $code"
+grep -qE "corun-unregulated +hw +[0-9.]+ s \(state 1.40x/1.40x, model 1.40x\)" "$log" ||
+  fail "steady: the console does not show the state"
+[ "$(state steady)" == "1.4 1.4 0.0 1" ] || fail "steady: state $(state steady)"
+grep -q "1 of 1 scenarios measured in the model's DRAM-interference state" \
+  "$tmp/out-steady/report.md" || fail "steady: the report does not say so"
+
+# 4. Another state at first (the start's probe and the run's first two), then the model's; after
+# the run another again: taken once more, in the model's state throughout.
+validate moved "$tmp/suite" "1.02 1.40" "1.02 1.40" "1.02 1.40" "1.42 1.40" "1.75 1.40" \
+  "1.38 1.40" "1.41 1.40"
+[ "$code" -eq 0 ] || fail "moved: exit $code"
+read -r before after waited attempts <<<"$(state moved)"
+[ "$before $after $attempts" == "1.38 1.41 2" ] || fail "moved: state $(state moved)"
+/usr/bin/python3 -c "import sys; sys.exit(not 10 <= $waited < 30)" ||
+  fail "moved: waited $waited s, expected two waits of 5 s"
+grep -qE "\(state 1.38x/1.41x, model 1.40x after [0-9]+ s and 2 runs\)" "$log" ||
+  fail "moved: the console does not say it waited and ran twice"
+
+# 5. No time to wait (ROSGUARD_VALIDATE_STATE_WAIT_S=0): one run in another state, and the report
+# says so.
+ROSGUARD_VALIDATE_STATE_WAIT_S=0 validate nowait "$tmp/suite" "1.02 1.40"
+[ "$code" -eq 0 ] || fail "nowait: exit $code"
+[ "$(state nowait)" == "1.02 1.02 0.0 1" ] || fail "nowait: state $(state nowait)"
+grep -q "1.02x / 1.02x, model 1.40x: differs" "$tmp/out-nowait/report.md" ||
+  fail "nowait: the report does not mark the state"
+grep -q "In another state: corun-unregulated" "$tmp/out-nowait/report.md" ||
+  fail "nowait: the report does not name the scenario"
+
+# 6. A bad wait: refused before anything runs.
+ROSGUARD_VALIDATE_STATE_WAIT_S=soon validate badwait "$tmp/suite" "1.40 1.40"
+[ "$code" -eq 1 ] && grep -q "ROSGUARD_VALIDATE_STATE_WAIT_S='soon' is not a number" "$log" ||
+  fail "badwait: exit $code"
+echo "PASS"

@@ -254,7 +254,8 @@ open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' "$1
 
 # Scenario $1's hw run (rosguard run $2 > log $3, exit status in rc) in the model's
 # DRAM-interference state, as the comment of state_check says; sets state_text to
-# " (state B/A, model M)": the probes' ratios before and after, the model's.
+# " (state B/A, model M; waited W s; run twice)": the probes' ratios before and after, the
+# model's, and whether it waited (5 s or more) and ran twice.
 hw_in_state() {
   local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 t0 prc
   while :; do
@@ -290,7 +291,7 @@ open(sys.argv[5], "w").write(json.dumps(d, indent=2) + "\n")' \
   state_text=$(py -c 'import json,sys; d=json.load(open(sys.argv[1]))
 f=lambda k: "%.2fx" % d[k]["ratio"] if k in d else "?"
 m=(d.get("before") or {}).get("model")
-w=" after %d s and %d runs" % (d["waited_s"], d["attempts"]) if d["attempts"] > 1 or d["waited_s"] >= 5 else ""
+w=("; waited %d s" % d["waited_s"] if d["waited_s"] >= 5 else "") + ("; run twice" if d["attempts"] > 1 else "")
 print(" (state %s/%s, model %s%s)" % (f("before"), f("after"), "%.2fx" % m["ratio"] if m else "none", w))' "$st.json")
 }
 

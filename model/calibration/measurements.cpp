@@ -201,25 +201,28 @@ MachineIdentity identity_from_json(const json& j, const std::string& file,
 }
 
 bool same_contention_state(const ContentionProbe& a, const ContentionProbe& b) {
-  const double ci = (a.ci95_pct.value_or(0.0) + b.ci95_pct.value_or(0.0)) / 100.0;
-  const double tolerance = std::max(kContentionTolerance, ci);
-  return std::fabs(std::log(a.ratio / b.ratio)) <= std::log1p(tolerance);
+  return std::fabs(std::log(a.ratio / b.ratio)) <= std::log1p(kContentionTolerance);
 }
 
 std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes) {
   if (probes.empty()) return std::nullopt;
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  };
   ContentionProbe state = probes.front();
-  std::vector<double> ratios;
+  std::vector<double> ratios, cis;
   state.rounds = 0;
   for (const ContentionProbe& p : probes) {
     if (!same_contention_state(probes.front(), p)) continue;
     ratios.push_back(p.ratio);
     state.rounds += p.rounds;
-    if (p.ci95_pct && state.ci95_pct) state.ci95_pct = std::max(*state.ci95_pct, *p.ci95_pct);
+    if (p.ci95_pct) cis.push_back(*p.ci95_pct);
   }
-  std::sort(ratios.begin(), ratios.end());
   const std::size_t n = ratios.size();
-  state.ratio = n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
+  state.ratio = median(ratios);
+  state.ci95_pct = cis.empty() ? std::nullopt : std::optional<double>(median(cis));
   state.when = std::to_string(n) + " of " + std::to_string(probes.size()) +
                " probes of the suite agree with its first";
   return state;

@@ -84,7 +84,7 @@ read -r before after waited attempts <<<"$(state moved)"
 [ "$before $after $attempts" == "1.38 1.41 2" ] || fail "moved: state $(state moved)"
 /usr/bin/python3 -c "import sys; sys.exit(not 10 <= $waited < 30)" ||
   fail "moved: waited $waited s, expected two waits of 5 s"
-grep -qE "\(state 1.38x/1.41x, model 1.40x after [0-9]+ s and 2 runs\)" "$log" ||
+grep -qE "\(state 1.38x/1.41x, model 1.40x; waited [0-9]+ s; run twice\)" "$log" ||
   fail "moved: the console does not say it waited and ran twice"
 
 # 5. No time to wait (ROSGUARD_VALIDATE_STATE_WAIT_S=0): one run in another state, and the report

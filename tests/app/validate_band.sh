@@ -17,21 +17,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
-cat >"$tmp/rosguard" <<EOF
-#!/bin/bash
-if [[ \$1 == platform && \${2:-} == model ]]; then echo "stand-in: a model of this machine"; exit 0; fi
-if [[ \$1 == calibrate ]]; then echo "stand-in: calibrate must not run in this test" >&2; exit 1; fi
-if [[ \$1 == platform && \${2:-} == contention ]]; then exec "$src/tests/app/contention_stand_in.sh" "\$@"; fi
-args=()
-prev=
-for a in "\$@"; do
-  [[ \$prev == --backend && \$a == hw ]] && a=sim
-  args+=("\$a")
-  prev=\$a
-done
-exec "$real" "\${args[@]}"
-EOF
-chmod +x "$tmp/rosguard"
+bash "$src/tests/app/rosguard_stand_in.sh" "$real" "$src" "$tmp/rosguard"
 
 mkdir -p "$tmp/suite" "$tmp/host/band"
 /usr/bin/python3 - "$src" "$tmp" <<'PY'

@@ -57,21 +57,7 @@ print("working sets: 4 x L2 (LLC-bound), 2 x L3 (DRAM-bound)")
 PY
 
 # 3. make validate on a host of 2 CPUs: the k = 1 scenarios run, the others are skipped.
-cat >"$tmp/rosguard" <<EOF
-#!/bin/bash
-if [[ \$1 == platform && \${2:-} == model ]]; then echo "stand-in: a model of this machine"; exit 0; fi
-if [[ \$1 == calibrate ]]; then echo "stand-in: calibrate must not run in this test" >&2; exit 1; fi
-if [[ \$1 == platform && \${2:-} == contention ]]; then exec "$src/tests/app/contention_stand_in.sh" "\$@"; fi
-args=()
-prev=
-for a in "\$@"; do
-  [[ \$prev == --backend && \$a == hw ]] && a=sim
-  args+=("\$a")
-  prev=\$a
-done
-exec "$real" "\${args[@]}"
-EOF
-chmod +x "$tmp/rosguard"
+bash "$src/tests/app/rosguard_stand_in.sh" "$real" "$src" "$tmp/rosguard"
 mkdir -p "$tmp/suite"
 cp -r "$src/scenarios/validation/scale" "$tmp/suite/scale"
 

@@ -14,21 +14,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
-cat >"$tmp/rosguard" <<STANDIN
-#!/bin/bash
-if [[ \$1 == platform && \${2:-} == model ]]; then echo "stand-in: a model of this machine"; exit 0; fi
-if [[ \$1 == platform && \${2:-} == contention ]]; then exec "$src/tests/app/contention_stand_in.sh" "\$@"; fi
-if [[ \$1 == calibrate ]]; then echo "stand-in: rosguard \$*"; touch "$tmp/calibrated"; exit 0; fi
-args=()
-prev=
-for a in "\$@"; do
-  [[ \$prev == --backend && \$a == hw ]] && a=sim
-  args+=("\$a")
-  prev=\$a
-done
-exec "$real" "\${args[@]}"
-STANDIN
-chmod +x "$tmp/rosguard"
+bash "$src/tests/app/rosguard_stand_in.sh" "$real" "$src" "$tmp/rosguard" "$tmp/calibrated"
 cp "$src/scenarios/platforms/vm-2core.json" "$tmp/host.json"
 export ROSGUARD_HOST_MODEL=$tmp/host.json
 mkdir -p "$tmp/suite" "$tmp/empty"

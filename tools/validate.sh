@@ -119,10 +119,9 @@ if ((report_only)); then
   exit 0
 fi
 
-# Field $2 of JSON file $1 as Python prints it ("None" for null, a ratio to 3 digits).
+# Field $2 of JSON file $1 as Python prints it ("None" for null).
 json_field() {
-  py -c 'import json,sys; v=json.load(open(sys.argv[1])).get(sys.argv[2])
-print(f"{v:.3g}" if isinstance(v, float) else v)' "$1" "$2"
+  py -c 'import json,sys; print(json.load(open(sys.argv[1])).get(sys.argv[2]))' "$1" "$2"
 }
 
 # Each hw run waits for the host model's DRAM-interference state (probing every 5 s, at most
@@ -257,19 +256,21 @@ open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' "$1
 # " (state B/A, model M; waited W s; run twice)": the probes' ratios before and after, the
 # model's, and whether it waited (5 s or more) and ran twice.
 hw_in_state() {
-  local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 t0 prc
+  local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 t0 t1 prc
   while :; do
-    t0=$(date +%s)
     prc=0
     "$rosguard" platform contention --out "$st.before.json" >/dev/null 2>&1 || prc=$?
+    # The wait: each 5 s pause and the probe after it, until the model's state or no time left.
     while ((prc == 3 && state_wait_left > 0)) && [[ $(json_field "$st.before.json" model) != None ]]
     do
+      t0=$(date +%s)
       sleep 5
       prc=0
       "$rosguard" platform contention --out "$st.before.json" >/dev/null 2>&1 || prc=$?
-      state_wait_left=$((state_wait_left - 5))
+      t1=$(date +%s)
+      waited=$((waited + t1 - t0))
+      state_wait_left=$((state_wait_left - t1 + t0))
     done
-    waited=$((waited + $(date +%s) - t0))
     rc=0
     "$rosguard" run "$file" --backend hw --out "$out/hw/$name" --overwrite > "$log" 2>&1 || rc=$?
     attempts=$((attempts + 1))

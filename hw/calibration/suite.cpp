@@ -558,13 +558,15 @@ std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::s
 }
 
 // A co-run block between two contention probes (the one before it is the previous block's
-// after-probe): taken again, up to kStateAttempts times in all, while a probe around it is in
-// another state than the suite's first probe (the host moved the vCPUs under it), so that every
-// co-run block is measured in one state; kept after the last attempt (unsettled_ says so).
+// after-probe; a retake's is taken afresh): taken again, up to kStateAttempts times in all,
+// while a probe around it is in another state than the suite's first probe (the host moved the
+// vCPUs under it), so that every co-run block is measured in one state; kept after the last
+// attempt (unsettled_ says so).
 void Suite::measure_corun_block(const Block& block) {
   const std::string co = block.co->kernel + " " + kb_text(block.co->kb);
   if (m_.contention.empty() && !probe_contention("before the co-runs")) return;
   for (int attempt = 1; !stopping(); ++attempt) {
+    if (attempt > 1 && !probe_contention("before the co-runs beside " + co + ", again")) return;
     const calibration::ContentionProbe before = m_.contention.back();
     const std::size_t runs = m_.runs.size(), windows = windows_.size();
     const int precise = precise_, capped = capped_;
@@ -587,7 +589,7 @@ void Suite::measure_corun_block(const Block& block) {
     capped_ = capped;
     widest_ = widest;
     ++blocks_retaken_;
-    steps_ += static_cast<int>(block.configs.size()) * shape_.repetitions.max_windows + 1;
+    steps_ += static_cast<int>(block.configs.size()) * shape_.repetitions.max_windows + 2;
   }
 }
 

@@ -138,8 +138,8 @@ TEST_CASE("a tiny calibration suite returns well-formed measurements", "[hw][cal
   }
   CHECK(grew == retaken);
   if (co) {
-    // One probe before the co-runs, one after each block and each retake.
-    REQUIRE(m.contention.size() == 5u + static_cast<std::size_t>(retaken));
+    // One probe before the co-runs, one after each block, two (before, after) for each retake.
+    REQUIRE(m.contention.size() == 5u + 2u * static_cast<std::size_t>(retaken));
     CHECK(m.contention.front().when == "before the co-runs");
     for (const auto& p : m.contention) {
       INFO(p.when);

@@ -155,8 +155,10 @@ FitReport fit(const Measurements& measurements, const FitOptions& options = {});
 
 // A cost distribution from raw samples (us): a shifted lognormal through the samples' 10th, 50th
 // and 90th percentiles (its location clamped to [0, smallest sample]), clipped at the largest;
-// a normal by mean and sd truncated to the samples' range when they are not right-skewed; a
-// constant when every sample is equal. Throws RunError without samples.
+// a normal through the same percentiles (mean the median, sd (p90 - p10) / 2.563), truncated to
+// the samples' range, when they are not right-skewed (so that a far outlier, e.g. a wake-up that
+// RT throttling delayed, widens neither); a constant when every sample is equal. Throws RunError
+// without samples.
 CostFit fit_cost(std::vector<double> samples_us);
 
 // A full platform document (validates against platform.schema.json, runs in sim): cpu and

@@ -379,10 +379,26 @@ TEST_CASE("fit: costs become distributions of the platform format", "[sim][fit]"
   SECTION("all equal: constant") {
     CHECK(fit_cost({2.0, 2.0, 2.0}).distribution == json{{"dist", "constant"}, {"value_us", 2.0}});
   }
-  SECTION("most samples at the minimum: normal") {
+  SECTION("most samples at the minimum: normal, by the percentiles") {
     const CostFit c = fit_cost({1, 1, 1, 1, 1, 1, 2, 3});
     CHECK(c.distribution["dist"] == "normal");
-    CHECK(c.distribution["mean_us"].get<double>() == Approx(1.375));
+    CHECK(c.distribution["mean_us"].get<double>() == 1.0);  // the median
+    CHECK(c.distribution["sd_us"].get<double>() == Approx((c.p90_us - 1.0) / 2.563).epsilon(0.01));
+    CHECK(c.distribution["max_us"].get<double>() == 3.0);
+  }
+  SECTION("a far outlier widens neither the normal's centre nor its spread") {
+    // The timer wake-ups of a quick suite on the development VM (2026-11-28): 15-25 us, more of
+    // them near 25 (not right-skewed), and one that RT throttling held for 50 ms.
+    std::vector<double> s;
+    for (int i = 0; i < 499; ++i)
+      s.push_back(15.0 + 10.0 * std::sqrt((i + 0.5) / 499.0));
+    s.push_back(50006.651);
+    const CostFit c = fit_cost(s);
+    REQUIRE(c.distribution["dist"] == "normal");
+    // Percentiles of 15 + 10 sqrt(u): 10th 18.16, 50th 22.07, 90th 24.49.
+    CHECK(c.distribution["mean_us"].get<double>() == Approx(22.07).margin(0.05));
+    CHECK(c.distribution["sd_us"].get<double>() == Approx(6.33 / 2.563).epsilon(0.02));
+    CHECK(c.distribution["max_us"].get<double>() == 50006.651);  // the range is kept
   }
   SECTION("no samples") {
     CHECK_THROWS_AS(fit_cost({}), RunError);

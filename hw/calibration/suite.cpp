@@ -362,7 +362,7 @@ class Suite {
   double widest_ = 0.0;                 // the widest CI (%) of those stopped at the cap
   std::vector<int> windows_;            // windows per measurement
   int blocks_retaken_ = 0;              // co-run blocks taken again: the DRAM interference changed
-  std::vector<std::string> unsettled_;  // co-run blocks kept in another state than the first's
+  std::vector<std::string> unsettled_;  // co-run blocks kept outside the suite's state
   std::map<std::pair<std::string, double>, std::unique_ptr<BuiltinWorkload>> measured_;
 };
 
@@ -559,9 +559,9 @@ std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::s
 
 // A co-run block between two contention probes (the one before it is the previous block's
 // after-probe; a retake's is taken afresh): taken again, up to kStateAttempts times in all,
-// while a probe around it is in another state than the suite's first probe (the host moved the
-// vCPUs under it), so that every co-run block is measured in one state; kept after the last
-// attempt (unsettled_ says so).
+// while a probe around it is in another state than the one most of the suite's probes so far
+// share (calibration::contention_state; the host moved the vCPUs under it), so that the co-run
+// blocks are measured in one state; kept after the last attempt (unsettled_ says so).
 void Suite::measure_corun_block(const Block& block) {
   const std::string co = block.co->kernel + " " + kb_text(block.co->kb);
   if (m_.contention.empty() && !probe_contention("before the co-runs")) return;
@@ -574,9 +574,11 @@ void Suite::measure_corun_block(const Block& block) {
     measure_block(block, "co-run");
     const auto after = probe_contention("after the co-runs beside " + co);
     if (!after) return;
-    const auto& first = m_.contention.front();
-    if (calibration::same_contention_state(first, before) &&
-        calibration::same_contention_state(first, *after))
+    // The state most probes so far share (not simply the first's: the host may move the vCPUs
+    // right after it and keep them there).
+    const auto state = calibration::contention_state(m_.contention);
+    if (calibration::same_contention_state(*state, before) &&
+        calibration::same_contention_state(*state, *after))
       return;
     if (attempt == kStateAttempts) {
       unsettled_.push_back(co + " (" + calibration::describe(before) + " before, " +
@@ -1170,14 +1172,14 @@ SuiteResult Suite::run() {
     }
     if (blocks_retaken_ > 0)
       text += "; " + std::to_string(blocks_retaken_) +
-              " co-run block(s) taken again: a probe around them was in another state than the "
-              "first (the host moved the vCPUs?)";
+              " co-run block(s) taken again: a probe around them was in another state than most "
+              "(the host moved the vCPUs?)";
     notes_.add(text);
   }
   if (!unsettled_.empty()) {
     std::string text =
-        "co-run blocks kept in another DRAM-interference state than the suite's "
-        "first probe after " +
+        "co-run blocks kept in another DRAM-interference state than most of the suite's "
+        "probes after " +
         std::to_string(kStateAttempts) + " attempts, so the fit mixes states:";
     for (const auto& u : unsettled_)
       text += (u == unsettled_.front() ? " " : "; ") + u;

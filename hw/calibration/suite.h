@@ -15,8 +15,9 @@
 //   hits them all alike.
 // - Contention probes (calibration::ContentionProbe) before the first co-run block and after each:
 //   a co-run block is taken again (at most kStateAttempts times in all) while a probe around it
-//   is in another DRAM-interference state than the first probe, so that the co-runs the fit reads
-//   come from one state of a host that moves its vCPUs; the probes go into the measurements.
+//   is in another DRAM-interference state than most probes so far (calibration::contention_state),
+//   so that the co-runs the fit reads come from one state of a host that moves its vCPUs; the
+//   probes go into the measurements.
 // - `stop` (set by a SIGINT handler) ends the suite between two windows: the result holds what
 //   was measured so far and `stopped` is true. progress is called from the calling thread.
 // - Throws RunError when the host has too little memory for a working set beyond its last-level

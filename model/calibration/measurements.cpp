@@ -211,11 +211,19 @@ std::optional<ContentionProbe> contention_state(const std::vector<ContentionProb
     const std::size_t n = v.size();
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
   };
-  ContentionProbe state = probes.front();
+  const auto agreeing = [&](const ContentionProbe& anchor) {
+    return std::count_if(probes.begin(), probes.end(), [&](const ContentionProbe& p) {
+      return same_contention_state(anchor, p);
+    });
+  };
+  const ContentionProbe* anchor = &probes.front();
+  for (const ContentionProbe& p : probes)
+    if (agreeing(p) > agreeing(*anchor)) anchor = &p;
+  ContentionProbe state = *anchor;
   std::vector<double> ratios, cis;
   state.rounds = 0;
   for (const ContentionProbe& p : probes) {
-    if (!same_contention_state(probes.front(), p)) continue;
+    if (!same_contention_state(*anchor, p)) continue;
     ratios.push_back(p.ratio);
     state.rounds += p.rounds;
     if (p.ci95_pct) cis.push_back(*p.ci95_pct);
@@ -224,7 +232,7 @@ std::optional<ContentionProbe> contention_state(const std::vector<ContentionProb
   state.ratio = median(ratios);
   state.ci95_pct = cis.empty() ? std::nullopt : std::optional<double>(median(cis));
   state.when = std::to_string(n) + " of " + std::to_string(probes.size()) +
-               " probes of the suite agree with its first";
+               " probes of the suite in this state";
   return state;
 }
 

@@ -174,7 +174,14 @@ TEST_CASE("contention probes: a suite's state is its first probe's, the median o
   CHECK(s->ratio == Approx(1.80));    // 1.70, 1.80, 1.84; 1.02 is another state
   CHECK(s->ci95_pct == Approx(4.0));  // the median of 3, 6 and 4
   CHECK(s->rounds == 21);
-  CHECK(s->when == "3 of 4 probes of the suite agree with its first");
+  CHECK(s->when == "3 of 4 probes of the suite in this state");
+  // Not the first probe's state when most probes are in another (the host moved the vCPUs
+  // right after the first).
+  const auto moved = contention_state({probe(1.52, 2.0), probe(1.78, 2.0), probe(1.53, 2.0),
+                                       probe(0.99, 2.0), probe(1.00, 2.0), probe(0.99, 2.0)});
+  REQUIRE(moved);
+  CHECK(moved->ratio == Approx(0.99));
+  CHECK(moved->when == "3 of 6 probes of the suite in this state");
   CHECK(describe(*s) == "1.80x +- 4.0 % (bandwidth_read 131072 KB on CPU 0 beside CPU 1)");
 }
 

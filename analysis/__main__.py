@@ -93,7 +93,8 @@ width, and the figure draws it on each sim point.
 right before and after each scenario's hw run (a DRAM-bound reader's slowdown beside another on
 the other CPU, `rosguard platform contention`) and the model's; make validate writes them. The
 report's table adds it per scenario, marks the scenarios measured in another state than the
-model's and, when some were, adds a row over the others alone (the goals stay marked over all).
+model's and, when some were, adds a row over those measured in the model's state (the goals
+stay marked over all).
 A scenario without its file (or a missing DIR): "not probed"; a file that is not JSON of that
 form is invalid input.
 """

@@ -185,7 +185,7 @@ void print_fit(const calibration::FitReport& report,
               << state->when << ")\n";
     std::size_t agree = 0;  // the probes in the recorded state
     for (const auto& p : probes)
-      agree += calibration::same_contention_state(probes.front(), p) ? 1 : 0;
+      agree += calibration::same_contention_state(*state, p) ? 1 : 0;
     if (agree < probes.size())
       std::cerr << "warning: the DRAM interference between CPU " << state->cores[0] << " and CPU "
                 << state->cores[1] << " changed during the suite (probes:" << ratios(probes)

@@ -74,7 +74,7 @@ struct CoreParams {
 // touched (the kernels' stride).
 struct KernelModel {
   double ns_per_line_l2 = 1.0;  // working set within the private L2: core-bound
-  double ns_per_line_l3 = 1.0;  // working set within the L3, unloaded: the base time per line
+  double ns_per_line_l3 = 1.0;  // within the L3, unloaded: the base time of a line the L2 refills
   double mlp = 1.0;             // L3 misses in flight (the latency kernel's pointer chase: 1)
 };
 

@@ -90,8 +90,10 @@ WorkloadProfile kernel_profile(const std::string& name, const std::string& kerne
   p.footprint_kb = working_set_kb;
   p.l3_hit = kernel_reuse_kb(working_set_kb, platform) <= platform.l3.capacity_kb ? 1.0 : 0.0;
   Phase ph;
-  ph.base_ipc = 1.0 / ((in_l2 ? model.ns_per_line_l2 : model.ns_per_line_l3) * platform.freq_ghz());
-  ph.refill_pki = in_l2 ? 0.0 : 1000.0;
+  const double l2_hit = in_l2 ? 1.0 : kernel == "latency" ? platform.l2_kb / working_set_kb : 0.0;
+  ph.base_ipc = 1.0 / ((l2_hit * model.ns_per_line_l2 + (1.0 - l2_hit) * model.ns_per_line_l3) *
+                       platform.freq_ghz());
+  ph.refill_pki = 1000.0 * (1.0 - l2_hit);
   ph.wb_pki = !in_l2 && kernel == "bandwidth_write" ? 1000.0 : 0.0;
   ph.mlp = model.mlp;
   ph.mrc = derived_mrc(working_set_kb, p.footprint_kb, p.l3_hit, platform);

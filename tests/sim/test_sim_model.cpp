@@ -443,6 +443,33 @@ TEST_CASE("cost distributions: seeded, reproducible, within their bounds", "[sim
   CHECK(stream_seed(1, "nrt0/pmc_callback") != stream_seed(1, "nrt0/publish"));
 }
 
+TEST_CASE("kernel profiles: the streams refill every line beyond the L2, the chase a share",
+          "[sim][profile]") {
+  SimPlatform p = orin();
+  p.l2_kb = 1024.0;
+  const KernelModel model{0.5, 0.7, 8.0};  // ns_per_line_l2, ns_per_line_l3, mlp
+  const auto phase = [&](const char* kernel, double ws_kb) {
+    return kernel_profile(kernel, kernel, model, ws_kb, 1.0, p).phases.at(0);
+  };
+  const auto ns_per_line = [&](const Phase& ph) { return 1.0 / (ph.base_ipc * p.freq_ghz()); };
+  // Within the L2: no refills, the L2 time.
+  for (const char* k : {"bandwidth_read", "bandwidth_write", "latency"}) {
+    INFO(k);
+    CHECK(phase(k, 1024).refill_pki == 0.0);
+    CHECK(ns_per_line(phase(k, 1024)) == Approx(0.5));
+  }
+  // Beyond it a sequential stream misses the L2 on every line; a write stream writes each back.
+  CHECK(phase("bandwidth_read", 2048).refill_pki == 1000.0);
+  CHECK(phase("bandwidth_read", 2048).wb_pki == 0.0);
+  CHECK(phase("bandwidth_write", 2048).wb_pki == 1000.0);
+  CHECK(ns_per_line(phase("bandwidth_read", 4096)) == Approx(0.7));
+  // The random-order chase hits the L2 with the share of its lines the L2 holds.
+  CHECK(phase("latency", 2048).refill_pki == Approx(500.0));
+  CHECK(ns_per_line(phase("latency", 2048)) == Approx(0.5 * 0.5 + 0.5 * 0.7));
+  CHECK(phase("latency", 4096).refill_pki == Approx(750.0));
+  CHECK(phase("latency", 131072).refill_pki == Approx(1000.0 * (1.0 - 1.0 / 128.0)));
+}
+
 TEST_CASE("profiles: fractions must add up to 1, named by file and path", "[sim][profile]") {
   json doc = read_json("scenarios/workloads/mser.json");
   doc["sim"]["phases"][0]["fraction"] = 0.5;

@@ -95,9 +95,11 @@ inline constexpr double kKernelLineBytes = 64.0;
 //     eight calibrations in tests/sim/fixtures/measured (both vendors) each fit with a lower RMS
 //     residual than with l2_hit = 0, 1.0-3.9 x lower (2026-11-28: 9.7 % -> 2.5 %; there the
 //     chase beside a DRAM stream, 144 ns measured, had been predicted at 177 with every load to
-//     DRAM, and the DRAM queue bent to it under-predicted two DRAM readers side by side by 17 %). Beyond the L3 the same argument
-//     would give latency l3 hits of l3 / working set; the calibrations have one working set
-//     beyond the L3 each and cannot tell, so the step below stays;
+//     DRAM, and the DRAM queue bent to it under-predicted two DRAM readers side by side by 17 %).
+//     Beyond the L3 the same argument would give latency L3 hits of l3 / working set; no
+//     calibration here can tell (one working set beyond the L3 each, but the Xeon VM's full
+//     suite, whose chase saw no L3 hits even at 4 MB: the host's other tenants), so the step
+//     below stays;
 //   - l3_hit = 1 when kernel_reuse_kb(working set) fits the cluster's L3, else 0 (a cyclic
 //     stream through an LRU cache larger than the cache misses on every line); footprint = the
 //     working set;

@@ -332,6 +332,7 @@ class Suite {
   void measure_block(const Block& block, const std::string& label);
   std::optional<calibration::ContentionProbe> probe_contention(const std::string& when);
   void measure_corun_block(const Block& block);
+  bool wait_for_state(const std::string& co);
   std::optional<double> window(BuiltinWorkload& w, double kb,
                                const std::vector<std::unique_ptr<BuiltinWorkload>>& co_work,
                                double co_kb, int n);
@@ -363,6 +364,8 @@ class Suite {
   std::vector<int> windows_;            // windows per measurement
   int blocks_retaken_ = 0;              // co-run blocks taken again: the DRAM interference changed
   std::vector<std::string> unsettled_;  // co-run blocks kept outside the suite's state
+  double state_waited_s_ = 0.0;         // waiting for the suite's state before retakes
+  int state_wait_probes_ = 0;           // probes that did not find it (not recorded)
   std::map<std::pair<std::string, double>, std::unique_ptr<BuiltinWorkload>> measured_;
 };
 
@@ -557,16 +560,43 @@ std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::s
   return p;
 }
 
+// Before a retake of the co-runs beside `co`: probes until one finds the state most of the
+// suite's probes share, or until the suite has waited shape_.state_wait_s in all; the probe it
+// stops at is recorded (the retake's before-probe), those before it are not (they would vote for
+// the state being waited out) and only counted. Between probes the host may move the vCPUs back: on
+// the EPYC VM of 2026-11-28 a state lasted seconds to minutes, and a block retaken at once met the
+// same state three times (10:26, the DRAM reader pair at 0.99x in a suite at 1.54x). False when
+// stopped.
+bool Suite::wait_for_state(const std::string& co) {
+  const auto state = calibration::contention_state(m_.contention);
+  const auto t0 = std::chrono::steady_clock::now();
+  for (bool first = true;; first = false) {
+    if (!first) ++steps_;  // a probe more than planned
+    const auto p = probe_contention("before the co-runs beside " + co + ", again");
+    if (!p) return false;
+    const double waited =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!state || calibration::same_contention_state(*state, *p) ||
+        state_waited_s_ + waited >= shape_.state_wait_s) {
+      state_waited_s_ += waited;
+      return true;
+    }
+    m_.contention.pop_back();
+    ++state_wait_probes_;
+  }
+}
+
 // A co-run block between two contention probes (the one before it is the previous block's
-// after-probe; a retake's is taken afresh): taken again, up to kStateAttempts times in all,
-// while a probe around it is in another state than the one most of the suite's probes so far
-// share (calibration::contention_state; the host moved the vCPUs under it), so that the co-run
-// blocks are measured in one state; kept after the last attempt (unsettled_ says so).
+// after-probe; a retake's is taken afresh, after wait_for_state): taken again, up to
+// kStateAttempts times in all, while a probe around it is in another state than the one most of
+// the suite's probes so far share (calibration::contention_state; the host moved the vCPUs under
+// it), so that the co-run blocks are measured in one state; kept after the last attempt
+// (unsettled_ says so).
 void Suite::measure_corun_block(const Block& block) {
   const std::string co = block.co->kernel + " " + kb_text(block.co->kb);
   if (m_.contention.empty() && !probe_contention("before the co-runs")) return;
   for (int attempt = 1; !stopping(); ++attempt) {
-    if (attempt > 1 && !probe_contention("before the co-runs beside " + co + ", again")) return;
+    if (attempt > 1 && !wait_for_state(co)) return;
     const calibration::ContentionProbe before = m_.contention.back();
     const std::size_t runs = m_.runs.size(), windows = windows_.size();
     const int precise = precise_, capped = capped_;
@@ -1170,10 +1200,17 @@ SuiteResult Suite::run() {
       std::snprintf(buf, sizeof buf, " %.2fx", p.ratio);
       text += buf;
     }
-    if (blocks_retaken_ > 0)
+    if (blocks_retaken_ > 0) {
       text += "; " + std::to_string(blocks_retaken_) +
               " co-run block(s) taken again: a probe around them was in another state than most "
               "(the host moved the vCPUs?)";
+      char buf[160];
+      std::snprintf(buf, sizeof buf,
+                    "; waited %.1f s for that state before the retakes (at most %.0f s in all), "
+                    "%d probe(s) in another state not recorded",
+                    state_waited_s_, shape_.state_wait_s, state_wait_probes_);
+      text += buf;
+    }
     notes_.add(text);
   }
   if (!unsettled_.empty()) {

@@ -16,8 +16,10 @@
 // - Contention probes (calibration::ContentionProbe) before the first co-run block and after each:
 //   a co-run block is taken again (at most kStateAttempts times in all) while a probe around it
 //   is in another DRAM-interference state than most probes so far (calibration::contention_state),
-//   so that the co-runs the fit reads come from one state of a host that moves its vCPUs; the
-//   probes go into the measurements.
+//   so that the co-runs the fit reads come from one state of a host that moves its vCPUs. Before
+//   a retake the suite probes until that state is back (at most SuiteShape::state_wait_s); the
+//   probes around the blocks go into the measurements, those that waited are only counted in a
+//   note.
 // - `stop` (set by a SIGINT handler) ends the suite between two windows: the result holds what
 //   was measured so far and `stopped` is true. progress is called from the calling thread.
 // - Throws RunError when the host has too little memory for a working set beyond its last-level
@@ -68,6 +70,10 @@ struct SuiteShape {
   double warmup_ms = 20.0;         // at most this long waiting for a kernel to stream (one pass)
   int cost_samples = 500;          // per cost
   double cost_spacing_us = 300.0;  // between two cost samples (the callee sleeps in between)
+  // Before a co-run block's retake the suite probes until the DRAM-interference state of most of
+  // its probes is back, at most this long over the whole suite (a probe takes about 0.6 s with
+  // 20 ms windows; the quick suite about 35 s on the 2-vCPU VM, its goal is under 3 min).
+  double state_wait_s = 60.0;
   std::vector<std::string> notes;  // shape_for's decisions (a DRAM set under 4x the LLC)
 };
 
@@ -152,7 +158,8 @@ double read_mem_available_kb();
 SuiteResult run_suite(const SuiteOptions& options);
 
 // A contention probe: kContentionRounds rounds of one window alone and one beside; a co-run
-// block is taken at most kStateAttempts times in all.
+// block is taken at most kStateAttempts times in all, each retake after probing until the
+// suite's state is back (SuiteShape::state_wait_s).
 inline constexpr int kContentionRounds = 7;  // >= 6 for a 95 % interval of the median; odd
 inline constexpr int kStateAttempts = 3;
 

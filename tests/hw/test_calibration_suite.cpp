@@ -49,6 +49,7 @@ SuiteShape tiny_shape() {
   s.warmup_ms = 2.0;
   s.cost_samples = 20;
   s.cost_spacing_us = 200.0;
+  s.state_wait_s = 1.0;
   return s;
 }
 
@@ -130,13 +131,17 @@ TEST_CASE("a tiny calibration suite returns well-formed measurements", "[hw][cal
   CHECK(monotonic);
   // The total is re-estimated downwards only, but for a co-run block taken again (the probes
   // around it found another DRAM-interference state than the first), which adds its steps.
-  int retaken = 0;
+  // A retake waits for the suite's state, probing: each probe after the first of a wait adds a
+  // step too.
+  int retaken = 0, waiting = 0;
   for (const auto& n : r.notes) {
     std::smatch hit;
     if (std::regex_search(n, hit, std::regex("(\\d+) co-run block\\(s\\) taken again")))
       retaken = std::stoi(hit[1]);
+    if (std::regex_search(n, hit, std::regex("waited ([0-9.]+) s for that state.*?(\\d+) probe")))
+      waiting = std::stoi(hit[2]);
   }
-  CHECK(grew == retaken);
+  CHECK(grew == retaken + waiting);
   if (co) {
     // One probe before the co-runs, one after each block, two (before, after) for each retake.
     REQUIRE(m.contention.size() == 5u + 2u * static_cast<std::size_t>(retaken));

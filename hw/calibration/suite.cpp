@@ -598,12 +598,15 @@ void Suite::measure_corun_block(const Block& block) {
   for (int attempt = 1; !stopping(); ++attempt) {
     if (attempt > 1 && !wait_for_state(co)) return;
     const calibration::ContentionProbe before = m_.contention.back();
+    const int before_at = static_cast<int>(m_.contention.size()) - 1;
     const std::size_t runs = m_.runs.size(), windows = windows_.size();
     const int precise = precise_, capped = capped_;
     const double widest = widest_;
     measure_block(block, "co-run");
     const auto after = probe_contention("after the co-runs beside " + co);
     if (!after) return;
+    for (std::size_t i = runs; i < m_.runs.size(); ++i)
+      m_.runs[i].probes = {before_at, static_cast<int>(m_.contention.size()) - 1};
     // The state most probes so far share (not simply the first's: the host may move the vCPUs
     // right after it and keep them there).
     const auto state = calibration::contention_state(m_.contention);
@@ -1217,7 +1220,7 @@ SuiteResult Suite::run() {
     std::string text =
         "co-run blocks kept in another DRAM-interference state than most of the suite's "
         "probes after " +
-        std::to_string(kStateAttempts) + " attempts, so the fit mixes states:";
+        std::to_string(kStateAttempts) + " attempts (the fit leaves their runs out):";
     for (const auto& u : unsettled_)
       text += (u == unsettled_.front() ? " " : "; ") + u;
     notes_.add(text);

@@ -52,6 +52,7 @@ void to_json(json& j, const Measurements& m) {
                 {"corunners", co},    {"ns_per_line", r.ns_per_line},
                 {"cv", r.cv},         {"samples", r.samples}};
     if (r.ci95_pct) run["ci95_pct"] = *r.ci95_pct;
+    if (!r.probes.empty()) run["probes"] = r.probes;
     j["runs"].push_back(std::move(run));
   }
 }
@@ -97,6 +98,8 @@ Measurements measurements_from_json(const json& j, const std::string& file,
                              field<double>(co[c], "working_set_kb", file, cp)});
     }
     if (!(k.ns_per_line > 0.0)) throw InputError(file, rp + "/ns_per_line", "must be positive");
+    if (r.contains("probes"))  // optional: isolation runs and older files have none
+      k.probes = field<std::vector<int>>(r, "probes", file, rp);
     m.runs.push_back(std::move(k));
   }
   m.costs_us = field<std::map<std::string, std::vector<double>>>(j, "costs_us", file, base);
@@ -108,6 +111,13 @@ Measurements measurements_from_json(const json& j, const std::string& file,
       m.contention.push_back(
           probe_from_json(probes[i], file, base + "/contention/" + std::to_string(i)));
   }
+  for (std::size_t i = 0; i < m.runs.size(); ++i)
+    for (std::size_t p = 0; p < m.runs[i].probes.size(); ++p)
+      if (const int at = m.runs[i].probes[p];
+          at < 0 || static_cast<std::size_t>(at) >= m.contention.size())
+        throw InputError(file, base + "/runs/" + std::to_string(i) + "/probes/" + std::to_string(p),
+                         "no probe " + std::to_string(at) + " in /contention (" +
+                             std::to_string(m.contention.size()) + " probes)");
   return m;
 }
 

@@ -134,6 +134,10 @@ struct KernelRun {
   // Initialised, so that a run brace-initialised without it compiles under
   // -Wmissing-field-initializers.
   std::optional<double> ci95_pct = std::nullopt;
+  // Co-runs: the indices in Measurements::contention of the probes before and after the block
+  // that measured it (the DRAM-interference state it met; the fit leaves out a run whose probes
+  // are not in the suite's state). Empty: no probes (isolation, one core, older files).
+  std::vector<int> probes = {};
 };
 
 struct Measurements {

@@ -336,6 +336,17 @@ struct RunSelection {
 RunSelection select_runs(const Measurements& m, int cores_per_cluster, FitReport& rep) {
   const HostFacts& host = m.host;
   RunSelection sel;
+  const auto state = calibration::contention_state(m.contention);
+  // The probes around a run's block that are not in the suite's state, described; empty when
+  // they all are (or it has none).
+  const auto off_state = [&](const KernelRun& r) {
+    std::string off;
+    for (const int at : r.probes)
+      if (const auto& p = m.contention.at(static_cast<std::size_t>(at));
+          state && !calibration::same_contention_state(*state, p))
+        off += (off.empty() ? "" : ", ") + fmt("%.2fx", p.ratio) + " " + p.when;
+    return off;
+  };
   for (std::size_t i = 0; i < m.runs.size(); ++i) {
     const KernelRun& r = m.runs[i];
     FittedRun fr;
@@ -354,6 +365,9 @@ RunSelection select_runs(const Measurements& m, int cores_per_cluster, FitReport
       fr.note = "not modelled: more co-runners than the cluster has other cores";
     } else if (lv == Level::L1) {
       fr.note = "not modelled: the working set fits the L1d (the model starts at the L2)";
+    } else if (const std::string off = off_state(r); !off.empty()) {
+      fr.note = "left out: measured in another DRAM-interference state than the suite's (" +
+                calibration::describe(*state) + "): probe " + off;
     } else {
       fr.used = true;
       sel.used.push_back(&r);

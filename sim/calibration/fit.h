@@ -15,7 +15,11 @@
 // note says so, and the model is still written. Predictions are exactly the sim's: the kernel's
 // profile (sim/workload/profile.h: kernel_profile) on the memory model's steady state
 // (sim/platform/contention.h), the measured kernel on core 0 of cluster 0 and its co-runners on the
-// next cores of that cluster.
+// next cores of that cluster. Co-runs whose block's contention probes (KernelRun::probes) are not
+// in the suite's DRAM-interference state (calibration::contention_state of its probes) are left
+// out, each with a note: the model describes one state, and a block the suite could not measure
+// in it (the host kept the vCPUs elsewhere longer than the suite waits) would pull the DRAM
+// parameters towards another.
 //
 // Parameters (all strictly positive: fitted as logarithms, which keeps them in bounds):
 //   fitted: per kernel ns_per_line_l2 (isolation within the L2), ns_per_line_l3 (isolation within

@@ -155,6 +155,18 @@ TEST_CASE("a tiny calibration suite returns well-formed measurements", "[hw][cal
       CHECK(p.rounds <= kContentionRounds);
       CHECK_FALSE(p.date.empty());
     }
+    // Each co-run names the probes around its block: the one before, the one after.
+    for (const auto& run : m.runs) {
+      if (run.corunners.empty()) {
+        CHECK(run.probes.empty());
+        continue;
+      }
+      REQUIRE(run.probes.size() == 2u);
+      CHECK(run.probes[0] < run.probes[1]);
+      CHECK(static_cast<std::size_t>(run.probes[1]) < m.contention.size());
+      CHECK_THAT(m.contention[static_cast<std::size_t>(run.probes[1])].when,
+                 Catch::StartsWith("after the co-runs beside"));
+    }
   } else {
     CHECK(m.contention.empty());
   }

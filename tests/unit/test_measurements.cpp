@@ -190,6 +190,7 @@ TEST_CASE("contention probes: in the measurements and in measured_on, and their 
   Measurements m = sample();
   m.contention = {probe(1.80, 3.0), probe(1.75, std::nullopt)};
   m.contention[0].when = "before the co-runs";
+  m.runs[1].probes = {0, 1};  // the co-run, between the two
   json j;
   to_json(j, m);
   const Measurements r = measurements_from_json(json::parse(j.dump()), "c.json");
@@ -197,12 +198,17 @@ TEST_CASE("contention probes: in the measurements and in measured_on, and their 
   CHECK(r.contention[0].ratio == 1.80);
   CHECK(r.contention[0].when == "before the co-runs");
   CHECK_FALSE(r.contention[1].ci95_pct);
+  CHECK(r.runs[0].probes.empty());
+  CHECK(r.runs[1].probes == std::vector<int>{0, 1});
+  CHECK_FALSE(j["runs"][0].contains("probes"));
   json again;
   to_json(again, r);
   CHECK(again == j);
   // Older measurements have no probes.
-  j.erase("contention");
-  CHECK(measurements_from_json(j, "c.json").contention.empty());
+  json older = j;
+  older.erase("contention");
+  older["runs"][1].erase("probes");
+  CHECK(measurements_from_json(older, "c.json").contention.empty());
 
   MachineIdentity id = machine_identity(m.host);
   id.dram_contention = contention_state(m.contention);
@@ -225,4 +231,11 @@ TEST_CASE("contention probes: in the measurements and in measured_on, and their 
   bad["contention"] = {{{"cores", {0, 1}}, {"ratio", 0.0}}};
   CHECK_THROWS_WITH(measurements_from_json(bad, "c.json"),
                     "c.json: /contention/0/working_set_kb: missing");
+  // A run's probes index the probes.
+  bad = j;
+  bad["runs"][1]["probes"] = {1, 2};
+  CHECK_THROWS_WITH(measurements_from_json(bad, "c.json"),
+                    "c.json: /runs/1/probes/1: no probe 2 in /contention (2 probes)");
+  bad["runs"][1]["probes"] = {0, "1"};
+  CHECK_THROWS_WITH(measurements_from_json(bad, "c.json"), Catch::Contains("/runs/1/probes"));
 }

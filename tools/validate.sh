@@ -87,6 +87,11 @@ write_report() {
   args=(-m analysis validate "$out/hw" "$out/sim" --out "$out" ${cpu:+--cpu "$cpu"}
         --scenarios "$(IFS=,; echo "${ok[*]}")"
         --note "1-min load average $load_start at the start, $load_end at the end ($cpus CPUs)")
+  if ((${#recalibrated[@]})); then
+    args+=(--note "calibrated again (quick) before ${recalibrated[*]}: the host stayed in another\
+ DRAM-interference state than the model's; each scenario is compared with the model installed\
+ when it ran")
+  fi
   for f in "${failed[@]}"; do args+=(--failed "$f"); done
   for f in "${skipped[@]}"; do args+=(--skipped "$f"); done
   if ((band_runs)); then args+=(--band-root "$out/sim-band"); fi
@@ -108,7 +113,8 @@ if ((report_only)); then
     exit 1
   fi
   # runs_ok (the scenarios whose runs succeeded), failed, skipped, cpu, cpus, load_start, load_end,
-  # band_runs, band_compare, as the run left them.
+  # band_runs, band_compare, recalibrated, as the run left them (older runs lack recalibrated).
+  recalibrated=()
   source "$out/suite.state"
   ok=()
   for name in "${runs_ok[@]}"; do
@@ -125,9 +131,14 @@ json_field() {
 }
 
 # Each hw run waits for the host model's DRAM-interference state (probing every 5 s, at most
-# ROSGUARD_VALIDATE_STATE_WAIT_S seconds over the whole suite, default 300), is probed again
-# after, and is taken once more when the state changed during it; $out/state/<scenario>.json
-# records the probes (before, after), the wait and the attempts, and the report shows them.
+# state_wait_each seconds per scenario and ROSGUARD_VALIDATE_STATE_WAIT_S over the whole suite,
+# default 300), is probed again after, and is taken once more when the state changed during it;
+# $out/state/<scenario>.json records the probes (before, after), the wait and the attempts, and
+# the report shows them. When the host stays in another state past the wait, validate calibrates
+# again (quick, installed) at most ROSGUARD_VALIDATE_RECALIBRATE times (default 2), so that the
+# scenario and those after it are compared with a model of the state they run in: on the VM of
+# 2026-11-28 a state held for minutes, and at 10:57 five of eight scenarios ran at 1.6-2.1x
+# against a model calibrated at 1.0x once the wait was spent.
 state_check=0
 if [[ $platform == host ]] &&
    "$rosguard" platform --help 2>/dev/null | grep -E '^ +contention +' >/dev/null; then
@@ -138,6 +149,13 @@ if [[ ! $state_wait_left =~ ^[0-9]+$ ]]; then
   echo "validate: ROSGUARD_VALIDATE_STATE_WAIT_S='$state_wait_left' is not a number of seconds" >&2
   exit 1
 fi
+state_wait_each=60
+recalibrations_left=${ROSGUARD_VALIDATE_RECALIBRATE:-2}
+if [[ ! $recalibrations_left =~ ^[0-9]+$ ]]; then
+  echo "validate: ROSGUARD_VALIDATE_RECALIBRATE='$recalibrations_left' is not a count" >&2
+  exit 1
+fi
+recalibrated=()  # the scenarios before which validate calibrated again
 
 # The sim side of `platform: host` is the installed calibrated model; it must be a model of THIS
 # machine. Calibrate (quick) when there is none, or when the installed one was measured on another
@@ -219,10 +237,14 @@ fi
 # The host model's uncertainty band: band/*.json beside it (absolute paths: the scenario copies
 # that name them live elsewhere). Files older than the model are of an earlier one (calibrate
 # writes the model first, then its band): left out, with a warning.
+# (Again after a calibration mid-suite: the scenarios after it run on the new model's band.)
 band_files=()
-if [[ $platform == host ]]; then
+load_band_files() {
+  band_files=()
+  [[ $platform == host ]] || return 0
   band_dir=$(cd "$(dirname "$model")" && pwd)/band
   band_files=("$band_dir"/*.json)
+  local f
   for f in "${band_files[@]}"; do
     if [[ $f -ot $model ]]; then
       echo "validate: warning: $f is older than the host model $model (of an earlier" \
@@ -231,16 +253,17 @@ if [[ $platform == host ]]; then
       break
     fi
   done
-  if ((${#band_files[@]})); then
-    echo "validate: prediction band: the host model has ${#band_files[@]} band platform(s) in" \
-         "$band_dir/ (prior-dominated parameters one standard error down / up); each scenario" \
-         "also runs in sim on each, into $out/sim-band/"
-  fi
+}
+load_band_files
+if ((${#band_files[@]})); then
+  echo "validate: prediction band: the host model has ${#band_files[@]} band platform(s) in" \
+       "$band_dir/ (prior-dominated parameters one standard error down / up); each scenario" \
+       "also runs in sim on each, into $out/sim-band/"
 fi
 # compare --band needs a rosguard that forwards it. (grep without -q: with pipefail, a grep
 # that stops reading early can fail the pipeline by SIGPIPE.)
 band_compare=0
-if ((${#band_files[@]})) && "$rosguard" compare --help 2>&1 | grep -e '--band' >/dev/null; then
+if [[ $platform == host ]] && "$rosguard" compare --help 2>&1 | grep -e '--band' >/dev/null; then
   band_compare=1
 fi
 
@@ -256,21 +279,36 @@ open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' "$1
 # " (state B/A, model M; waited W s; run twice)": the probes' ratios before and after, the
 # model's, and whether it waited (5 s or more) and ran twice.
 hw_in_state() {
-  local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 t0 t1 prc
+  local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 each t0 t1 prc recal=0
   while :; do
     prc=0
     "$rosguard" platform contention --out "$st.before.json" >/dev/null 2>&1 || prc=$?
     # The wait: each 5 s pause and the probe after it, until the model's state or no time left.
-    while ((prc == 3 && state_wait_left > 0)) && [[ $(json_field "$st.before.json" model) != None ]]
-    do
+    each=0
+    while ((prc == 3 && state_wait_left > 0 && each < state_wait_each)) &&
+          [[ $(json_field "$st.before.json" model) != None ]]; do
       t0=$(date +%s)
       sleep 5
       prc=0
       "$rosguard" platform contention --out "$st.before.json" >/dev/null 2>&1 || prc=$?
       t1=$(date +%s)
       waited=$((waited + t1 - t0))
+      each=$((each + t1 - t0))
       state_wait_left=$((state_wait_left - t1 + t0))
     done
+    # Still another state: a model of this one (then probe again against it).
+    if ((prc == 3 && recalibrations_left > 0)) &&
+       [[ $(json_field "$st.before.json" model) != None ]]; then
+      recalibrations_left=$((recalibrations_left - 1))
+      if "$rosguard" calibrate --quick --install --quiet \
+           > "$out/logs/recalibrate-before-$name.log" 2>&1; then
+        recal=1
+        recalibrated+=("$name")
+        load_band_files
+        continue
+      fi
+      echo " (calibrating again failed: see $out/logs/recalibrate-before-$name.log)" >&2
+    fi
     rc=0
     "$rosguard" run "$file" --backend hw --out "$out/hw/$name" --overwrite > "$log" 2>&1 || rc=$?
     attempts=$((attempts + 1))
@@ -284,15 +322,16 @@ hw_in_state() {
 def load(p):
     return json.load(open(p)) if os.path.exists(p) else None
 d={"before": load(sys.argv[1]), "after": load(sys.argv[2]), "waited_s": float(sys.argv[3]),
-   "attempts": int(sys.argv[4])}
+   "attempts": int(sys.argv[4]), "recalibrated": sys.argv[6] == "1"}
 d={k: v for k, v in d.items() if v is not None}
 open(sys.argv[5], "w").write(json.dumps(d, indent=2) + "\n")' \
-    "$st.before.json" "$st.after.json" "$waited" "$attempts" "$st.json"
+    "$st.before.json" "$st.after.json" "$waited" "$attempts" "$st.json" "$recal"
   rm -f "$st.before.json" "$st.after.json"
   state_text=$(py -c 'import json,sys; d=json.load(open(sys.argv[1]))
 f=lambda k: "%.2fx" % d[k]["ratio"] if k in d else "?"
 m=(d.get("before") or {}).get("model")
-w=("; waited %d s" % d["waited_s"] if d["waited_s"] >= 5 else "") + ("; run twice" if d["attempts"] > 1 else "")
+w=("; waited %d s" % d["waited_s"] if d["waited_s"] >= 5 else "")
+w+=("; calibrated again" if d.get("recalibrated") else "") + ("; run twice" if d["attempts"] > 1 else "")
 print(" (state %s/%s, model %s%s)" % (f("before"), f("after"), "%.2fx" % m["ratio"] if m else "none", w))' "$st.json")
 }
 
@@ -396,6 +435,11 @@ if ((${#skipped[@]})); then
 fi
 echo "validate: suite run in $(($(date +%s) - start)) s (load average $load_start at the" \
      "start, $load_end at the end, on $cpus CPUs)"
+if ((${#recalibrated[@]})); then
+  echo "validate: calibrated again before ${recalibrated[*]}: the host stayed in another" \
+       "DRAM-interference state than the model's; each scenario is compared with the model" \
+       "installed when it ran (logs: $out/logs/recalibrate-before-*.log)"
+fi
 if ((${#band_files[@]})); then
   echo "validate: prediction band: $band_runs band run(s) on ${#band_files[@]} platform(s) in" \
        "$((band_tenths / 10)).$((band_tenths % 10)) s"
@@ -407,7 +451,7 @@ fi
 cpu=$(LC_ALL=C lscpu 2>/dev/null | sed -n 's/^Model name: *//p' | head -n 1 || true)
 # What --report needs to compare and report later.
 declare -p runs_ok failed skipped cpu cpus load_start load_end band_runs band_compare \
-  > "$out/suite.state"
+  recalibrated > "$out/suite.state"
 if ((!analysis)); then
   echo "validate: python3 here lacks numpy, pandas, matplotlib or scipy (the analysis): the runs" \
        "are in $out/{hw,sim}/; copy $out to a machine with them and run" \

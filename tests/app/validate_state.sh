@@ -73,9 +73,10 @@ read -r before after waited attempts <<<"$(state moved)"
 grep -qE "\(state 1.38x/1.41x, model 1.40x; waited [0-9]+ s; run twice\)" "$log" ||
   fail "moved: the console does not say it waited and ran twice"
 
-# 5. No time to wait (ROSGUARD_VALIDATE_STATE_WAIT_S=0): one run in another state, and the report
-# says so.
-ROSGUARD_VALIDATE_STATE_WAIT_S=0 validate nowait "$tmp/suite" "1.02 1.40"
+# 5. No time to wait (ROSGUARD_VALIDATE_STATE_WAIT_S=0) and no calibrating again: one run in
+# another state, and the report says so.
+ROSGUARD_VALIDATE_STATE_WAIT_S=0 ROSGUARD_VALIDATE_RECALIBRATE=0 \
+  validate nowait "$tmp/suite" "1.02 1.40"
 [ "$code" -eq 0 ] || fail "nowait: exit $code"
 [ "$(state nowait)" == "1.02 1.02 0.0 1" ] || fail "nowait: state $(state nowait)"
 grep -q "1.02x / 1.02x, model 1.40x: differs" "$tmp/out-nowait/report.md" ||
@@ -83,8 +84,28 @@ grep -q "1.02x / 1.02x, model 1.40x: differs" "$tmp/out-nowait/report.md" ||
 grep -q "In another state: corun-unregulated" "$tmp/out-nowait/report.md" ||
   fail "nowait: the report does not name the scenario"
 
-# 6. A bad wait: refused before anything runs.
+# 6. A bad wait or count: refused before anything runs.
 ROSGUARD_VALIDATE_STATE_WAIT_S=soon validate badwait "$tmp/suite" "1.40 1.40"
 [ "$code" -eq 1 ] && grep -q "ROSGUARD_VALIDATE_STATE_WAIT_S='soon' is not a number" "$log" ||
   fail "badwait: exit $code"
+ROSGUARD_VALIDATE_RECALIBRATE=-1 validate badcount "$tmp/suite" "1.40 1.40"
+[ "$code" -eq 1 ] && grep -q "ROSGUARD_VALIDATE_RECALIBRATE='-1' is not a count" "$log" ||
+  fail "badcount: exit $code"
+[ ! -e "$tmp/calibrated" ] || fail "badcount: calibrated"
+
+# 7. Another state past the wait (none here): calibrated again before the run, which then runs
+# in the new model's state; the console, the state file, the summary and the report say so.
+ROSGUARD_VALIDATE_STATE_WAIT_S=0 validate again "$tmp/suite" "1.02 1.40" "1.02 1.40" \
+  "1.02 1.02" "1.03 1.02"
+[ "$code" -eq 0 ] || fail "again: exit $code"
+[ -e "$tmp/calibrated" ] || fail "again: not calibrated again"
+[ "$(state again)" == "1.02 1.03 0.0 1" ] || fail "again: state $(state again)"
+grep -qE "\(state 1.02x/1.03x, model 1.02x; calibrated again\)" "$log" ||
+  fail "again: the console does not say it calibrated again"
+grep -q "validate: calibrated again before corun-unregulated" "$log" ||
+  fail "again: no summary line"
+grep -q "calibrated again (quick) before corun-unregulated" "$tmp/out-again/report.md" ||
+  fail "again: the report does not say so"
+/usr/bin/python3 -c 'import json,sys; sys.exit(not json.load(open(sys.argv[1]))["recalibrated"])' \
+  "$tmp/out-again/state/corun-unregulated.json" || fail "again: the state file does not say so"
 echo "PASS"

@@ -137,7 +137,7 @@ json_field() {
 # the report shows them. When the host stays in another state past the wait, validate calibrates
 # again (quick, installed) at most ROSGUARD_VALIDATE_RECALIBRATE times (default 2), so that the
 # scenario and those after it are compared with a model of the state they run in: on the VM of
-# 2026-11-28 a state held for minutes, and at 10:57 five of eight scenarios ran at 1.6-2.1x
+# 2026-11-28 a state held for minutes, and at 10:56 five of eight scenarios ran at 1.6-2.1x
 # against a model calibrated at 1.0x once the wait was spent.
 state_check=0
 if [[ $platform == host ]] &&
@@ -276,8 +276,8 @@ open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' "$1
 
 # Scenario $1's hw run (rosguard run $2 > log $3, exit status in rc) in the model's
 # DRAM-interference state, as the comment of state_check says; sets state_text to
-# " (state B/A, model M; waited W s; run twice)": the probes' ratios before and after, the
-# model's, and whether it waited (5 s or more) and ran twice.
+# " (state B/A, model M; waited W s; calibrated again; run twice)": the probes' ratios before
+# and after, the model's, and whether it waited (5 s or more), calibrated again and ran twice.
 hw_in_state() {
   local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 each t0 t1 prc recal=0
   while :; do

@@ -214,7 +214,8 @@ bool same_contention_state(const ContentionProbe& a, const ContentionProbe& b) {
   return std::fabs(std::log(a.ratio / b.ratio)) <= std::log1p(kContentionTolerance);
 }
 
-std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes) {
+std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes,
+                                                const ContentionProbe* around) {
   if (probes.empty()) return std::nullopt;
   const auto median = [](std::vector<double> v) {
     std::sort(v.begin(), v.end());
@@ -226,9 +227,10 @@ std::optional<ContentionProbe> contention_state(const std::vector<ContentionProb
       return same_contention_state(anchor, p);
     });
   };
-  const ContentionProbe* anchor = &probes.front();
-  for (const ContentionProbe& p : probes)
-    if (agreeing(p) > agreeing(*anchor)) anchor = &p;
+  const ContentionProbe* anchor = around ? around : &probes.front();
+  if (!around)
+    for (const ContentionProbe& p : probes)
+      if (agreeing(p) > agreeing(*anchor)) anchor = &p;
   ContentionProbe state = *anchor;
   std::vector<double> ratios, cis;
   state.rounds = 0;
@@ -243,6 +245,28 @@ std::optional<ContentionProbe> contention_state(const std::vector<ContentionProb
   state.ci95_pct = cis.empty() ? std::nullopt : std::optional<double>(median(cis));
   state.when = std::to_string(n) + " of " + std::to_string(probes.size()) +
                " probes of the suite in this state";
+  return state;
+}
+
+std::optional<ContentionProbe> suite_state(const Measurements& m) {
+  // Per probe, the co-runs whose every probe agrees with it.
+  const auto runs_in = [&](const ContentionProbe& anchor) {
+    return std::count_if(m.runs.begin(), m.runs.end(), [&](const KernelRun& r) {
+      return !r.probes.empty() && std::all_of(r.probes.begin(), r.probes.end(), [&](int at) {
+        return same_contention_state(anchor, m.contention[static_cast<std::size_t>(at)]);
+      });
+    });
+  };
+  const ContentionProbe* best = nullptr;
+  long most = 0;
+  for (const ContentionProbe& p : m.contention)
+    if (const long n = runs_in(p); n > most) {
+      best = &p;
+      most = n;
+    }
+  if (!best) return contention_state(m.contention);
+  auto state = contention_state(m.contention, best);
+  state->when += " (" + std::to_string(most) + " co-runs)";
   return state;
 }
 

@@ -62,13 +62,15 @@ struct ContentionProbe {
 inline constexpr double kContentionTolerance = 0.10;
 bool same_contention_state(const ContentionProbe& a, const ContentionProbe& b);
 
-// The state a suite's co-runs were measured in, from its probes in suite order: the state most of
-// them share (the probe that the most probes agree with; the earliest of a tie), its ratio the
+// The state most of a suite's probes share, from its probes in suite order (the probe that the
+// most probes agree with; the earliest of a tie; the suite follows it while it runs), its ratio the
 // median of the probes that agree with that one (ci95_pct the median of theirs, rounds their
 // sum), `when` saying how many. Not simply the first probe's: a host that moves its vCPUs right
 // after it leaves every later block in another state (2 of 21 probes agreed with the first on
 // the development VM, 2026-11-28). Empty for no probes.
-std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes);
+// With `around`: the state of the probes that agree with that one instead.
+std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes,
+                                                const ContentionProbe* around = nullptr);
 
 // "1.74x +- 2.1 % (bandwidth_read 131072 KB on CPU 0 beside CPU 1)".
 std::string describe(const ContentionProbe& p);
@@ -159,5 +161,15 @@ void to_json(nlohmann::json& j, const Measurements& m);
 // `file` names the document in errors; `base` is the JSON path of the object.
 Measurements measurements_from_json(const nlohmann::json& j, const std::string& file,
                                     const std::string& base = "");
+
+// The state the suite's co-runs were measured in, which its model describes: the state (as
+// contention_state(probes, around)) of the probe with which the most co-runs agree, every probe
+// around each of them (KernelRun::probes; the earliest probe of a tie), `when` adding how many
+// co-runs; contention_state(m.contention) when no co-run records its probes (older files). Not
+// the state of the most probes: retakes add probes, and at 11:28 on the development VM
+// (2026-11-28) two blocks of 16 co-runs were measured at 1.0x, then the host moved the vCPUs and
+// the retakes of a third block added probes at 1.8x until those were the most (6 of 11). Empty
+// without probes.
+std::optional<ContentionProbe> suite_state(const Measurements& m);
 
 }  // namespace rosguard::calibration

@@ -336,7 +336,7 @@ struct RunSelection {
 RunSelection select_runs(const Measurements& m, int cores_per_cluster, FitReport& rep) {
   const HostFacts& host = m.host;
   RunSelection sel;
-  const auto state = calibration::contention_state(m.contention);
+  const auto state = calibration::suite_state(m);
   // The probes around a run's block that are not in the suite's state, described; empty when
   // they all are (or it has none).
   const auto off_state = [&](const KernelRun& r) {

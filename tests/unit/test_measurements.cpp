@@ -239,3 +239,33 @@ TEST_CASE("contention probes: in the measurements and in measured_on, and their 
   bad["runs"][1]["probes"] = {0, "1"};
   CHECK_THROWS_WITH(measurements_from_json(bad, "c.json"), Catch::Contains("/runs/1/probes"));
 }
+
+TEST_CASE("contention probes: the suite's state is the one most co-runs were measured in",
+          "[calibration]") {
+  Measurements m = sample();
+  m.contention = {probe(1.00, 2.0), probe(1.02, 2.0), probe(1.01, 2.0), probe(1.80, 2.0),
+                  probe(1.85, 2.0), probe(1.83, 2.0), probe(1.82, 2.0)};
+  // Most probes are at 1.8x (the retakes of a block), most co-runs at 1.0x.
+  REQUIRE(contention_state(m.contention)->ratio == Approx(1.825));
+  m.runs.clear();
+  KernelRun r = sample().runs[1];
+  for (int i = 0; i < 16; ++i) {
+    r.probes = i < 8 ? std::vector<int>{0, 1} : std::vector<int>{1, 2};
+    m.runs.push_back(r);
+  }
+  r.probes = {2, 3};  // across the change: in neither
+  m.runs.push_back(r);
+  r.probes = {5, 6};
+  for (int i = 0; i < 8; ++i)
+    m.runs.push_back(r);
+  const auto state = suite_state(m);
+  REQUIRE(state);
+  CHECK(state->ratio == Approx(1.01));
+  CHECK(state->when == "3 of 7 probes of the suite in this state (16 co-runs)");
+  // Without the runs' probes (older files): the probes' state.
+  for (auto& run : m.runs)
+    run.probes.clear();
+  CHECK(suite_state(m)->ratio == Approx(1.825));
+  m.contention.clear();
+  CHECK_FALSE(suite_state(m));
+}

@@ -190,8 +190,8 @@ void print_fit(const calibration::FitReport& report,
       std::cerr << "warning: the DRAM interference between CPU " << state->cores[0] << " and CPU "
                 << state->cores[1] << " changed during the suite (probes:" << ratios(probes)
                 << "): the host moved this machine's CPUs; co-run blocks measured in another "
-                   "state were taken again, and any kept are named in "
-                << cal_file.string() << " (suite_notes)\n";
+                   "state were taken again, and any kept are left out of the fit (named in "
+                << cal_file.string() << ", suite_notes)\n";
   }
   if (measured_on.kernel.empty())
     std::cout << "  note: the measurements do not record their kernel (made before rosguard "
@@ -258,7 +258,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   // The machine the measurements come from (not the one refitting them: --from may run
   // anywhere): "platform": "host" compares it with the machine it runs on.
   calibration::MachineIdentity measured_on = calibration::machine_identity(m.host);
-  measured_on.dram_contention = calibration::contention_state(m.contention);
+  measured_on.dram_contention = calibration::suite_state(m);
   platform["measured_on"] = calibration::identity_to_json(measured_on);
   const fs::path platform_file = dir / "platform.json";
   SchemaSet(loader.home().schemas())

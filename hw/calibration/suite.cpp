@@ -560,15 +560,15 @@ std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::s
   return p;
 }
 
-// Before a retake of the co-runs beside `co`: probes until one finds the state most of the
-// suite's probes share, or until the suite has waited shape_.state_wait_s in all; the probe it
-// stops at is recorded (the retake's before-probe), those before it are not (they would vote for
-// the state being waited out) and only counted. Between probes the host may move the vCPUs back: on
-// the EPYC VM of 2026-11-28 a state lasted seconds to minutes, and a block retaken at once met the
-// same state three times (10:26, the DRAM reader pair at 0.99x in a suite at 1.54x). False when
-// stopped.
+// Before a retake of the co-runs beside `co`: probes until one finds the suite's state so far
+// (calibration::suite_state: the one most co-runs were measured in, the model's), or until the
+// suite has waited shape_.state_wait_s in all; the probe it stops at is recorded (the retake's
+// before-probe), those before it are not (they would vote for the state being waited out) and only
+// counted. Between probes the host may move the vCPUs back: on the EPYC VM of 2026-11-28 a state
+// lasted seconds to minutes, and a block retaken at once met the same state three times (10:26, the
+// DRAM reader pair at 0.99x in a suite at 1.54x). False when stopped.
 bool Suite::wait_for_state(const std::string& co) {
-  const auto state = calibration::contention_state(m_.contention);
+  const auto state = calibration::suite_state(m_);
   const auto t0 = std::chrono::steady_clock::now();
   for (bool first = true;; first = false) {
     if (!first) ++steps_;  // a probe more than planned
@@ -588,10 +588,9 @@ bool Suite::wait_for_state(const std::string& co) {
 
 // A co-run block between two contention probes (the one before it is the previous block's
 // after-probe; a retake's is taken afresh, after wait_for_state): taken again, up to
-// kStateAttempts times in all, while a probe around it is in another state than the one most of
-// the suite's probes so far share (calibration::contention_state; the host moved the vCPUs under
-// it), so that the co-run blocks are measured in one state; kept after the last attempt
-// (unsettled_ says so).
+// kStateAttempts times in all, while a probe around it is in another state than the suite's so
+// far (calibration::suite_state; the host moved the vCPUs under it), so that the co-run blocks are
+// measured in one state; kept after the last attempt (unsettled_ says so).
 void Suite::measure_corun_block(const Block& block) {
   const std::string co = block.co->kernel + " " + kb_text(block.co->kb);
   if (m_.contention.empty() && !probe_contention("before the co-runs")) return;
@@ -607,9 +606,9 @@ void Suite::measure_corun_block(const Block& block) {
     if (!after) return;
     for (std::size_t i = runs; i < m_.runs.size(); ++i)
       m_.runs[i].probes = {before_at, static_cast<int>(m_.contention.size()) - 1};
-    // The state most probes so far share (not simply the first's: the host may move the vCPUs
-    // right after it and keep them there).
-    const auto state = calibration::contention_state(m_.contention);
+    // The suite's state so far, the one its model will describe (not simply the first probe's:
+    // the host may move the vCPUs right after it and keep them there).
+    const auto state = calibration::suite_state(m_);
     if (calibration::same_contention_state(*state, before) &&
         calibration::same_contention_state(*state, *after))
       return;

@@ -15,7 +15,7 @@
 //   hits them all alike.
 // - Contention probes (calibration::ContentionProbe) before the first co-run block and after each:
 //   a co-run block is taken again (at most kStateAttempts times in all) while a probe around it
-//   is in another DRAM-interference state than most probes so far (calibration::contention_state),
+//   is in another DRAM-interference state than the suite's so far (calibration::suite_state),
 //   so that the co-runs the fit reads come from one state of a host that moves its vCPUs. Before
 //   a retake the suite probes until that state is back (at most SuiteShape::state_wait_s); the
 //   probes around the blocks go into the measurements, those that waited are only counted in a

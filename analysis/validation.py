@@ -88,10 +88,12 @@ DEFINITIONS = {
     "machine_state": ("per scenario, the probe (before and after its hw run; the model's: "
                       "when it was calibrated): " + PROBE_WORDS + "; matches: true when "
                       "both probes found the model's state, false when either did not, "
-                      "null when not known"),
+                      "null when not known; alike: false when a probe found the two CPUs "
+                      "slowed differently (the same probe the other way round, other_way its "
+                      "ratio), true when both found them alike, null when not known"),
     "in_model_state": "the scenarios whose both probes found the model's state, pooled",
 }
-STATE_KEYS = ("before", "after", "model", "matches", "waited_s", "attempts")
+STATE_KEYS = ("before", "after", "model", "matches", "waited_s", "attempts", "alike", "other_way")
 
 
 @dataclass
@@ -283,9 +285,16 @@ def _state_problem(data) -> str:
         model = (probe or {}).get("model")
         if model is not None and not isinstance(model, dict):
             return f"'{key}.model' is not an object"
+        reverse = (probe or {}).get("reverse")
+        if reverse is not None and not isinstance(reverse, dict):
+            return f"'{key}.reverse' is not an object"
         checks += [(f"{key}.ratio", (probe or {}).get("ratio"), (_is_number, "a number")),
                    (f"{key}.matches", (probe or {}).get("matches"),
                     (lambda v: isinstance(v, bool), "true or false")),
+                   (f"{key}.alike", (probe or {}).get("alike"),
+                    (lambda v: isinstance(v, bool), "true or false")),
+                   (f"{key}.reverse.ratio", (reverse or {}).get("ratio"),
+                    (_is_number, "a number")),
                    (f"{key}.model.ratio", (model or {}).get("ratio"), (_is_number, "a number"))]
     for where, value, (ok, words) in checks:
         if value is not None and not ok(value):
@@ -314,10 +323,18 @@ def machine_state(state_dir, name: str) -> dict:
     probes = [data.get("before") or {}, data.get("after") or {}]
     flags = [probe.get("matches") for probe in probes]
     models = [(probe.get("model") or {}).get("ratio") for probe in probes]
+    alike = [probe.get("alike") for probe in probes]
+    # The other way's ratio: of the first probe that found the CPUs slowed differently, else of
+    # the first that has one.
+    unlike = [p for p in probes if p.get("alike") is False] + probes
+    other_way = next(((p.get("reverse") or {}).get("ratio") for p in unlike
+                      if (p.get("reverse") or {}).get("ratio") is not None), None)
     state.update(before=probes[0].get("ratio"), after=probes[1].get("ratio"),
                  model=next((r for r in models if r is not None), None),
                  matches=False if False in flags else (True if flags == [True, True] else None),
-                 waited_s=data.get("waited_s"), attempts=data.get("attempts"))
+                 waited_s=data.get("waited_s"), attempts=data.get("attempts"),
+                 alike=False if False in alike else (True if alike == [True, True] else None),
+                 other_way=other_way)
     return state
 
 
@@ -513,12 +530,16 @@ def _ratio(value) -> str:
 
 def _state_cell(state: dict) -> str:
     """'1.72x / 1.70x, model 1.74x' (before / after the hw run, the model's), in bold with
-    ': differs' when the probes found another state; 'not probed'."""
+    ': differs' when the probes found another state, '; the other way 1.05x: CPUs unlike' after
+    it when a probe found the two CPUs slowed differently; 'not probed'."""
     if not _probed(state):
         return "not probed"
     text = (f"{_ratio(state['before'])} / {_ratio(state['after'])}, model "
             f"{_ratio(state['model'])}")
-    return f"**{text}: differs**" if state["matches"] is False else text
+    text = f"**{text}: differs**" if state["matches"] is False else text
+    if state.get("alike") is False:
+        text += f"; the other way {_ratio(state.get('other_way'))}: CPUs unlike"
+    return text
 
 
 def state_summary(report: dict, short: bool = False) -> str:

@@ -276,8 +276,10 @@ open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' "$1
 
 # Scenario $1's hw run (rosguard run $2 > log $3, exit status in rc) in the model's
 # DRAM-interference state, as the comment of state_check says; sets state_text to
-# " (state B/A, model M; waited W s; calibrated again; run twice)": the probes' ratios before
-# and after, the model's, and whether it waited (5 s or more), calibrated again and ran twice.
+# " (state B/A, model M; waited W s; calibrated again; run twice; the CPUs not slowed alike: the
+# other way R)": the probes' ratios before and after, the model's, whether it waited (5 s or
+# more), calibrated again and ran twice, and the reverse probe's ratio where a probe found the
+# two CPUs slowed differently (its "alike": false).
 hw_in_state() {
   local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 each t0 t1 prc recal=0
   while :; do
@@ -332,6 +334,9 @@ f=lambda k: "%.2fx" % d[k]["ratio"] if k in d else "?"
 m=(d.get("before") or {}).get("model")
 w=("; waited %d s" % d["waited_s"] if d["waited_s"] >= 5 else "")
 w+=("; calibrated again" if d.get("recalibrated") else "") + ("; run twice" if d["attempts"] > 1 else "")
+r=[p["reverse"]["ratio"] for p in (d.get("before"), d.get("after"))
+   if p and p.get("alike") is False and "reverse" in p]
+w+=("; the CPUs not slowed alike: the other way %s" % "/".join("%.2fx" % x for x in r) if r else "")
 print(" (state %s/%s, model %s%s)" % (f("before"), f("after"), "%.2fx" % m["ratio"] if m else "none", w))' "$st.json")
 }
 

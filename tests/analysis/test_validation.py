@@ -621,7 +621,7 @@ def test_every_scenario_in_the_model_s_state(suite, tmp_path):
     report = json.loads((out / "report.json").read_text())
     assert report["scenarios"][0]["machine_state"] == {
         "before": 1.72, "after": 1.70, "model": 1.74, "matches": True, "waited_s": 12.5,
-        "attempts": 1}
+        "attempts": 1, "alike": None, "other_way": None}
     assert "in_model_state" not in report
     md = (out / "report.md").read_text()
     assert "| DRAM state (beside one reader) |" in md
@@ -652,7 +652,7 @@ def test_a_scenario_in_another_state_is_marked_and_left_out_of_the_extra_row(sui
     assert report["state_dir"] == str(states)
     assert report["scenarios"][1]["machine_state"] == {
         "before": 1.02, "after": 1.71, "model": 1.74, "matches": False, "waited_s": 300.0,
-        "attempts": 2}
+        "attempts": 2, "alike": None, "other_way": None}
     # The extra row: the errors of alpha alone, as a report of alpha alone has them overall.
     alone, _ = validation.build_report(*suite, ["alpha"])
     mine = report["in_model_state"]
@@ -734,6 +734,31 @@ def test_a_missing_probe_leaves_the_state_unknown_unless_the_other_differs(
     assert validation._state_cell(found) == cell
 
 
+def with_other_way(p, reverse, alike):
+    """The probe with the other way round's ratio and whether the two ways agreed (None: the
+    state changed while probing)."""
+    return dict(p, reverse=dict(p, cores=[1, 0], ratio=reverse), alike=alike)
+
+
+@pytest.mark.parametrize("before, after, alike, cell", [
+    ((1.36, False), (1.70, True), False,
+     "1.72x / 1.70x, model 1.74x; the other way 1.36x: CPUs unlike"),
+    ((1.75, True), (1.30, False), False,
+     "1.72x / 1.70x, model 1.74x; the other way 1.30x: CPUs unlike"),
+    ((1.75, True), (1.69, True), True, "1.72x / 1.70x, model 1.74x"),
+    ((1.02, None), (1.69, True), None, "1.72x / 1.70x, model 1.74x"),
+], ids=["before-unlike", "after-unlike", "alike", "not-compared"])
+def test_two_cpus_slowed_differently_are_said_with_the_other_way_s_ratio(
+        tmp_path, before, after, alike, cell):
+    write_state(tmp_path, "s", with_other_way(probe(1.72, True), *before),
+                with_other_way(probe(1.70, True), *after))
+    found = validation.machine_state(tmp_path, "s")
+    assert found["alike"] is alike
+    assert found["other_way"] == (before[0] if before[1] is not False and after[1] is not False
+                                  else next(r for r, a in (before, after) if a is False))
+    assert validation._state_cell(found) == cell
+
+
 def test_a_model_without_a_state_leaves_it_unknown(tmp_path):
     write_state(tmp_path, "s", probe(1.7, None, model=None), probe(1.6, None, model=None))
     found = validation.machine_state(tmp_path, "s")
@@ -754,8 +779,11 @@ def test_a_model_without_a_state_leaves_it_unknown(tmp_path):
      "'after.matches' is \"yes\", not true or false or null"),
     ('{"before": 1.7}', "'before' is not an object"),
     ('{"attempts": 1.5}', "'attempts' is 1.5, not a whole number or null"),
+    ('{"before": {"ratio": 1.7, "alike": "no"}}',
+     "'before.alike' is \"no\", not true or false or null"),
+    ('{"after": {"ratio": 1.7, "reverse": 1.3}}', "'after.reverse' is not an object"),
 ], ids=["not-json", "not-an-object", "ratio-text", "matches-text", "probe-number",
-        "attempts-fraction"])
+        "attempts-fraction", "alike-text", "reverse-number"])
 def test_a_malformed_state_file_is_an_input_error_naming_it(suite, tmp_path, text, words):
     out = tmp_path / "out"
     (out / "state").mkdir(parents=True)

@@ -100,7 +100,8 @@ assert rows[0]["rt"]["mape_pct"] == 0 and rows[0]["nrt"]["mape_pct"] == 0, rows[
 assert len(report["skipped"]) == 6
 for s in report["scenarios"]:
     assert s["machine_state"] == {"before": 1.4, "after": 1.4, "model": 1.4, "matches": True,
-                                  "waited_s": 0.0, "attempts": 1}, s["machine_state"]
+                                  "waited_s": 0.0, "attempts": 1, "alike": True,
+                                  "other_way": 1.4}, s["machine_state"]
 print("report: k = 1 compared, 6 skipped, each in the model's machine state")
 PY
 

@@ -20,8 +20,8 @@ export ROSGUARD_HOST_MODEL=$tmp/host.json
 mkdir -p "$tmp/suite" "$tmp/empty"
 cp "$src/scenarios/validation/corun-unregulated.json" "$tmp/suite/"
 
-# $1: case, $2: suite folder, $3...: the states, one per probe ("RATIO MODEL_RATIO"); sets $log
-# and $code.
+# $1: case, $2: suite folder, $3...: the states, one per probe ("RATIO MODEL_RATIO [REVERSE]");
+# sets $log and $code.
 validate() {
   local name=$1 suite=$2
   shift 2
@@ -108,4 +108,11 @@ grep -q "calibrated again (quick) before corun-unregulated" "$tmp/out-again/repo
   fail "again: the report does not say so"
 /usr/bin/python3 -c 'import json,sys; sys.exit(not json.load(open(sys.argv[1]))["recalibrated"])' \
   "$tmp/out-again/state/corun-unregulated.json" || fail "again: the state file does not say so"
+
+# 8. The two CPUs not slowed alike (the other way round 1.05x) before the run, alike after: the
+# console says so, with the other way's ratio.
+validate unlike "$tmp/suite" "1.40 1.40" "1.40 1.40 1.05" "1.40 1.40"
+[ "$code" -eq 0 ] || fail "unlike: exit $code"
+grep -qE "\(state 1.40x/1.40x, model 1.40x; the CPUs not slowed alike: the other way 1.05x\)" \
+  "$log" || fail "unlike: the console does not say the CPUs were not slowed alike"
 echo "PASS"

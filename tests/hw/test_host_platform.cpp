@@ -5,12 +5,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <set>
 
+#include "calibration/measurements.h"
 #include "core/error.h"
 #include "hw/common/sys.h"
 #include "hw/host_probe.h"
@@ -317,6 +319,24 @@ TEST_CASE("platform contention measures now and says whether it is the model's s
   CHECK(probe.at("rounds").get<int>() >= 1);
   CHECK(probe.at("model").is_null());
   CHECK(probe.at("matches").is_null());
+  // The other way round and the first way again, on the same working set: compared only when the
+  // first way held its state meanwhile (alike null otherwise).
+  CHECK(test::slurp(log).find("the other way round: ") != std::string::npos);
+  CHECK(probe.at("reverse").at("cores") ==
+        json{probe.at("cores").at(1), probe.at("cores").at(0)});
+  CHECK(probe.at("again").at("cores") == probe.at("cores"));
+  CHECK(probe.at("reverse").at("working_set_kb") == probe.at("working_set_kb"));
+  CHECK(probe.at("reverse").at("ratio").get<double>() > 0.0);
+  const double first = probe.at("ratio").get<double>();
+  const double again = probe.at("again").at("ratio").get<double>();
+  const double reverse = probe.at("reverse").at("ratio").get<double>();
+  const auto agree = [](double a, double b) {
+    return std::fabs(std::log(a / b)) <= std::log1p(calibration::kContentionTolerance);
+  };
+  if (agree(first, again))
+    CHECK(probe.at("alike") == agree(first, reverse));
+  else
+    CHECK(probe.at("alike").is_null());
 
   // A model that records no state (calibrated before rosguard recorded it): exit 3, said.
   json model = json::parse(test::slurp(kSource / "scenarios/platforms/vm-2core.json"));

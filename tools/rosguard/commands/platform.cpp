@@ -32,15 +32,17 @@ CommandHandler setup_platform(CLI::App& sub) {
   auto* contention = sub.add_subcommand(
       "contention",
       "Measure the DRAM interference between two CPUs now (a DRAM-bound bandwidth_read alone and "
-      "beside one on the other CPU, 7 rounds, about a second) and say whether it is the state the "
-      "installed host model was calibrated in.");
+      "beside one on the other CPU, 7 rounds, about a second; then the other way round) and say "
+      "whether it is the state the installed host model was calibrated in.");
   contention->add_option("--out", *out,
-                         "Also write the probe, the model's state and whether they match, as "
-                         "JSON, to this file (atomically)");
+                         "Also write the probe (\"reverse\": the other way round), the model's "
+                         "state and whether they match, as JSON, to this file (atomically)");
   contention->footer(
       "Under a hypervisor the host may move this machine's CPUs between places that share the "
       "memory path and places that do not, over minutes: the same machine then shows two or more "
-      "states, and a model calibrated in one describes that one. Exit status 0 in the model's "
+      "states, and a model calibrated in one describes that one; its CPUs need not be slowed "
+      "alike either (said when they are not). The state is the first direction's, on the CPUs "
+      "the model was calibrated on. Exit status 0 in the model's "
       "state; 3 in another, or when no model or no recorded state is installed. make validate "
       "uses it before and after each hw run.");
   return [out, probe, contention](const CommandContext& c) {

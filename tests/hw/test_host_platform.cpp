@@ -5,8 +5,8 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cmath>
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -322,8 +322,7 @@ TEST_CASE("platform contention measures now and says whether it is the model's s
   // The other way round and the first way again, on the same working set: compared only when the
   // first way held its state meanwhile (alike null otherwise).
   CHECK(test::slurp(log).find("the other way round: ") != std::string::npos);
-  CHECK(probe.at("reverse").at("cores") ==
-        json{probe.at("cores").at(1), probe.at("cores").at(0)});
+  CHECK(probe.at("reverse").at("cores") == json{probe.at("cores").at(1), probe.at("cores").at(0)});
   CHECK(probe.at("again").at("cores") == probe.at("cores"));
   CHECK(probe.at("reverse").at("working_set_kb") == probe.at("working_set_kb"));
   CHECK(probe.at("reverse").at("ratio").get<double>() > 0.0);

@@ -209,29 +209,29 @@ int platform_contention_command(const SchemaSet& schemas, const std::string& out
   // 2026-11-28), and the model has one DRAM queue for every core. The state flips within seconds
   // there too, so the two ways are compared only when the first way found the same state after
   // the reverse as before it. Said and recorded; the state is the first probe's.
-  hw::ContentionOptions reverse_options = options;
-  reverse_options.cores = {now.probe.cores.at(1), now.probe.cores.at(0)};
-  reverse_options.working_set_kb = now.probe.working_set_kb;
-  const hw::ContentionResult reverse = hw::measure_contention(reverse_options);
-  hw::ContentionOptions again_options = options;
-  again_options.cores = now.probe.cores;
-  again_options.working_set_kb = now.probe.working_set_kb;
-  const hw::ContentionResult again = hw::measure_contention(again_options);
-  const bool held = calibration::same_contention_state(now.probe, again.probe);
-  std::cout << "the other way round:   " << calibration::describe(reverse.probe) << "\n"
-            << "the first way again:   " << calibration::describe(again.probe) << "\n";
+  const auto probe = [&](std::vector<int> cores) {
+    hw::ContentionOptions o = options;
+    o.cores = std::move(cores);
+    o.working_set_kb = now.probe.working_set_kb;
+    return hw::measure_contention(o).probe;
+  };
+  const auto reverse = probe({now.probe.cores.at(1), now.probe.cores.at(0)});
+  const auto again = probe(now.probe.cores);
+  const bool held = calibration::same_contention_state(now.probe, again);
+  const bool alike = calibration::same_contention_state(now.probe, reverse);
+  std::cout << "the other way round:   " << calibration::describe(reverse) << "\n"
+            << "the first way again:   " << calibration::describe(again) << "\n";
   if (!held)
     std::cout << "the state changed while probing: the two ways are not compared\n";
-  else if (!calibration::same_contention_state(now.probe, reverse.probe))
+  else if (!alike)
     std::cout << "the two CPUs are not slowed alike now: the model has one DRAM queue for every "
                  "core, so it predicts co-runs that share the DRAM alike on both\n";
   json doc = calibration::probe_to_json(now.probe);
-  doc["reverse"] = calibration::probe_to_json(reverse.probe);
-  doc["again"] = calibration::probe_to_json(again.probe);
+  doc["reverse"] = calibration::probe_to_json(reverse);
+  doc["again"] = calibration::probe_to_json(again);
   // Whether the two ways were measured in one state (the first way's probes before and after the
   // reverse agree) and, when so, slowed alike; null when not comparable.
-  doc["alike"] =
-      held ? json(calibration::same_contention_state(now.probe, reverse.probe)) : json(nullptr);
+  doc["alike"] = held ? json(alike) : json(nullptr);
   doc["model"] = nullptr;
   doc["matches"] = nullptr;
   int rc = kNoModelOfThisMachine;

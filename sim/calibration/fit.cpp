@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <future>
 #include <limits>
 #include <optional>
 #include <set>
@@ -231,11 +232,10 @@ SimPlatform model_platform(const HostFacts& host) {
 }
 
 double predict_ns_per_line(const SimPlatform& platform, const KernelRun& run) {
-  if (static_cast<int>(run.corunners.size()) >= platform.cores_per_cluster)
+  if (static_cast<int>(run.corunners.size()) >= platform.cores())
     throw RunError("calibration run '" + label_of(run) + "' has " +
-                   std::to_string(run.corunners.size()) + " co-runners, but a cluster of " +
-                   platform.name + " has only " + std::to_string(platform.cores_per_cluster) +
-                   " cores");
+                   std::to_string(run.corunners.size()) + " co-runners, but " + platform.name +
+                   " has only " + std::to_string(platform.cores()) + " cores");
   const auto profile = [&](const std::string& kernel, double ws_kb) {
     const auto it = platform.kernels.find(kernel);
     if (it == platform.kernels.end())
@@ -248,9 +248,10 @@ double predict_ns_per_line(const SimPlatform& platform, const KernelRun& run) {
   profiles.push_back(profile(run.kernel, run.working_set_kb));
   for (const auto& c : run.corunners)
     profiles.push_back(profile(c.kernel, c.working_set_kb));
+  // The measured kernel on core 0, co-runner k on core k + 1, each in that core's cluster.
   std::vector<sim::CoreDemand> demands;
-  for (const auto& w : profiles)
-    demands.push_back({0, &w.phases[0], &w, true, &w.phases[0]});
+  for (int core = 0; const auto& w : profiles)
+    demands.push_back({platform.cluster_of(core++), &w.phases[0], &w, true, &w.phases[0]});
   const sim::ContentionModel model(platform);
   const sim::MemoryState st = model.solve(demands);
   const sim::CoreRates r = model.rates(profiles[0].phases[0], st.l3_hit[0], 0, st, st.slc_hit[0]);
@@ -333,7 +334,7 @@ struct RunSelection {
 
 // Sorts the runs into those the model covers and those it does not: each in rep.runs, the latter
 // with the reason.
-RunSelection select_runs(const Measurements& m, int cores_per_cluster, FitReport& rep) {
+RunSelection select_runs(const Measurements& m, const SimPlatform& base, FitReport& rep) {
   const HostFacts& host = m.host;
   RunSelection sel;
   const auto state = calibration::suite_state(m);
@@ -361,8 +362,8 @@ RunSelection select_runs(const Measurements& m, int cores_per_cluster, FitReport
       fr.note =
           "not modelled: a kernel without a model (the fit knows bandwidth_read, "
           "bandwidth_write, latency)";
-    } else if (static_cast<int>(r.corunners.size()) >= cores_per_cluster) {
-      fr.note = "not modelled: more co-runners than the cluster has other cores";
+    } else if (static_cast<int>(r.corunners.size()) >= base.cores()) {
+      fr.note = "not modelled: more co-runners than the model has other cores";
     } else if (lv == Level::L1) {
       fr.note = "not modelled: the working set fits the L1d (the model starts at the L2)";
     } else if (const std::string off = off_state(r); !off.empty()) {
@@ -375,8 +376,9 @@ RunSelection select_runs(const Measurements& m, int cores_per_cluster, FitReport
       if (lv == Level::Dram) sel.beyond_l3[r.kernel] = true;
       std::size_t co_l3 = 0, co_dram = 0;
       bool writes_beyond = lv == Level::Dram && lines_moved(r.kernel) > 1.0;
-      for (const auto& c : r.corunners) {
-        co_l3 += c.working_set_kb > host.l2_kb ? 1 : 0;
+      for (int core = 1; const auto& c : r.corunners) {
+        // Only a co-runner in the measured core's cluster shares its L3.
+        co_l3 += c.working_set_kb > host.l2_kb && base.cluster_of(core++) == 0 ? 1 : 0;
         const bool beyond = c.working_set_kb > host.l3_kb_per_cluster;
         co_dram += beyond ? 1 : 0;
         writes_beyond = writes_beyond || (beyond && lines_moved(c.kernel) > 1.0);
@@ -474,8 +476,9 @@ Priors latency_priors(const RunSelection& sel, SimPlatform& base) {
   return pr;
 }
 
-// Bandwidths: the largest traffic a run shows at each level (every core beyond the L2 at the
-// measured kernel's rate) is a floor; twice it, a factor 4 either way.
+// Bandwidths: the largest traffic a run shows at each level (every core beyond the L2 in the
+// measured core's cluster, or beyond the L3, at the measured kernel's rate) is a floor; twice it,
+// a factor 4 either way.
 void bandwidth_priors(const RunSelection& sel, const HostFacts& host, const SimPlatform& base,
                       Priors& pr) {
   double l3_peak = 0.0, dram_peak = 0.0;
@@ -483,8 +486,8 @@ void bandwidth_priors(const RunSelection& sel, const HostFacts& host, const SimP
     const double rate = lines_moved(r->kernel) / r->ns_per_line;
     double l3_cores = r->working_set_kb > host.l2_kb ? 1.0 : 0.0;
     double dram_cores = r->working_set_kb > host.l3_kb_per_cluster ? 1.0 : 0.0;
-    for (const auto& c : r->corunners) {
-      l3_cores += c.working_set_kb > host.l2_kb ? 1.0 : 0.0;
+    for (int core = 1; const auto& c : r->corunners) {
+      l3_cores += c.working_set_kb > host.l2_kb && base.cluster_of(core++) == 0 ? 1.0 : 0.0;
       dram_cores += c.working_set_kb > host.l3_kb_per_cluster ? 1.0 : 0.0;
     }
     l3_peak = std::max(l3_peak, mbps_of(rate * l3_cores));
@@ -833,7 +836,9 @@ void report_runs(const Eigen::VectorXd& residuals, const std::vector<const Kerne
   }
 }
 
-FitReport fit_once(const Measurements& m, const FitOptions& opt) {
+// The fit with the co-runners on the probed clusters (apart = false) or each core in a cluster of
+// its own (apart = true).
+FitReport fit_once(const Measurements& m, const FitOptions& opt, bool apart) {
   const HostFacts& host = m.host;
   if (host.freq_mhz <= 0 || host.l2_kb <= 0 || host.l3_kb_per_cluster <= host.l2_kb)
     throw RunError(
@@ -843,7 +848,11 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
         fmt("L3 %g KB)", host.l3_kb_per_cluster));
   FitReport rep;
   SimPlatform base = model_platform(host);
-  const RunSelection sel = select_runs(m, base.cores_per_cluster, rep);
+  if (apart) {
+    base.clusters *= base.cores_per_cluster;
+    base.cores_per_cluster = 1;
+  }
+  const RunSelection sel = select_runs(m, base, rep);
   require_own_speeds(sel, host);
   note_unseen(sel, host, rep);
   const Priors priors = starting_point(sel, host, opt, base);
@@ -873,10 +882,82 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt) {
   return rep;
 }
 
+// The weighted sum of squares of a fit's runs.
+double data_ssr(const Measurements& m, const FitReport& r) {
+  double sum_w2 = 0.0;
+  for (const FittedRun& fr : r.runs)
+    if (fr.used) sum_w2 += weight_of(m.runs[fr.index]) * weight_of(m.runs[fr.index]);
+  return r.rms_residual * r.rms_residual * sum_w2;
+}
+
+// The runs' residual variance of a fit, for comparing two fits of the same runs: their weighted
+// sum of squares over its degrees of freedom, at least the repeatability floor's square (as
+// solve_map's sigma^2).
+double residual_variance(const Measurements& m, const FitReport& r) {
+  return std::max(data_ssr(m, r) / r.dof, kCvFloor * kCvFloor);
+}
+
 }  // namespace
 
 FitReport fit(const Measurements& m, const FitOptions& options) {
-  FitReport rep = fit_once(m, options);
+  // One core per probed cluster: both placements are the same model.
+  const bool two = m.host.cores_per_cluster > 1 && options.placement == Placement::Best;
+  const bool apart_only = m.host.cores_per_cluster > 1 && options.placement == Placement::Apart;
+  // The two fits are independent: the apart one runs beside the probed one.
+  std::future<FitReport> apart_fit;
+  if (two || apart_only)
+    apart_fit = std::async(std::launch::async, [&] { return fit_once(m, options, true); });
+  std::optional<FitReport> probed, apart;
+  std::optional<RunError> probed_error;
+  if (!apart_only) {
+    try {
+      probed = fit_once(m, options, false);
+    } catch (const RunError& e) {
+      if (!two) throw;
+      probed_error = e;
+    }
+  }
+  if (apart_fit.valid()) {
+    try {
+      apart = apart_fit.get();
+    } catch (const RunError&) {
+      if (!two) throw;
+      if (!probed) throw *probed_error;
+    }
+  }
+  // Apart only where the runs favour it clearly: a likelihood ratio of e^2 (about 7) or more,
+  // with the better fit's residual variance as the runs' noise (the probed clusters are what the
+  // machine says, and two fits of similar quality do not contradict it).
+  const bool chose_apart = apart && (!probed || data_ssr(m, *probed) - data_ssr(m, *apart) >
+                                                    4.0 * std::min(residual_variance(m, *probed),
+                                                                   residual_variance(m, *apart)));
+  FitReport rep = chose_apart ? std::move(*apart) : std::move(*probed);
+  rep.placement = chose_apart ? "apart" : "probed";
+  rep.rms_probed = probed ? probed->rms_residual : std::nan("");
+  rep.rms_apart = apart ? apart->rms_residual : std::nan("");
+  const std::string cluster = std::to_string(m.host.cores_per_cluster) + " cores sharing an L3";
+  if (two) {
+    const auto rms = [](const std::optional<FitReport>& r) {
+      return r ? fmt("RMS residual %.1f %%", 100.0 * r->rms_residual) : std::string("refused");
+    };
+    const std::string why =
+        chose_apart ? "each in a cluster of its own (its own L3), which the runs favour"
+        : apart && data_ssr(m, *apart) < data_ssr(m, *probed)
+            ? "in the probed clusters (" + cluster +
+                  "), kept: the runs do not favour each core its own L3 by a likelihood ratio "
+                  "of e^2"
+            : "in the probed clusters (" + cluster + "), which the runs favour";
+    rep.notes.insert(rep.notes.begin(),
+                     "placement: the co-runners " + why + ": " + rms(probed) +
+                         " with the probed clusters, " + rms(apart) +
+                         " with each core its own L3 (the L3 a virtual machine reports as "
+                         "shared is shared only while the host runs its vCPUs on one)");
+  } else if (apart_only) {
+    rep.notes.insert(rep.notes.begin(),
+                     "placement: each core in a cluster of its own (its own L3), as asked; the "
+                     "probe saw " +
+                         cluster);
+  }
   if (options.strict)
     for (const auto& p : rep.parameters)
       if (p.prior_dominated)
@@ -924,10 +1005,16 @@ void host_sections(const HostFacts& h, const SimPlatform& p, const std::string& 
                        (h.cpu_model.empty() ? std::string() : ", " + h.cpu_model) +
                        "): memory model and kernel models fitted to its measurements, costs from "
                        "its samples.";
+  const std::string clusters =
+      p.cores_per_cluster == h.cores_per_cluster
+          ? ""
+          : "; clusters of one core, not the probed " + std::to_string(h.cores_per_cluster) +
+                " cores sharing an L3: the runs fitted better with each core its own L3 (the "
+                "fit's placement note)";
   json cpu = {{"clusters", p.clusters},
               {"cores_per_cluster", p.cores_per_cluster},
               {"freq_mhz", p.freq_mhz},
-              {"source", "host facts seen by " + by + " (rosguard platform probe)"}};
+              {"source", "host facts seen by " + by + " (rosguard platform probe)" + clusters}};
   if (!h.cpu_model.empty()) cpu["model"] = h.cpu_model;
   doc["cpu"] = cpu;
   json caches = {{"line_bytes", h.line_bytes},
@@ -1125,6 +1212,9 @@ json to_json(const FitReport& rep) {
   j["evaluations"] = rep.evaluations;
   j["iterations"] = rep.iterations;
   j["rms_residual"] = rep.rms_residual;
+  // NaN (not tried, or refused) is written as null.
+  j["placement"] = {
+      {"chosen", rep.placement}, {"rms_probed", rep.rms_probed}, {"rms_apart", rep.rms_apart}};
   j["parameters"] = json::array();
   for (const auto& p : rep.parameters) {
     json o = {{"name", p.name},

@@ -14,12 +14,18 @@
 // narrowed its prior (data_share); one the runs narrowed by less than half is prior-dominated: a
 // note says so, and the model is still written. Predictions are exactly the sim's: the kernel's
 // profile (sim/workload/profile.h: kernel_profile) on the memory model's steady state
-// (sim/platform/contention.h), the measured kernel on core 0 of cluster 0 and its co-runners on the
-// next cores of that cluster. Co-runs whose block's contention probes (KernelRun::probes) are not
-// in the suite's DRAM-interference state (calibration::contention_state of its probes) are left
-// out, each with a note: the model describes one state, and a block the suite could not measure
-// in it (the host kept the vCPUs elsewhere longer than the suite waits) would pull the DRAM
-// parameters towards another.
+// (sim/platform/contention.h), the measured kernel on core 0 and co-runner k on core k + 1.
+// Placement: the fit runs twice where the host's probed clusters have more than one core, once on
+// them (the co-runners share the measured core's L3) and once with each core in a cluster of its
+// own (each its own L3, the DRAM shared), and keeps the one with the lower RMS residual, with a
+// note giving both (FitOptions::placement fixes one): a VM's vCPUs share the L3 its sysfs reports
+// only while the host runs them on one L3 (on the AMD EPYC VM of 2026-11-28 a 4 MB pointer chase
+// beside a 128 MB stream took 137-159 ns per load in some calibrations, 16-24 ns, as alone, in
+// others). The model written has the chosen clusters. Co-runs whose block's contention probes
+// (KernelRun::probes) are not in the suite's DRAM-interference state (calibration::contention_state
+// of its probes) are left out, each with a note: the model describes one state, and a block the
+// suite could not measure in it (the host kept the vCPUs elsewhere longer than the suite waits)
+// would pull the DRAM parameters towards another.
 //
 // Parameters (all strictly positive: fitted as logarithms, which keeps them in bounds):
 //   fitted: per kernel ns_per_line_l2 (isolation within the L2), ns_per_line_l3 (isolation within
@@ -55,6 +61,12 @@
 
 namespace rosguard::calibration {
 
+// Where the model puts the cores beside the measured one (fit()): Best fits both of the others
+// and keeps the one with the lower RMS residual; AsProbed: the host's clusters as probed (the
+// co-runners in the measured core's cluster, sharing its L3); Apart: each core in a cluster of its
+// own (its own L3, the DRAM shared).
+enum class Placement { Best, AsProbed, Apart };
+
 struct FitOptions {
   // LM residual evaluations per solve (each one predicts every run); 0: MINPACK's default for
   // lmder, 100 x (free parameters + 1).
@@ -73,6 +85,7 @@ struct FitOptions {
   // Refuse a fit with a prior-dominated parameter (UnidentifiedParameter) instead of writing it
   // (`rosguard calibrate --strict`).
   bool strict = false;
+  Placement placement = Placement::Best;
 };
 
 // fit() refuses (FitOptions::strict): the runs leave `parameter` to its prior (the standard error
@@ -142,7 +155,12 @@ struct FitReport {
   int evaluations = 0;
   int iterations = 0;
   bool converged = false;
-  std::vector<std::string> notes;  // fixed parameters, runs left out, prior-dominated values
+  std::vector<std::string> notes;  // placement, fixed parameters, runs left out, prior-dominated
+                                   // values
+  // The placement the model describes ("probed": the host's clusters; "apart": each core its own
+  // cluster) and the RMS residual each placement fitted with (NaN: not tried, or refused).
+  std::string placement = "probed";
+  double rms_probed = 0.0, rms_apart = 0.0;
 };
 
 // The model's skeleton for `host`: CPU, caches (L2, L3 capacity), and placeholder memory

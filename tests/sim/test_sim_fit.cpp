@@ -193,6 +193,69 @@ TEST_CASE("fit: a 2-core host (one co-runner): the queues' priors decide the rid
     if (run.used) CHECK(std::abs(run.residual) < 0.07);
 }
 
+TEST_CASE("fit: the co-runners' placement the runs show (one L3 shared, or each its own) is kept",
+          "[sim][fit]") {
+  // A 2-core host whose probe says both cores share the L3; measured once with the host running
+  // them on one L3, once on two (a VM's vCPUs, as the AMD EPYC VM of 2026-11-28 showed).
+  const HostFacts h = host(2);
+  const sim::SimPlatform shared = truth(h);
+  sim::SimPlatform apart = shared;
+  apart.clusters = 2;
+  apart.cores_per_cluster = 1;
+  // What tells them apart: a set within the L3 beside a stream beyond it is evicted to DRAM by a
+  // shared L3 only (and co-runs within the L3 queue at a shared L3 only).
+  const KernelRun chase{"latency", 16384.0, {{"bandwidth_read", 65536.0}}, 0.0, 0.0, 0};
+  REQUIRE(predict_ns_per_line(shared, chase) > 3.0 * predict_ns_per_line(apart, chase));
+
+  // The suite measures such runs (a chase within the L3 beside a reader or writer beyond it).
+  const auto with_chases = [&](const sim::SimPlatform& p) {
+    Measurements m = synthetic(p, h, 0.02, 3);
+    for (const char* co : {"bandwidth_read", "bandwidth_write"}) {
+      KernelRun r{"latency", 16384.0, {{co, 65536.0}}, 0.0, 0.02, 7};
+      r.ns_per_line = predict_ns_per_line(p, r);
+      m.runs.push_back(r);
+    }
+    return m;
+  };
+  const Measurements on_one_runs = with_chases(shared);
+  const FitReport on_one = fit(on_one_runs);
+  INFO(to_json(on_one).dump(1));
+  CHECK(on_one.placement == "probed");
+  CHECK(on_one.platform.cores_per_cluster == 2);
+  CHECK(on_one.rms_probed < 0.03);
+  CHECK(on_one.rms_apart > 2.0 * on_one.rms_probed);
+  CHECK(on_one.notes.front().starts_with("placement: the co-runners in the probed clusters"));
+
+  const Measurements on_two_runs = with_chases(apart);
+  const FitReport on_two = fit(on_two_runs);
+  INFO(to_json(on_two).dump(1));
+  CHECK(on_two.placement == "apart");
+  CHECK(on_two.platform.clusters == 2);
+  CHECK(on_two.platform.cores_per_cluster == 1);
+  CHECK(on_two.rms_apart < 0.03);
+  CHECK(on_two.rms_probed > 2.0 * on_two.rms_apart);
+  CHECK(on_two.notes.front().starts_with("placement: the co-runners each in a cluster of its own"));
+  CHECK(predict_ns_per_line(on_two.platform, chase) ==
+        Approx(predict_ns_per_line(apart, chase)).epsilon(0.1));
+  // The written model says so, and has those clusters.
+  const json doc = fitted_platform(on_two_runs, on_two, "apart-host");
+  CHECK(doc["cpu"]["clusters"] == 2);
+  CHECK(doc["cpu"]["cores_per_cluster"] == 1);
+  CHECK(doc["cpu"]["source"].get<std::string>().find("clusters of one core") != std::string::npos);
+  CHECK(to_json(on_two)["placement"]["chosen"] == "apart");
+
+  // A placement asked for is kept, even where the runs disagree.
+  FitOptions asked;
+  asked.placement = Placement::Apart;
+  const FitReport forced = fit(on_one_runs, asked);
+  CHECK(forced.placement == "apart");
+  CHECK(forced.platform.cores_per_cluster == 1);
+  CHECK(forced.rms_residual == Approx(on_one.rms_apart));
+  CHECK(std::isnan(forced.rms_probed));
+  CHECK(to_json(forced)["placement"].dump().find("\"rms_probed\":null") != std::string::npos);
+  CHECK(forced.notes.front().starts_with("placement: each core in a cluster of its own"));
+}
+
 TEST_CASE("fit: insufficient data is refused, naming what is missing", "[sim][fit]") {
   const HostFacts h = host();
   Measurements m = synthetic(truth(h), h, 0.02, 1);

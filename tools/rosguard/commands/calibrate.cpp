@@ -27,6 +27,11 @@ CommandHandler setup_calibrate(CLI::App& sub) {
   sub.add_flag("--strict", options->strict,
                "Refuse the fit when a parameter rests mostly on its prior (default: write "
                "the model, name such parameters with their uncertainty)");
+  sub.add_option("--placement", options->placement,
+                 "Where the model puts the cores beside the measured one: best (default: fit "
+                 "both, keep the one that fits better), probed (the probed clusters, sharing "
+                 "their L3) or apart (each core its own L3; the DRAM shared)")
+      ->check(CLI::IsMember({"best", "probed", "apart"}));
   sub.footer(
       "Runs built-in kernels alone and against co-runners on this host's cores (hw backend), "
       "times the middleware and OS costs, fits the memory model and the cost distributions by "

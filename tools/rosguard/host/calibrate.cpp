@@ -124,10 +124,13 @@ json calibration_document(const calibration::Measurements& m, const std::vector<
 // Fits the model; a refused fit is recorded in cal_file, beside the measurements it keeps.
 calibration::FitReport fit_or_record(const calibration::Measurements& m,
                                      const std::vector<std::string>& notes, const json& probe,
-                                     const fs::path& cal_file, bool strict) {
+                                     const fs::path& cal_file, const CalibrateOptions& opt) {
   try {
     calibration::FitOptions fit_options;
-    fit_options.strict = strict;
+    fit_options.strict = opt.strict;
+    fit_options.placement = opt.placement == "probed"  ? calibration::Placement::AsProbed
+                            : opt.placement == "apart" ? calibration::Placement::Apart
+                                                       : calibration::Placement::Best;
     return calibration::fit(m, fit_options);
   } catch (const RunError& e) {
     json doc = calibration_document(m, notes, probe, "fit refused");
@@ -251,7 +254,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   const fs::path cal_file = dir / "calibration.json";
   write_file_atomic(cal_file, calibration_document(m, notes, probe, "measured").dump(2) + "\n");
 
-  const calibration::FitReport report = fit_or_record(m, notes, probe, cal_file, opt.strict);
+  const calibration::FitReport report = fit_or_record(m, notes, probe, cal_file, opt);
 
   // The platform must be one the loader accepts and the sim can run.
   json platform = calibration::fitted_platform(m, report, opt.name);

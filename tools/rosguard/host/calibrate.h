@@ -16,8 +16,9 @@ struct CalibrateOptions {
   bool install = false;  // also save platform.json as this host's model
   std::string from;      // refit the measurements of an earlier calibration.json, measure nothing
   bool quiet = false;    // no progress
-  std::string name = "host";  // the fitted platform's name
-  bool strict = false;        // refuse a fit with a prior-dominated parameter (else: written)
+  std::string name = "host";       // the fitted platform's name
+  bool strict = false;             // refuse a fit with a prior-dominated parameter (else: written)
+  std::string placement = "best";  // the co-runners' placement: best, probed or apart
   std::string transport = "inproc";  // message costs over inproc rings or DDS (hw.transport)
 };
 

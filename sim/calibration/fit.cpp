@@ -946,7 +946,7 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
             ? "in the probed clusters (" + cluster +
                   "), kept: the runs do not favour each core its own L3 by a likelihood ratio "
                   "of e^2"
-            : "in the probed clusters (" + cluster + "), which the runs favour";
+            : "in the probed clusters (" + cluster + "), the better fit";
     rep.notes.insert(rep.notes.begin(),
                      "placement: the co-runners " + why + ": " + rms(probed) +
                          " with the probed clusters, " + rms(apart) +

@@ -771,6 +771,7 @@ Posterior posterior(const Residuals& fn, const Eigen::VectorXd& x, double s2, Fi
   double sum_w2 = 0.0;
   for (const KernelRun* r : *fn.runs)
     sum_w2 += weight_of(*r) * weight_of(*r);
+  rep.data_ssr = ssr;
   rep.rms_residual = std::sqrt(ssr / sum_w2);  // weighted RMS of the log ratios
   rep.objective = post.residuals.squaredNorm();
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac, Eigen::ComputeThinV);
@@ -882,19 +883,11 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt, bool apart) {
   return rep;
 }
 
-// The weighted sum of squares of a fit's runs.
-double data_ssr(const Measurements& m, const FitReport& r) {
-  double sum_w2 = 0.0;
-  for (const FittedRun& fr : r.runs)
-    if (fr.used) sum_w2 += weight_of(m.runs[fr.index]) * weight_of(m.runs[fr.index]);
-  return r.rms_residual * r.rms_residual * sum_w2;
-}
-
 // The runs' residual variance of a fit, for comparing two fits of the same runs: their weighted
 // sum of squares over its degrees of freedom, at least the repeatability floor's square (as
 // solve_map's sigma^2).
-double residual_variance(const Measurements& m, const FitReport& r) {
-  return std::max(data_ssr(m, r) / r.dof, kCvFloor * kCvFloor);
+double residual_variance(const FitReport& r) {
+  return std::max(r.data_ssr / r.dof, kCvFloor * kCvFloor);
 }
 
 }  // namespace
@@ -928,9 +921,9 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
   // Apart only where the runs favour it clearly: a likelihood ratio of e^2 (about 7) or more,
   // with the better fit's residual variance as the runs' noise (the probed clusters are what the
   // machine says, and two fits of similar quality do not contradict it).
-  const bool chose_apart = apart && (!probed || data_ssr(m, *probed) - data_ssr(m, *apart) >
-                                                    4.0 * std::min(residual_variance(m, *probed),
-                                                                   residual_variance(m, *apart)));
+  const bool chose_apart = apart && (!probed || probed->data_ssr - apart->data_ssr >
+                                                    4.0 * std::min(residual_variance(*probed),
+                                                                   residual_variance(*apart)));
   FitReport rep = chose_apart ? std::move(*apart) : std::move(*probed);
   rep.placement = chose_apart ? "apart" : "probed";
   rep.rms_probed = probed ? probed->rms_residual : std::nan("");
@@ -942,7 +935,7 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
     };
     const std::string why =
         chose_apart ? "each in a cluster of its own (its own L3), which the runs favour"
-        : apart && data_ssr(m, *apart) < data_ssr(m, *probed)
+        : apart && apart->data_ssr < probed->data_ssr
             ? "in the probed clusters (" + cluster +
                   "), kept: the runs do not favour each core its own L3 by a likelihood ratio "
                   "of e^2"
@@ -1005,12 +998,11 @@ void host_sections(const HostFacts& h, const SimPlatform& p, const std::string& 
                        (h.cpu_model.empty() ? std::string() : ", " + h.cpu_model) +
                        "): memory model and kernel models fitted to its measurements, costs from "
                        "its samples.";
-  const std::string clusters =
-      p.cores_per_cluster == h.cores_per_cluster
-          ? ""
-          : "; clusters of one core, not the probed " + std::to_string(h.cores_per_cluster) +
-                " cores sharing an L3: the runs fitted better with each core its own L3 (the "
-                "fit's placement note)";
+  const std::string clusters = p.cores_per_cluster == h.cores_per_cluster
+                                   ? ""
+                                   : "; clusters of one core, not the probed " +
+                                         std::to_string(h.cores_per_cluster) +
+                                         " cores sharing an L3 (the fit's placement note says why)";
   json cpu = {{"clusters", p.clusters},
               {"cores_per_cluster", p.cores_per_cluster},
               {"freq_mhz", p.freq_mhz},

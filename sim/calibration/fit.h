@@ -148,6 +148,7 @@ struct FitReport {
   std::vector<FittedRun> runs;
   std::map<std::string, CostFit> costs;  // by cost name ("publish", ...): from costs_us
   double rms_residual = 0.0;             // over the used runs, log units, weighted (weight_of)
+  double data_ssr = 0.0;                 // the used runs' weighted sum of squared log residuals
   int lm_status = 0;                     // Eigen's LevenbergMarquardtSpace::Status
   std::string lm_status_text;
   double objective = 0.0;  // the sum of squared residuals (runs and priors) at the solution

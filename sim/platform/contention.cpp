@@ -110,10 +110,15 @@ MemoryState ContentionModel::unloaded(std::size_t demands) const {
 CoreRates ContentionModel::rates(const Phase& ph, double hit, int cluster, const MemoryState& st,
                                  double slc_hit) const {
   const auto k = static_cast<std::size_t>(cluster);
+  return rates_at(ph, hit, st.l3_ns[k], st.dram_ns, k < st.mlp_scale.size() ? st.mlp_scale[k] : 1.0,
+                  slc_hit);
+}
+
+CoreRates ContentionModel::rates_at(const Phase& ph, double hit, double l3_ns, double dram_ns,
+                                    double scale, double slc_hit) const {
   const double h = std::clamp(hit, 0.0, 1.0);
   const double g = std::clamp(slc_hit, 0.0, 1.0);
-  const double latency = st.l3_ns[k] + (1.0 - h) * miss_latency(g, st.dram_ns);
-  const double scale = k < st.mlp_scale.size() ? st.mlp_scale[k] : 1.0;
+  const double latency = l3_ns + (1.0 - h) * miss_latency(g, dram_ns);
   const double inflight = std::min(ph.mlp, p_.mshr.per_core) * scale;
   const double stall =
       ph.refill_pki / 1000.0 * f_ghz_ * std::max(0.0, latency - p_.l3.latency_ns) / inflight;
@@ -199,19 +204,13 @@ std::vector<double> ContentionModel::slc_hits(std::span<const CoreDemand> demand
 double ContentionModel::cluster_scale(std::span<const CoreDemand> demands,
                                       std::span<const double> hits, std::span<const double> slc,
                                       int cluster, double l3_ns, double dram_ns) const {
-  MemoryState st;
-  const auto k = static_cast<std::size_t>(cluster);
-  st.l3_ns.assign(k + 1, l3_ns);
-  st.mlp_scale.assign(k + 1, 1.0);
-  st.dram_ns = dram_ns;
   // L3 misses in flight (Little's law) at scale s.
   const auto inflight = [&](double s) {
-    st.mlp_scale[k] = s;
     double sum = 0.0;
     for (std::size_t i = 0; i < demands.size(); ++i) {
       const CoreDemand& d = demands[i];
       if (d.cluster != cluster || d.phase == nullptr) continue;
-      sum += rates(*d.phase, hits[i], cluster, st, slc[i]).l3_refill_per_ns *
+      sum += rates_at(*d.phase, hits[i], l3_ns, dram_ns, s, slc[i]).l3_refill_per_ns *
              miss_latency(slc[i], dram_ns);
     }
     return sum;
@@ -229,17 +228,13 @@ double ContentionModel::l3_traffic(std::span<const CoreDemand> demands,
                                    std::span<const double> hits, std::span<const double> slc,
                                    int cluster, double l3_ns, double dram_ns, double* dram_bytes,
                                    double* scale) const {
-  MemoryState st;
-  const auto k = static_cast<std::size_t>(cluster);
-  st.l3_ns.assign(k + 1, l3_ns);
-  st.mlp_scale.assign(k + 1, cluster_scale(demands, hits, slc, cluster, l3_ns, dram_ns));
-  st.dram_ns = dram_ns;
-  if (scale) *scale = st.mlp_scale[k];
+  const double s = cluster_scale(demands, hits, slc, cluster, l3_ns, dram_ns);
+  if (scale) *scale = s;
   double bytes = 0.0;
   for (std::size_t i = 0; i < demands.size(); ++i) {
     const CoreDemand& d = demands[i];
     if (d.cluster != cluster || d.phase == nullptr) continue;
-    const CoreRates r = rates(*d.phase, hits[i], cluster, st, slc[i]);
+    const CoreRates r = rates_at(*d.phase, hits[i], l3_ns, dram_ns, s, slc[i]);
     bytes += (r.refill_per_ns + r.wb_per_ns) * line_;
     if (dram_bytes)
       *dram_bytes +=
@@ -292,8 +287,9 @@ MemoryState ContentionModel::solve(std::span<const CoreDemand> demands,
     }
     return dram_bytes;
   };
+  MemoryState trial = s;  // assigned from s at each step: its vectors keep their storage
   const double ud = increasing_root([&](double x) {
-    MemoryState trial = s;
+    trial = s;
     return x - clusters_given(dram_latency(x), trial) / dram_bw;
   });
   s.dram_util = ud;

@@ -130,6 +130,10 @@ class ContentionModel {
   static double bytes_per_ns(double mbps) { return mbps * 1048576.0 / 1e9; }
 
  private:
+  // rates() with the cluster's L3 latency, the DRAM latency and the cluster's scale of misses in
+  // flight given directly (the inner loops of solve(), without a MemoryState).
+  CoreRates rates_at(const Phase& phase, double hit, double l3_ns, double dram_ns, double scale,
+                     double slc_hit) const;
   // The cluster's scale s of misses in flight at these latencies (1 when mshr.per_cluster holds).
   double cluster_scale(std::span<const CoreDemand> demands, std::span<const double> hits,
                        std::span<const double> slc, int cluster, double l3_ns,

@@ -18,7 +18,8 @@ namespace rosguard::hw {
 std::set<pid_t> realtime_tids();
 // How many threads that were not in `before` are under a real-time policy now.
 std::size_t left_realtime(const std::set<pid_t>& before);
-// Throws RunError naming every thread not in `before` still under a real-time policy.
+// Throws RunError naming every thread not in `before` still under a real-time policy half a
+// second on (a joined thread may still be exiting).
 void check_no_realtime_threads(const std::set<pid_t>& before);
 // One stable fallback message per kind of refusal (SCHED_FIFO, nice, affinity).
 void report_sched(const std::vector<SchedOutcome>& outcomes, RunContext& ctx);

@@ -161,7 +161,12 @@ SuiteResult run_suite(const SuiteOptions& options);
 // block is taken at most kStateAttempts times in all, each retake after probing until the
 // suite's state is back (SuiteShape::state_wait_s).
 inline constexpr int kContentionRounds = 7;  // >= 6 for a 95 % interval of the median; odd
+// Rounds whose windows were lost (a kernel off its CPU) are taken again for up to this long.
+inline constexpr double kContentionPatienceS = 20.0;
 inline constexpr int kStateAttempts = 3;
+// A cost block whose samples could not all be timed is taken again for the shortfall, up to this
+// many rounds in all (controller_callback).
+inline constexpr int kCostRounds = 3;
 
 // One contention probe now (rosguard platform contention), on cores[0] beside cores[1], with the
 // quick suite's windows. Throws RunError with fewer than two usable CPUs, or when stopped.

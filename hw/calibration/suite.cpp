@@ -528,9 +528,9 @@ void Suite::measure_block(const Block& block, const std::string& label) {
 // rounds with both windows kept (a round that lost one, a kernel off its CPU after
 // kOnCoreAttempts, is taken again for up to kContentionPatienceS: on the Xeon VM of 2026-11-28
 // the host took 5 % or more of a 20 ms window from a spinning vCPU in a third of the windows, in
-// bursts of up to 4 s, under SCHED_FIFO or not); the ratio of each round's
-// pair, so that drift between rounds cancels. Recorded in the measurements with `when`. Empty
-// when stopped before a round completed; throws RunError when no round kept its windows.
+// bursts of up to 4 s, under SCHED_FIFO or not); the ratio of each round's pair, so that drift
+// between rounds cancels. Recorded in the measurements with `when`. Empty when stopped before a
+// round completed; throws RunError when no round kept its windows.
 std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::string& when) {
   const double kb = shape_.dram_kb;
   step("contention probe: bandwidth_read " + kb_text(kb) + " alone and beside one on CPU " +

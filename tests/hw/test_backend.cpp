@@ -195,8 +195,8 @@ Protection protection_attempt(int attempt, TransportKind transport) {
   // (run next to it), not a baseline from another moment of a host whose speed drifts. Below half,
   // or below the share of it the bound lets through where a slow activation widened the bound
   // (CI, 2026-11-28: activation delays up to 1.1 ms, a bound of 5.6 GB/s, 0.65 of the nRT node
-  // alone, and held 0.51);
-  // never above 0.9 (a budget of a fifth of the nRT node's bandwidth is far below that).
+  // alone, and held 0.51); never above 0.9 (a budget of a fifth of the nRT node's bandwidth is far
+  // below that).
   const double let_through = bound_mbps / median(bw_none);
   INFO("nRT bandwidth regulated / unregulated per repetition (median "
        << median(held) << "), the bound's share of the unregulated " << let_through);

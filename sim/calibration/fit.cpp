@@ -129,6 +129,8 @@ struct Slot {
   std::function<double&(SimPlatform&)> ref;
   std::string how;
   Prior prior;
+  // The end of its range where the platform schema sets one (hold_beyond_range).
+  double upper = std::numeric_limits<double>::infinity();
 };
 
 // A run's weight in the fit: kCvFloor / max(cv, kCvFloor). Runs whose repetitions scatter
@@ -307,6 +309,10 @@ CostFit fit_cost(std::vector<double> samples) {
 namespace {
 
 const double kLn2 = std::log(2.0), kLn3 = std::log(3.0), kLn4 = std::log(4.0);
+// dram.writeback_weight's range in the platform schema, (0, 4]. A fit on the Xeon VM of
+// 2026-11-28 went to 4.92 (its co-runs beyond the L3 showed no DRAM contention; the writers'
+// co-runs slowed the reader through something else) and wrote a model the schema refuses.
+constexpr double kMaxWritebackWeight = 4.0;
 
 // Typical values for what a host's runs may not show at all (no run beyond the LLC, no co-run at
 // a level). Wide on purpose: the data overrule them wherever they say anything.
@@ -567,13 +573,14 @@ Parameters free_parameters(const RunSelection& sel, const Priors& pr, const FitO
                            SimPlatform& base, FitReport& rep) {
   Parameters params;
   const auto add = [&](const std::string& name, std::function<double&(SimPlatform&)> ref,
-                       const std::string& how, Prior prior) {
+                       const std::string& how, Prior prior,
+                       double upper = std::numeric_limits<double>::infinity()) {
     if (const auto v = fixed_value(opt, name)) {
       hold(opt, base, params, name, ref, *v, "");
       rep.notes.push_back(name + " fixed by the caller at " + fmt("%g", *v));
       return;
     }
-    params.free.push_back({name, std::move(ref), how, std::move(prior)});
+    params.free.push_back({name, std::move(ref), how, std::move(prior), upper});
   };
   for (const auto& [k, km] : base.kernels) {
     const std::string kk = k;
@@ -614,11 +621,13 @@ Parameters free_parameters(const RunSelection& sel, const Priors& pr, const FitO
   // A write-back's share of the DRAM's bandwidth shows only where a writer's traffic meets
   // another's there; without such a co-run it is held at 1 (a line each way).
   if (sel.dram_writer_corun) {
-    add("dram.writeback_weight", [](SimPlatform& p) -> double& { return p.dram.writeback_weight; },
+    add(
+        "dram.writeback_weight", [](SimPlatform& p) -> double& { return p.dram.writeback_weight; },
         "co-runs beyond the L3 with a writing kernel beside a reading or writing one",
         {1.0, kLn2,
          "a write-back moves one line to DRAM as a refill moves one from it (1), a factor 2 "
-         "either way (a controller that batches writes costs less, read-write turnarounds more)"});
+         "either way (a controller that batches writes costs less, read-write turnarounds more)"},
+        kMaxWritebackWeight);
   } else {
     hold(
         opt, base, params, "dram.writeback_weight",
@@ -749,6 +758,40 @@ double solve_from_starts(Residuals& fn, Eigen::VectorXd& x, const FitOptions& op
   return best_s2;
 }
 
+// The free parameters the fit put beyond the end of their range (Slot::upper): each is held at
+// that end, with a note, and leaves `free` and x (the others keep their fitted values in x, to
+// start the fit again from). Returns whether any did. An active set of one step: the objective
+// stays smooth, where a bound inside it (min(exp(x), upper)) left the solver crawling along the
+// kink for minutes.
+bool hold_beyond_range(SimPlatform& base, Parameters& params, Eigen::VectorXd& x, FitReport& rep) {
+  std::vector<Slot> free;
+  std::vector<double> kept;
+  for (std::size_t i = 0; i < params.free.size(); ++i) {
+    const Slot& s = params.free[i];
+    const double fitted = std::exp(x[static_cast<Eigen::Index>(i)]);
+    if (fitted <= s.upper) {
+      free.push_back(s);
+      kept.push_back(x[static_cast<Eigen::Index>(i)]);
+      continue;
+    }
+    FittedParameter p;
+    p.name = s.name;
+    p.value = s.upper;
+    p.at_bound = true;
+    p.how =
+        "held at " + fmt("%g", s.upper) +
+        ", the end of its range: the runs push it beyond (fitted freely: " + fmt("%.4g", fitted) +
+        "), where the model cannot follow them";
+    s.ref(base) = s.upper;
+    rep.notes.push_back(s.name + " " + p.how);
+    params.held.push_back(p);
+  }
+  if (free.size() == params.free.size()) return false;
+  params.free = std::move(free);
+  x = Eigen::Map<const Eigen::VectorXd>(kept.data(), static_cast<Eigen::Index>(kept.size()));
+  return true;
+}
+
 // The residuals (runs, then priors) at the solution and the posterior covariance of the log
 // parameters.
 struct Posterior {
@@ -867,7 +910,13 @@ FitReport fit_once(const Measurements& m, const FitOptions& opt, bool apart) {
     x[i] = std::log(params.free[static_cast<std::size_t>(i)].ref(base));
   const auto mres = static_cast<Eigen::Index>(sel.used.size());
   rep.dof = static_cast<int>(std::max<Eigen::Index>(1, mres - n));
-  const double s2 = solve_from_starts(fn, x, opt, rep.dof, rep);
+  double s2 = solve_from_starts(fn, x, opt, rep.dof, rep);
+  if (hold_beyond_range(base, params, x, rep)) {
+    const int iterations = rep.iterations;
+    rep.dof = static_cast<int>(std::max<Eigen::Index>(1, mres - x.size()));
+    s2 = solve_from_starts(fn, x, opt, rep.dof, rep);
+    rep.iterations += iterations;
+  }
   const Posterior post = posterior(fn, x, s2, rep);
   if (rep.rms_residual > opt.max_rms_residual)
     throw RunError("calibration: the model cannot reproduce these measurements: RMS residual " +
@@ -951,7 +1000,12 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
                      "probe saw " +
                          cluster);
   }
-  if (options.strict)
+  if (options.strict) {
+    // A bound first: there the model cannot follow the runs, whatever the priors.
+    for (const auto& p : rep.parameters)
+      if (p.at_bound)
+        throw RunError("calibration: " + p.name + " " + p.how +
+                       "; leave --strict off to keep the model with it there");
     for (const auto& p : rep.parameters)
       if (p.prior_dominated)
         throw UnidentifiedParameter(
@@ -961,6 +1015,7 @@ FitReport fit(const Measurements& m, const FitOptions& options) {
                 "); measure what identifies it (" + p.how +
                 ") or leave --strict off to keep the prior-dominated value",
             p.name, p.value, p.log_std_error);
+  }
   return rep;
 }
 
@@ -1221,6 +1276,7 @@ json to_json(const FitReport& rep) {
       o["data_share"] = p.data_share;
       o["prior_dominated"] = p.prior_dominated;
     }
+    if (p.at_bound) o["at_bound"] = true;
     j["parameters"].push_back(o);
   }
   j["runs"] = json::array();

@@ -32,7 +32,9 @@
 //     the L3), mlp (runs beyond the L3, given the DRAM latency); l3.queue_ns and
 //     l3.bandwidth_mbps (co-runs within the L3); dram.latency_ns (the latency kernel beyond the
 //     L3); dram.queue_ns and dram.bandwidth_mbps (co-runs beyond the L3); dram.writeback_weight
-//     (co-runs beyond the L3 with a writing kernel: held at 1 without one). With one co-runner
+//     (co-runs beyond the L3 with a writing kernel: held at 1 without one; at most 4, the platform
+//     schema's range: where the runs push it beyond, it is held at 4, noted, and the rest fitted
+//     again; FitOptions::strict refuses such a fit). With one co-runner
 //     count the runs cannot separate a queue from its bandwidth: the queue's prior (the level's
 //     unloaded latency) decides between them. Runs whose working sets together overflow the L3
 //     are predicted by the shared-LRU model (no parameter).
@@ -124,6 +126,8 @@ struct FittedParameter {
   std::string prior_source;
   double data_share = 1.0;
   bool prior_dominated = false;
+  // Held at the end of its range (the platform schema's), where the runs pushed it beyond.
+  bool at_bound = false;
 };
 
 struct FittedRun {

@@ -176,8 +176,13 @@ void print_fit(const calibration::FitReport& report,
   for (const auto& p : report.parameters) {
     std::cout << "  " << p.name << " = " << fmt(p.value, 4)
               << (p.fitted ? " +- " + fmt(p.std_error, 2) : " (" + p.how + ")")
-              << (p.prior_dominated ? "  [prior-dominated]" : "") << "\n";
+              << (p.prior_dominated ? "  [prior-dominated]" : "")
+              << (p.at_bound ? "  [at the end of its range]" : "") << "\n";
     if (p.prior_dominated) prior_dominated.push_back(p.name);
+    if (p.at_bound)
+      std::cerr << "warning: " << p.name << " rests at the end of its range (" << fmt(p.value, 4)
+                << "): the runs push it beyond what the model allows, and the model does not "
+                   "reproduce them there (--strict refuses such a fit)\n";
   }
   for (const auto& note : report.notes)
     std::cout << "  note: " << note << "\n";

@@ -131,12 +131,14 @@ double robust_sd(const std::vector<double>& v) {
 // saw interference of 0.14-0.34 that regulation did not reduce (CI, 2026-11-28: gain -0.01 with
 // the nRT node held to a third of its bandwidth). Beyond the LLC, what the co-runner costs the RT
 // node is DRAM bandwidth.
+constexpr std::uint64_t kScenarioSetKb = 65536;  // the scenarios' streams
+
 std::uint64_t beyond_llc_kb() {
   static const std::uint64_t kb = [] {
     double llc_kb = 0.0;
     for (const auto& c : probe_host({.measure_reference = false}).clusters)
       llc_kb = std::max(llc_kb, c.llc_kb);
-    std::uint64_t out = 65536;
+    std::uint64_t out = kScenarioSetKb;
     while (static_cast<double>(out) < 4.0 * llc_kb)
       out *= 2;
     return out;
@@ -144,14 +146,15 @@ std::uint64_t beyond_llc_kb() {
   return kb;
 }
 
-// `w` (bandwidth_read over 64 MB, 30 passes) over beyond_llc_kb(), with as many bytes per job.
+// A stream of the scenarios (kScenarioSetKb) over beyond_llc_kb(), with as many bytes per job;
+// any other workload (the floor's L1 spinner) as it is.
 void stream_beyond_llc(WorkloadInfo& w) {
-  const std::uint64_t kb = beyond_llc_kb();
   nlohmann::json doc = w.doc.get();
-  REQUIRE(doc.at("hw").at("working_set_kb").get<std::uint64_t>() == 65536);
+  if (doc.at("hw").at("working_set_kb").get<std::uint64_t>() != kScenarioSetKb) return;
+  const std::uint64_t kb = beyond_llc_kb();
   const std::uint64_t passes = doc.at("hw").at("passes").get<std::uint64_t>();
   doc["hw"]["working_set_kb"] = kb;
-  doc["hw"]["passes"] = std::max<std::uint64_t>(2, passes * 65536 / kb);
+  doc["hw"]["passes"] = std::max<std::uint64_t>(2, passes * kScenarioSetKb / kb);
   w.doc = std::move(doc);
   w.name = "bandwidth_read_" + std::to_string(kb / 1024) + "m";
 }
@@ -164,7 +167,7 @@ Protection protection_attempt(int attempt, TransportKind transport) {
     for (auto& n : p.scenario.nodes.rt)
       stream_beyond_llc(n.workload);
     for (auto& n : p.scenario.nodes.nrt)
-      if (n.workload.name == "bandwidth_read_64m") stream_beyond_llc(n.workload);
+      stream_beyond_llc(n.workload);
   }
   auto backend = make_hw_backend(builtin_registry());
   TestContext ctx;

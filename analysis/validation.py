@@ -11,6 +11,12 @@ nRT nodes gives one nRT pair per node, all counted under nRT) the report compute
   ``|(s_sim - 1) - (s_hw - 1)| / (s_hw - 1)`` (mean and max over those points, in %);
 * the measured noise: per point, the spread of the hw repetitions ``(max - min) / mean``
   (median over points), to read the errors against;
+* the isolation offset: per point, the model's isolation time of the node over the one the hw
+  run measured, ``iso_sim / iso_hw - 1`` (mean over points, in %, signed). Both slowdowns
+  divide by their own side's isolation time, and a regulated nRT node's co-run time is set by
+  its budget rather than by its kernel's speed, so its slowdown error follows this offset with
+  the opposite sign: it tells an error of the model's kernel speed (or a host whose speed moved
+  since it was calibrated) from one of its interference and regulation;
 
 per scenario, over the whole suite (every point of every scenario pooled) and per number of
 co-runners k (the scenario's nRT nodes: every scenario with that k pooled; ``per_k``), and marks
@@ -34,8 +40,9 @@ The **machine state** (``STATE_DIR/<scenario>.json``, by default ``DIR/state/``)
 ``tools/validate.sh`` measures the machine's DRAM interference (``rosguard platform
 contention``, ``PROBE_WORDS``) right before and right after each scenario's hw run and compares
 it with the state the installed host model was calibrated in (a VM's changes over minutes, as
-the host moves its vCPUs). The report gives it per scenario (``machine_state``), says which scenarios were measured in another
-state than the model's and, when some were and some were not, the errors over those in the
+the host moves its vCPUs); the probe also gives the host's speed against the model's (that
+reader's time alone), which the state cell shows and the state does not include. The report gives it per scenario (``machine_state``), says which scenarios were
+measured in another state than the model's and, when some were and some were not, the errors over those in the
 model's state alone (``in_model_state``); the goals stay marked over every scenario. A missing
 folder, file or probe: that scenario's state is not known ("not probed").
 
@@ -82,6 +89,9 @@ DEFINITIONS = {
     "excess_error_max_pct": "the largest of those",
     "hw_spread_pct": ("median over points of (max - min) / mean of the hw repetitions x 100: "
                       "the measurement noise the errors sit on"),
+    "isolation_offset_pct": ("mean over points of (the model's isolation time of the node / "
+                             "the hw run's - 1) x 100 (positive: the model runs the node's "
+                             "kernel slower than the host did during the hw run)"),
     "overall": "every common point of every scenario pooled",
     "k": ("co-runners: the scenario's nRT nodes; per k, every scenario with k of them pooled, "
           "the nRT errors over every co-runner's pairs and the range of the per-node nRT MAPEs"),
@@ -90,10 +100,14 @@ DEFINITIONS = {
                       "both probes found the model's state, false when either did not, "
                       "null when not known; alike: false when a probe found the two CPUs "
                       "slowed differently (the same probe the other way round, other_way its "
-                      "ratio), true when both found them alike, null when not known"),
+                      "ratio), true when both found them alike, null when not known; "
+                      "speed_before / speed_after: the reader's time alone over the model's, "
+                      "- 1, in % (the host's speed against the model's: reported, not part of "
+                      "matches), null when not known"),
     "in_model_state": "the scenarios whose both probes found the model's state, pooled",
 }
-STATE_KEYS = ("before", "after", "model", "matches", "waited_s", "attempts", "alike", "other_way")
+STATE_KEYS = ("before", "after", "model", "matches", "waited_s", "attempts", "alike", "other_way",
+              "speed_before", "speed_after")
 
 
 @dataclass
@@ -110,6 +124,8 @@ class Pair:
     index: int = 0     # which RT / nRT node of the point (nRT: 0 nrt_, 1 nrt1_, ...)
     name: str = ""     # the node's name in the scenario ("" when the manifest does not say)
     corunners: int = 1  # k: the point's nRT nodes
+    iso_hw: float = math.nan    # the node's mean isolation time, hw and sim (NaN: not given)
+    iso_sim: float = math.nan
 
     @property
     def has_band(self) -> bool:
@@ -129,12 +145,20 @@ class Pair:
             return math.nan
         return 100.0 * ((self.sim.mean - 1.0) - excess) / excess
 
+    @property
+    def isolation_offset_pct(self) -> float:
+        """(the sim's isolation time / the hw run's - 1) x 100, NaN where either is missing."""
+        if not (self.iso_hw > 0 and math.isfinite(self.iso_sim)):
+            return math.nan
+        return 100.0 * (self.iso_sim / self.iso_hw - 1.0)
+
 
 def node_errors(pairs) -> dict:
     """The error figures of one node's pairs (see DEFINITIONS); NaN / None where empty."""
     summary = compare.error_summary([(p.point, p.hw.mean, p.sim.mean) for p in pairs])
     excess = [abs(p.excess_error_pct) for p in pairs if math.isfinite(p.excess_error_pct)]
     spread = [100.0 * (p.hw.max - p.hw.min) / p.hw.mean for p in pairs if p.hw.n > 1]
+    offset = [p.isolation_offset_pct for p in pairs if math.isfinite(p.isolation_offset_pct)]
     return {
         "pairs": summary.pairs,
         "mape_pct": summary.mape_pct,
@@ -146,6 +170,7 @@ def node_errors(pairs) -> dict:
         "excess_error_pct": float(np.mean(excess)) if excess else math.nan,
         "excess_error_max_pct": float(np.max(excess)) if excess else math.nan,
         "hw_spread_pct": float(np.median(spread)) if spread else math.nan,
+        "isolation_offset_pct": float(np.mean(offset)) if offset else math.nan,
     }
 
 
@@ -162,8 +187,9 @@ def goal_marks(errors: dict) -> dict:
 def scenario_pairs(name: str, hw, sim, band=None) -> tuple:
     """([Pair], Comparison) of one scenario's loaded hw and sim folders: one pair per common
     point and node, every RT and every nRT node (nrt_slowdown, nrt1_slowdown, ...), each with
-    its index, its name and the point's number of nRT nodes (k). ``band`` (compare.Band of the
-    sim folder, or None) gives each pair its band."""
+    its index, its name, the point's number of nRT nodes (k) and the node's mean isolation time
+    on each side. ``band`` (compare.Band of the sim folder, or None) gives each pair its
+    band."""
     comp = compare.compare_results(hw, sim)
     corunners = sum(1 for n in comp.nodes if n.role == "nrt")
     pairs = []
@@ -173,7 +199,8 @@ def scenario_pairs(name: str, hw, sim, band=None) -> tuple:
             if a and b and a.mean != 0:
                 low, high = band.of(pb.id, n.key) if band is not None else (math.nan, math.nan)
                 pairs.append(Pair(name, pa.id, n.role, a, b, low, high, n.index, n.name,
-                                  corunners))
+                                  corunners, pa.mean(n.column("isolation_us")),
+                                  pb.mean(n.column("isolation_us"))))
     return pairs, comp
 
 
@@ -295,6 +322,8 @@ def _state_problem(data) -> str:
                     (lambda v: isinstance(v, bool), "true or false")),
                    (f"{key}.reverse.ratio", (reverse or {}).get("ratio"),
                     (_is_number, "a number")),
+                   (f"{key}.speed_offset_pct", (probe or {}).get("speed_offset_pct"),
+                    (_is_number, "a number")),
                    (f"{key}.model.ratio", (model or {}).get("ratio"), (_is_number, "a number"))]
     for where, value, (ok, words) in checks:
         if value is not None and not ok(value):
@@ -334,7 +363,8 @@ def machine_state(state_dir, name: str) -> dict:
                  matches=False if False in flags else (True if flags == [True, True] else None),
                  waited_s=data.get("waited_s"), attempts=data.get("attempts"),
                  alike=False if False in alike else (True if alike == [True, True] else None),
-                 other_way=other_way)
+                 other_way=other_way, speed_before=probes[0].get("speed_offset_pct"),
+                 speed_after=probes[1].get("speed_offset_pct"))
     return state
 
 
@@ -439,6 +469,7 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
                     "hw_reps": p.hw.n, "sim_mean": p.sim.mean, "sim_min": p.sim.min,
                     "sim_max": p.sim.max, "sim_reps": p.sim.n, "error_pct": p.error_pct,
                     "excess_error_pct": p.excess_error_pct,
+                    "isolation_offset_pct": p.isolation_offset_pct,
                     **({"band_low": p.band_low, "band_high": p.band_high} if variants else {})}
                    for p in pairs],
     }
@@ -529,13 +560,17 @@ def _ratio(value) -> str:
 
 
 def _state_cell(state: dict) -> str:
-    """'1.72x / 1.70x, model 1.74x' (before / after the hw run, the model's), in bold with
-    ': differs' when the probes found another state, '; the other way 1.05x: CPUs unlike' after
+    """'1.72x / 1.70x, model 1.74x' (before / after the hw run, the model's; then the host's
+    speed against the model's, '; speed -24.1 % / -3.0 %', where the probes measured it), in
+    bold with ': differs' when the probes found another state, '; the other way 1.05x: CPUs unlike' after
     it when a probe found the two CPUs slowed differently; 'not probed'."""
     if not _probed(state):
         return "not probed"
     text = (f"{_ratio(state['before'])} / {_ratio(state['after'])}, model "
             f"{_ratio(state['model'])}")
+    speeds = (state.get("speed_before"), state.get("speed_after"))
+    if any(v is not None for v in speeds):
+        text += "; speed " + " / ".join(_signed_pct(v) for v in speeds)
     text = f"**{text}: differs**" if state["matches"] is False else text
     if state.get("alike") is False:
         text += f"; the other way {_ratio(state.get('other_way'))}: CPUs unlike"
@@ -572,9 +607,9 @@ def summary_table(report: dict) -> list:
     """Markdown lines: one row per scenario, one for the whole suite and, when some scenarios
     were measured in the model's machine state and some in another, one for the former."""
     lines = ["| scenario | points | RT MAPE (≤ 5 %) | nRT MAPE (≤ 10 %) | RT excess error "
-             "(≤ 20 %) | nRT excess error (≤ 20 %) | hw noise RT / nRT | DRAM state (beside "
-             "one reader) |",
-             "|---|---:|---:|---:|---:|---:|---:|---|"]
+             "(≤ 20 %) | nRT excess error (≤ 20 %) | hw noise RT / nRT | isolation offset "
+             "RT / nRT | DRAM state (beside one reader) |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---|"]
     scenarios = report["scenarios"]
     rows = [(s["name"], s["common_points"], s, _state_cell(_state_of(s))) for s in scenarios]
     matched = sum(1 for s in scenarios if _state_of(s)["matches"] is True)
@@ -593,7 +628,8 @@ def summary_table(report: dict) -> list:
             f"{_cell(errors, goals, 'rt', 'excess_error_pct')} | "
             f"{_cell(errors, goals, 'nrt', 'excess_error_pct')} | "
             f"{pct(errors['rt']['hw_spread_pct'])} / {pct(errors['nrt']['hw_spread_pct'])} | "
-            f"{state} |")
+            f"{_signed_pct(errors['rt'].get('isolation_offset_pct'))} / "
+            f"{_signed_pct(errors['nrt'].get('isolation_offset_pct'))} | {state} |")
     return lines
 
 
@@ -651,7 +687,13 @@ def markdown(report: dict) -> str:
              "Goals: RT-slowdown MAPE ≤ 5 %, nRT-slowdown MAPE ≤ 10 %, and the error on the "
              f"excess slowdown (slowdown − 1) ≤ 20 % where the measured excess is ≥ "
              f"{EXCESS_MIN:g} (mean over those points). hw noise: median spread "
-             "(max − min) / mean of a point's hw repetitions.", ""]
+             "(max − min) / mean of a point's hw repetitions. Isolation offset: the model's "
+             "isolation time of the node over the one the hw run measured, − 1 (mean over "
+             "points; positive: the model runs the kernel slower than the host did). A "
+             "regulated nRT node's co-run time is set by its budget, not by its kernel's "
+             "speed, so its slowdown error follows this offset with the opposite sign: an "
+             "offset beyond the nRT goal misses it however right the interference model is.",
+             ""]
     lines += summary_table(report)
     lines += ["", state_summary(report) + "."]
     lines += ["", "## Errors per number of co-runners (k)", "",
@@ -692,8 +734,8 @@ def markdown(report: dict) -> str:
               "Means over repetitions; hw min–max beside the hw mean"
               + ("; the sim's prediction band beside the sim mean." if banded else "."), "",
               "| scenario | point | node | hw | hw min–max | sim | "
-              + ("sim band | " if banded else "") + "error | excess error |",
-              "|---|---|---|---:|---:|---:|" + ("---:|" if banded else "") + "---:|---:|"]
+              + ("sim band | " if banded else "") + "error | excess error | isolation offset |",
+              "|---|---|---|---:|---:|---:|" + ("---:|" if banded else "") + "---:|---:|---:|"]
     for p in report["points"]:
         band = f" {_range(p.get('band_low'), p.get('band_high'))} |" if banded else ""
         node = p["node"] if p.get("corunners", 1) <= 1 or p["node"] == "rt" else \
@@ -701,7 +743,8 @@ def markdown(report: dict) -> str:
         lines.append(f"| {p['scenario']} | {p['point']} | {node} | "
                      f"{p['hw_mean']:.3f} | {p['hw_min']:.3f}–{p['hw_max']:.3f} | "
                      f"{p['sim_mean']:.3f} |{band} {p['error_pct']:+.1f} % | "
-                     f"{_signed_pct(p['excess_error_pct'])} |")
+                     f"{_signed_pct(p['excess_error_pct'])} | "
+                     f"{_signed_pct(p.get('isolation_offset_pct'))} |")
     lines += ["", f"Figure: [{FIGURE_STEM}.png]({FIGURE_STEM}.png) "
               f"([PDF]({FIGURE_STEM}.pdf)).", "",
               "Definitions: " + "; ".join(f"`{k}`: {v}" for k, v in DEFINITIONS.items()) + "."]

@@ -279,7 +279,8 @@ open(sys.argv[3],"w").write(json.dumps(d,indent=2,ensure_ascii=False)+"\n")' "$1
 # " (state B/A, model M; waited W s; calibrated again; run twice; the CPUs not slowed alike: the
 # other way R)": the probes' ratios before and after, the model's, whether it waited (5 s or
 # more), calibrated again and ran twice, and the reverse probe's ratio where a probe found the
-# two CPUs slowed differently (its "alike": false).
+# two CPUs slowed differently (its "alike": false); then "; speed S/S" when the probes measured
+# the host's speed against the model's (the reader alone, % slower or faster).
 hw_in_state() {
   local name=$1 file=$2 log=$3 st=$out/state/$1 attempts=0 waited=0 each t0 t1 prc recal=0
   while :; do
@@ -337,6 +338,9 @@ w+=("; calibrated again" if d.get("recalibrated") else "") + ("; run twice" if d
 r=[p["reverse"]["ratio"] for p in (d.get("before"), d.get("after"))
    if p and p.get("alike") is False and "reverse" in p]
 w+=("; the CPUs not slowed alike: the other way %s" % "/".join("%.2fx" % x for x in r) if r else "")
+sp=[(d.get(k) or {}).get("speed_offset_pct") for k in ("before", "after")]
+w+=("; speed %s" % "/".join("?" if x is None else "%+.0f %%" % x for x in sp)
+    if any(x is not None for x in sp) else "")
 print(" (state %s/%s, model %s%s)" % (f("before"), f("after"), "%.2fx" % m["ratio"] if m else "none", w))' "$st.json")
 }
 

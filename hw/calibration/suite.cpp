@@ -529,8 +529,9 @@ void Suite::measure_block(const Block& block, const std::string& label) {
 // kOnCoreAttempts, is taken again for up to kContentionPatienceS: on the Xeon VM of 2026-11-28
 // the host took 5 % or more of a 20 ms window from a spinning vCPU in a third of the windows, in
 // bursts of up to 4 s, under SCHED_FIFO or not); the ratio of each round's pair, so that drift
-// between rounds cancels. Recorded in the measurements with `when`. Empty when stopped before a
-// round completed; throws RunError when no round kept its windows.
+// between rounds cancels, and the median of the windows alone (the host's speed). Recorded in the
+// measurements with `when`. Empty when stopped before a round completed; throws RunError when no
+// round kept its windows.
 std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::string& when) {
   const double kb = shape_.dram_kb;
   step("contention probe: bandwidth_read " + kb_text(kb) + " alone and beside one on CPU " +
@@ -548,7 +549,7 @@ std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::s
     }
     return std::nullopt;
   };
-  std::vector<double> ratios;
+  std::vector<double> ratios, alone_ns;
   const TimeNs patience = now_ns() + static_cast<TimeNs>(kContentionPatienceS * 1e9);
   int r = 0;
   for (; std::ssize(ratios) < kContentionRounds && (r < kContentionRounds || now_ns() < patience) &&
@@ -556,7 +557,10 @@ std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::s
        ++r) {
     const auto alone = timed(0);
     const auto beside = timed(1);
-    if (alone && beside) ratios.push_back(*beside / *alone);
+    if (alone && beside) {
+      ratios.push_back(*beside / *alone);
+      alone_ns.push_back(*alone);
+    }
   }
   if (ratios.empty() && stopping()) return std::nullopt;
   if (ratios.empty())
@@ -573,6 +577,7 @@ std::optional<calibration::ContentionProbe> Suite::probe_contention(const std::s
   p.working_set_kb = kb;
   p.ratio = median(ratios);
   if (const double ci = median_ci95_pct(ratios); std::isfinite(ci)) p.ci95_pct = ci;
+  p.alone_ns_per_line = median(alone_ns);
   p.rounds = static_cast<int>(ratios.size());
   p.date = iso_now();
   p.when = when;

@@ -214,6 +214,11 @@ bool same_contention_state(const ContentionProbe& a, const ContentionProbe& b) {
   return std::fabs(std::log(a.ratio / b.ratio)) <= std::log1p(kContentionTolerance);
 }
 
+std::optional<double> speed_offset_pct(const ContentionProbe& model, const ContentionProbe& now) {
+  if (!model.alone_ns_per_line || !now.alone_ns_per_line) return std::nullopt;
+  return 100.0 * (*now.alone_ns_per_line / *model.alone_ns_per_line - 1.0);
+}
+
 std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes,
                                                 const ContentionProbe* around) {
   if (probes.empty()) return std::nullopt;
@@ -232,17 +237,19 @@ std::optional<ContentionProbe> contention_state(const std::vector<ContentionProb
     for (const ContentionProbe& p : probes)
       if (agreeing(p) > agreeing(*anchor)) anchor = &p;
   ContentionProbe state = *anchor;
-  std::vector<double> ratios, cis;
+  std::vector<double> ratios, cis, alone;
   state.rounds = 0;
   for (const ContentionProbe& p : probes) {
     if (!same_contention_state(*anchor, p)) continue;
     ratios.push_back(p.ratio);
     state.rounds += p.rounds;
     if (p.ci95_pct) cis.push_back(*p.ci95_pct);
+    if (p.alone_ns_per_line) alone.push_back(*p.alone_ns_per_line);
   }
   const std::size_t n = ratios.size();
   state.ratio = median(ratios);
   state.ci95_pct = cis.empty() ? std::nullopt : std::optional<double>(median(cis));
+  state.alone_ns_per_line = alone.empty() ? std::nullopt : std::optional<double>(median(alone));
   state.when = std::to_string(n) + " of " + std::to_string(probes.size()) +
                " probes of the suite in this state";
   return state;
@@ -281,6 +288,10 @@ std::string describe(const ContentionProbe& p) {
   s += " (bandwidth_read " + kb(p.working_set_kb);
   if (p.cores.size() == 2)
     s += " on CPU " + std::to_string(p.cores[0]) + " beside CPU " + std::to_string(p.cores[1]);
+  if (p.alone_ns_per_line) {
+    std::snprintf(buf, sizeof buf, "; alone %.2f ns per line", *p.alone_ns_per_line);
+    s += buf;
+  }
   return s + ")";
 }
 
@@ -289,6 +300,7 @@ json probe_to_json(const ContentionProbe& p) {
          {"ratio", p.ratio},   {"ci95_pct", p.ci95_pct ? json(*p.ci95_pct) : json(nullptr)},
          {"rounds", p.rounds}, {"date", p.date}};
   if (!p.when.empty()) j["when"] = p.when;
+  if (p.alone_ns_per_line) j["alone_ns_per_line"] = *p.alone_ns_per_line;
   return j;
 }
 
@@ -305,6 +317,11 @@ ContentionProbe probe_from_json(const json& j, const std::string& file, const st
   p.rounds = field<int>(j, "rounds", file, base);
   p.date = field<std::string>(j, "date", file, base);
   if (j.contains("when")) p.when = field<std::string>(j, "when", file, base);
+  if (j.contains("alone_ns_per_line")) {
+    p.alone_ns_per_line = field<double>(j, "alone_ns_per_line", file, base);
+    if (!(*p.alone_ns_per_line > 0.0))
+      throw InputError(file, base + "/alone_ns_per_line", "must be positive");
+  }
   return p;
 }
 

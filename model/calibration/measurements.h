@@ -51,6 +51,9 @@ struct ContentionProbe {
   int rounds = 0;
   std::string date;  // ISO 8601 UTC, when it was measured
   std::string when;  // where in a calibration suite ("before the co-runs", "after ..."); optional
+  // The reader's time per line alone, ns (the median of the rounds' windows alone): how fast the
+  // host ran it in that state. Absent in probes from before rosguard recorded it.
+  std::optional<double> alone_ns_per_line = std::nullopt;
 };
 
 // Two probes agree when their ratios differ by at most kContentionTolerance (relative). On the
@@ -62,17 +65,27 @@ struct ContentionProbe {
 inline constexpr double kContentionTolerance = 0.10;
 bool same_contention_state(const ContentionProbe& a, const ContentionProbe& b);
 
+// The host's speed against a model's: (now's alone time / the model's - 1) x 100, positive when
+// the host runs the reader slower now than when the model was calibrated; empty when either
+// lacks one. A model runs each kernel at the speed it was calibrated at, and a regulated nRT
+// node's co-run time is set by its budget, not by its kernel's speed, so its slowdown (over its
+// isolation time) is off by about as much as the host's speed moved (docs/validation.md, "The
+// isolation offset"). Reported, not a state to wait for: on the development VM (2026-11-29) it
+// moved between -2 and -23 % against a model within 90 s, probes 18 s apart, faster than a
+// scenario's hw run.
+std::optional<double> speed_offset_pct(const ContentionProbe& model, const ContentionProbe& now);
+
 // The state most of a suite's probes share, from its probes in suite order (the probe that the
 // most probes agree with; the earliest of a tie; the suite follows it while it runs), its ratio the
-// median of the probes that agree with that one (ci95_pct the median of theirs, rounds their
-// sum), `when` saying how many. Not simply the first probe's: a host that moves its vCPUs right
-// after it leaves every later block in another state (2 of 21 probes agreed with the first on
-// the development VM, 2026-11-28). Empty for no probes.
-// With `around`: the state of the probes that agree with that one instead.
+// median of the probes that agree with that one (ci95_pct and alone_ns_per_line the medians of
+// theirs, rounds their sum), `when` saying how many. Not simply the first probe's: a host that
+// moves its vCPUs right after it leaves every later block in another state (2 of 21 probes agreed
+// with the first on the development VM, 2026-11-28). Empty for no probes. With `around`: the state
+// of the probes that agree with that one instead.
 std::optional<ContentionProbe> contention_state(const std::vector<ContentionProbe>& probes,
                                                 const ContentionProbe* around = nullptr);
 
-// "1.74x +- 2.1 % (bandwidth_read 131072 KB on CPU 0 beside CPU 1)".
+// "1.74x +- 2.1 % (bandwidth_read 131072 KB on CPU 0 beside CPU 1; alone 5.81 ns per line)".
 std::string describe(const ContentionProbe& p);
 
 nlohmann::json probe_to_json(const ContentionProbe& p);

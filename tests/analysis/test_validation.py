@@ -27,8 +27,9 @@ SIM = {
 }
 
 
-def write_folder(folder, points, backend):
-    """A results folder with only the cells validate needs (as in test_compare)."""
+def write_folder(folder, points, backend, isolation=None):
+    """A results folder with only the cells validate needs (as in test_compare); ``isolation``
+    (rt_us, nrt_us) fills every row's isolation times."""
     folder.mkdir(parents=True)
     header = resultgen.FIXED_COLUMNS + resultgen.EXTRA_COLUMNS
     with (folder / "points.csv").open("w", newline="") as f:
@@ -42,6 +43,8 @@ def write_folder(folder, points, backend):
                          "threshold_pct": 10 * (index + 1), "sampling_period_us": 250,
                          "regulation_period_us": 5000, "rt_slowdown": rt, "nrt_slowdown": nrt,
                          "platform": "vm-2core"}
+                if isolation:
+                    cells["rt_isolation_us"], cells["nrt_isolation_us"] = isolation
                 w.writerow([cells.get(c, "") for c in header])
     (folder / "manifest.json").write_text(json.dumps({
         "schema_version": 1, "backend": backend, "status": "complete",
@@ -104,6 +107,26 @@ def test_excess_only_where_measured_excess_is_large():
     assert edge.excess_error_pct == pytest.approx(-100.0)
     errors = validation.node_errors([small])
     assert errors["excess_pairs"] == 0 and math.isnan(errors["excess_error_pct"])
+
+
+def test_isolation_offset_by_hand(tmp_path):
+    # hw isolation 40 / 50 ms, the model 44 / 40: RT +10 %, nRT -20 %, in every point.
+    points = {"p0000000001": [(1.0, 2.0)], "p0000000002": [(1.1, 3.0)]}
+    write_folder(tmp_path / "hw" / "alpha", points, "hw", (40000.0, 50000.0))
+    write_folder(tmp_path / "sim" / "alpha", points, "sim", (44000.0, 40000.0))
+    report, pairs = validation.build_report(tmp_path / "hw", tmp_path / "sim")
+    assert [round(p.isolation_offset_pct, 6) for p in pairs] == [10.0, -20.0] * 2
+    for errors in (report["scenarios"][0], report["overall"]):
+        assert errors["rt"]["isolation_offset_pct"] == pytest.approx(10.0)
+        assert errors["nrt"]["isolation_offset_pct"] == pytest.approx(-20.0)
+    assert report["points"][1]["isolation_offset_pct"] == pytest.approx(-20.0)
+    text = validation.markdown(report)
+    assert "| +10.0 % / -20.0 % |" in text          # the summary table's column
+    # Without isolation times (the suite fixture) the offset is not known, and says so.
+    stat = validation.Stat.of
+    bare = validation.Pair("s", "p", "nrt", stat([2.0]), stat([2.0]))
+    assert math.isnan(bare.isolation_offset_pct)
+    assert math.isnan(validation.node_errors([bare])["isolation_offset_pct"])
 
 
 @pytest.mark.parametrize("value, status", [(4.99, "met"), (5.0, "met"), (5.01, "missed"),
@@ -621,7 +644,8 @@ def test_every_scenario_in_the_model_s_state(suite, tmp_path):
     report = json.loads((out / "report.json").read_text())
     assert report["scenarios"][0]["machine_state"] == {
         "before": 1.72, "after": 1.70, "model": 1.74, "matches": True, "waited_s": 12.5,
-        "attempts": 1, "alike": None, "other_way": None}
+        "attempts": 1, "alike": None, "other_way": None, "speed_before": None,
+        "speed_after": None}
     assert "in_model_state" not in report
     md = (out / "report.md").read_text()
     assert "| DRAM state (beside one reader) |" in md
@@ -652,7 +676,8 @@ def test_a_scenario_in_another_state_is_marked_and_left_out_of_the_extra_row(sui
     assert report["state_dir"] == str(states)
     assert report["scenarios"][1]["machine_state"] == {
         "before": 1.02, "after": 1.71, "model": 1.74, "matches": False, "waited_s": 300.0,
-        "attempts": 2, "alike": None, "other_way": None}
+        "attempts": 2, "alike": None, "other_way": None, "speed_before": None,
+        "speed_after": None}
     # The extra row: the errors of alpha alone, as a report of alpha alone has them overall.
     alone, _ = validation.build_report(*suite, ["alpha"])
     mine = report["in_model_state"]
@@ -668,7 +693,7 @@ def test_a_scenario_in_another_state_is_marked_and_left_out_of_the_extra_row(sui
     assert "| beta | 1 | " in md and "| **1.02x / 1.71x, model 1.74x: differs** |" in md
     assert "| **all** | 3 | 4.0 % met | 13.3 % **missed** |" in md
     assert ("| **in the model's state** | 2 | 4.0 % met | 15.0 % **missed** | 88.0 % (n=1) "
-            "**missed** | 25.0 % (n=2) **missed** | 18.2 % / 0.0 % | 1 scenario(s) |") in md
+            "**missed** | 25.0 % (n=2) **missed** | 18.2 % / 0.0 % | – / – | 1 scenario(s) |") in md
     assert md.index("| **all** |") < md.index("| **in the model's state** |")
     assert ("machine state: 1 of 2 scenarios measured in the model's DRAM-interference state "
             f"(the probe: {validation.PROBE_WORDS}, before and after each hw run); waited 312 s "
@@ -697,7 +722,7 @@ def test_without_state_files_the_state_is_not_probed_and_nothing_else_changes(su
     assert "in_model_state" not in report
     md = (out / "report.md").read_text()
     assert ("| alpha | 2 | 4.0 % met | 15.0 % **missed** | 88.0 % (n=1) **missed** | 25.0 % "
-            "(n=2) **missed** | 18.2 % / 0.0 % | not probed |") in md
+            "(n=2) **missed** | 18.2 % / 0.0 % | – / – | not probed |") in md
     assert "| **all** | 3 |" in md and md.count("not probed |") == 3
     assert ("machine state: not probed (the DRAM interference between the CPUs during the hw "
             "runs is not known).") in md.splitlines()
@@ -759,6 +784,21 @@ def test_two_cpus_slowed_differently_are_said_with_the_other_way_s_ratio(
     assert validation._state_cell(found) == cell
 
 
+def test_the_host_s_speed_against_the_model_s_is_in_the_cell(tmp_path):
+    # The reader alone 24 % faster than the model's before the run, 3 % after; the probe before
+    # found another interference state.
+    write_state(tmp_path, "s", dict(probe(1.72, False), speed_offset_pct=-24.1),
+                dict(probe(1.70, True), speed_offset_pct=-3.04))
+    found = validation.machine_state(tmp_path, "s")
+    assert (found["speed_before"], found["speed_after"]) == (-24.1, -3.04)
+    assert validation._state_cell(found) == \
+        "**1.72x / 1.70x, model 1.74x; speed -24.1 % / -3.0 %: differs**"
+    # One probe without it (a model from before rosguard recorded the speed).
+    write_state(tmp_path, "t", probe(1.72, True), dict(probe(1.70, True), speed_offset_pct=4.0))
+    assert validation._state_cell(validation.machine_state(tmp_path, "t")) == \
+        "1.72x / 1.70x, model 1.74x; speed – / +4.0 %"
+
+
 def test_a_model_without_a_state_leaves_it_unknown(tmp_path):
     write_state(tmp_path, "s", probe(1.7, None, model=None), probe(1.6, None, model=None))
     found = validation.machine_state(tmp_path, "s")
@@ -782,8 +822,10 @@ def test_a_model_without_a_state_leaves_it_unknown(tmp_path):
     ('{"before": {"ratio": 1.7, "alike": "no"}}',
      "'before.alike' is \"no\", not true or false or null"),
     ('{"after": {"ratio": 1.7, "reverse": 1.3}}', "'after.reverse' is not an object"),
+    ('{"before": {"ratio": 1.7, "speed_offset_pct": "fast"}}',
+     "'before.speed_offset_pct' is \"fast\", not a number or null"),
 ], ids=["not-json", "not-an-object", "ratio-text", "matches-text", "probe-number",
-        "attempts-fraction", "alike-text", "reverse-number"])
+        "attempts-fraction", "alike-text", "reverse-number", "speed-text"])
 def test_a_malformed_state_file_is_an_input_error_naming_it(suite, tmp_path, text, words):
     out = tmp_path / "out"
     (out / "state").mkdir(parents=True)

@@ -101,7 +101,8 @@ assert len(report["skipped"]) == 6
 for s in report["scenarios"]:
     assert s["machine_state"] == {"before": 1.4, "after": 1.4, "model": 1.4, "matches": True,
                                   "waited_s": 0.0, "attempts": 1, "alike": True,
-                                  "other_way": 1.4}, s["machine_state"]
+                                  "other_way": 1.4, "speed_before": None,
+                                  "speed_after": None}, s["machine_state"]
 print("report: k = 1 compared, 6 skipped, each in the model's machine state")
 PY
 

@@ -185,6 +185,41 @@ TEST_CASE("contention probes: a suite's state is its first probe's, the median o
   CHECK(describe(*s) == "1.80x +- 4.0 % (bandwidth_read 131072 KB on CPU 0 beside CPU 1)");
 }
 
+TEST_CASE("contention probes: the host's speed, the reader alone, against the model's",
+          "[calibration]") {
+  const auto at = [](double ratio, std::optional<double> alone) {
+    ContentionProbe p = probe(ratio, 2.0);
+    p.alone_ns_per_line = alone;
+    return p;
+  };
+  // The development VM of 2026-11-29: the reader alone 7.3-8.0 ns per line at calibration,
+  // 5.8 an hour later, the interference the same.
+  const ContentionProbe model = at(1.05, 7.65), later = at(1.04, 5.81);
+  CHECK(same_contention_state(model, later));  // the speed is not part of the state
+  CHECK(*speed_offset_pct(model, later) == Approx(100.0 * (5.81 / 7.65 - 1.0)));  // -24 %
+  CHECK(*speed_offset_pct(later, model) == Approx(100.0 * (7.65 / 5.81 - 1.0)));  // +32 %
+  // A probe without its alone time (a model from before rosguard recorded it): not known.
+  CHECK_FALSE(speed_offset_pct(at(1.05, std::nullopt), later));
+  CHECK_FALSE(speed_offset_pct(later, at(1.05, std::nullopt)));
+  // A suite's state: the median alone time of the probes in that state, not of the others.
+  const auto s = contention_state(
+      {at(1.80, 6.0), at(1.02, 9.0), at(1.70, 5.0), at(1.84, 7.0), at(1.80, std::nullopt)});
+  REQUIRE(s);
+  CHECK(*s->alone_ns_per_line == Approx(6.0));
+  CHECK(describe(*s) ==
+        "1.80x +- 2.0 % (bandwidth_read 131072 KB on CPU 0 beside CPU 1; alone 6.00 ns per line)");
+  CHECK_FALSE(contention_state({probe(1.0, 1.0)})->alone_ns_per_line);
+  // In JSON: written when known, read back, refused when not positive.
+  const json j = probe_to_json(later);
+  CHECK(j.at("alone_ns_per_line") == 5.81);
+  CHECK(*probe_from_json(j, "c.json", "/p").alone_ns_per_line == 5.81);
+  CHECK_FALSE(probe_to_json(probe(1.0, 1.0)).contains("alone_ns_per_line"));
+  json bad = j;
+  bad["alone_ns_per_line"] = 0.0;
+  CHECK_THROWS_WITH(probe_from_json(bad, "c.json", "/p"),
+                    "c.json: /p/alone_ns_per_line: must be positive");
+}
+
 TEST_CASE("contention probes: in the measurements and in measured_on, and their errors",
           "[calibration]") {
   Measurements m = sample();

@@ -33,7 +33,8 @@ CommandHandler setup_platform(CLI::App& sub) {
       "contention",
       "Measure the DRAM interference between two CPUs now (a DRAM-bound bandwidth_read alone and "
       "beside one on the other CPU, 7 rounds, about a second; then the other way round) and say "
-      "whether it is the state the installed host model was calibrated in.");
+      "whether it is the state the installed host model was calibrated in, and how fast the host "
+      "runs that reader alone against the model.");
   contention->add_option("--out", *out,
                          "Also write the probe (\"reverse\": the other way round), the model's "
                          "state and whether they match, as JSON, to this file (atomically)");
@@ -42,7 +43,9 @@ CommandHandler setup_platform(CLI::App& sub) {
       "memory path and places that do not, over minutes: the same machine then shows two or more "
       "states, and a model calibrated in one describes that one; its CPUs need not be slowed "
       "alike either (said when they are not). The state is the first direction's, on the CPUs "
-      "the model was calibrated on. Exit status 0 in the model's "
+      "the model was calibrated on. The host's speed moves too, faster than the state: the model's "
+      "isolation times are off by about as much as the reader alone is (printed; not part of the "
+      "state). Exit status 0 in the model's "
       "state; 3 in another, or when no model or no recorded state is installed. make validate "
       "uses it before and after each hw run.");
   return [out, probe, contention](const CommandContext& c) {

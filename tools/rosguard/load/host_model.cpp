@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
@@ -244,10 +245,19 @@ int platform_contention_command(const SchemaSet& schemas, const std::string& out
                  "before rosguard recorded it): rosguard calibrate --install records it\n";
   } else {
     const bool same = calibration::same_contention_state(*model, now.probe);
+    const auto offset = calibration::speed_offset_pct(*model, now.probe);
     doc["model"] = calibration::probe_to_json(*model);
     doc["matches"] = same;
+    doc["speed_offset_pct"] = offset ? json(*offset) : json(nullptr);
     std::cout << "host model:            " << calibration::describe(*model) << ", calibrated at "
               << model->date << "\n";
+    if (offset) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%+.1f %%", *offset);
+      std::cout << "the reader alone now:  " << buf
+                << " against the host model's (the host's speed: the model's isolation times, "
+                   "and its regulated nRT slowdowns, are off by about as much now)\n";
+    }
     if (same) {
       std::cout << "the same state as the host model's\n";
       rc = 0;

@@ -41,10 +41,11 @@ The **machine state** (``STATE_DIR/<scenario>.json``, by default ``DIR/state/``)
 contention``, ``PROBE_WORDS``) right before and right after each scenario's hw run and compares
 it with the state the installed host model was calibrated in (a VM's changes over minutes, as
 the host moves its vCPUs); the probe also gives the host's speed against the model's (that
-reader's time alone), which the state cell shows and the state does not include. The report gives it per scenario (``machine_state``), says which scenarios were
-measured in another state than the model's and, when some were and some were not, the errors over those in the
-model's state alone (``in_model_state``); the goals stay marked over every scenario. A missing
-folder, file or probe: that scenario's state is not known ("not probed").
+reader's time alone), which the state cell shows and the state does not include. The report
+gives it per scenario (``machine_state``), says which scenarios were measured in another state
+than the model's and, when some were and some were not, the errors over those in the model's
+state alone (``in_model_state``); the goals stay marked over every scenario. A missing folder,
+file or probe: that scenario's state is not known ("not probed").
 
 ``readme_section(report)`` is the README's table (``tools/validate.sh --readme``).
 """
@@ -562,8 +563,8 @@ def _ratio(value) -> str:
 def _state_cell(state: dict) -> str:
     """'1.72x / 1.70x, model 1.74x' (before / after the hw run, the model's; then the host's
     speed against the model's, '; speed -24.1 % / -3.0 %', where the probes measured it), in
-    bold with ': differs' when the probes found another state, '; the other way 1.05x: CPUs unlike' after
-    it when a probe found the two CPUs slowed differently; 'not probed'."""
+    bold with ': differs' when the probes found another state, '; the other way 1.05x: CPUs
+    unlike' after it when a probe found the two CPUs slowed differently; 'not probed'."""
     if not _probed(state):
         return "not probed"
     text = (f"{_ratio(state['before'])} / {_ratio(state['after'])}, model "

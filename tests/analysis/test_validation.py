@@ -693,7 +693,8 @@ def test_a_scenario_in_another_state_is_marked_and_left_out_of_the_extra_row(sui
     assert "| beta | 1 | " in md and "| **1.02x / 1.71x, model 1.74x: differs** |" in md
     assert "| **all** | 3 | 4.0 % met | 13.3 % **missed** |" in md
     assert ("| **in the model's state** | 2 | 4.0 % met | 15.0 % **missed** | 88.0 % (n=1) "
-            "**missed** | 25.0 % (n=2) **missed** | 18.2 % / 0.0 % | – / – | 1 scenario(s) |") in md
+            "**missed** | 25.0 % (n=2) **missed** | 18.2 % / 0.0 % | – / – | "
+            "1 scenario(s) |") in md
     assert md.index("| **all** |") < md.index("| **in the model's state** |")
     assert ("machine state: 1 of 2 scenarios measured in the model's DRAM-interference state "
             f"(the probe: {validation.PROBE_WORDS}, before and after each hw run); waited 312 s "

@@ -93,6 +93,14 @@ def test_hand_computed_errors(suite):
     assert overall["rt"]["excess_error_pct"] == pytest.approx(54.0)
     assert overall["nrt"]["excess_error_pct"] == pytest.approx((20 + 30 + 12.5) / 3)
     assert overall["goals"]["nrt_excess"]["status"] == "missed"
+    # Resolved: RT none (alpha's 1.0 / 1.2 over two repetitions: t 12.7; the others have one);
+    # nRT alpha's 2.0 / 2.0 (no spread), its excess error 20 %.
+    assert overall["rt"]["excess_resolved_pairs"] == 0
+    assert overall["nrt"]["excess_resolved_pairs"] == 1
+    assert overall["nrt"]["excess_error_resolved_pct"] == pytest.approx(20.0)
+    assert [p["excess_resolved"] for p in report["points"]].count(True) == 1
+    assert ("RT n/a (0 of 2 points), nRT 20.0 % (1 of 3 points)"
+            in validation.markdown(report))
     assert len(pairs) == 6
     assert report["measured_from"] == "2026-01-01T00:01:00Z"       # beta (1 point) first
     assert report["measured_to"] == "2026-01-01T00:13:00Z"
@@ -107,6 +115,28 @@ def test_excess_only_where_measured_excess_is_large():
     assert edge.excess_error_pct == pytest.approx(-100.0)
     errors = validation.node_errors([small])
     assert errors["excess_pairs"] == 0 and math.isnan(errors["excess_error_pct"])
+
+
+def test_excess_resolved_by_the_confidence_interval():
+    stat = validation.Stat.of
+    # 1.09..1.11 over 5: the 95 % CI of the mean (t 2.776, std 0.00707) is 1.0912..1.1088.
+    tight = validation.Pair("s", "p1", "rt", stat([1.09, 1.10, 1.11, 1.10, 1.10]), stat([1.08]))
+    noisy = validation.Pair("s", "p2", "rt", stat([0.90, 1.40, 1.00, 1.20, 1.00]), stat([1.0]))
+    once = validation.Pair("s", "p3", "rt", stat([1.5]), stat([1.0]))   # one repetition
+    assert [p.excess_resolved for p in (tight, noisy, once)] == [True, False, False]
+    # At the bound: the lower end 1 + 0.05 - / + 0.0001 (half-width 2.776 x std / sqrt(5)).
+    edge = [validation.Pair("s", "p", "rt", validation.Stat(5, 1.07, 1.0, 1.1, std), stat([1.0]))
+            for std in (0.0160, 0.0162)]
+    assert [p.excess_resolved for p in edge] == [True, False]
+    errors = {"rt": validation.node_errors([tight, noisy, once]),
+              "nrt": validation.node_errors([noisy])}
+    assert errors["rt"]["excess_pairs"] == 3
+    assert errors["rt"]["excess_resolved_pairs"] == 1
+    assert errors["rt"]["excess_error_resolved_pct"] == pytest.approx(20.0)  # (0.08-0.10)/0.10
+    assert errors["rt"]["excess_error_pct"] == pytest.approx((20.0 + 100.0 + 100.0) / 3)
+    assert math.isnan(errors["nrt"]["excess_error_resolved_pct"])
+    text = validation.resolved_summary(errors)
+    assert "RT 20.0 % (1 of 3 points)" in text and "nRT n/a (0 of 1 points)" in text
 
 
 def test_isolation_offset_by_hand(tmp_path):

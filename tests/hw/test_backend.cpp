@@ -268,12 +268,13 @@ void check_protection(TransportKind transport) {
   // with the nRT node held to 17 % of its bandwidth: the 0.11 was not its memory traffic.)
   // After an attempt without interference to remove, a contention probe (rosguard platform
   // contention: a stream beside a stream on the first two usable CPUs, as the test's nodes, both
-  // over this test's set beyond the LLC; about 4 s) decides whether another attempt could show
-  // any: where the co-runner slows the stream by less than the 10 % the check needs, the host does
-  // not contend now and the attempt is left out. The next one probes again, so a host that
-  // changes its state within the attempts still gets one. (Development VM, 2026-12-06, L3 260 MB,
-  // 2 GB sets: the probes found 0.98-0.99x; an attempt took about 40 s, so five took minutes of
-  // every CI run, for a check that could not be made.)
+  // over this test's set beyond the LLC; seconds) decides whether another attempt could show any:
+  // where the co-runner slows the stream by less than the 10 % the check needs, the host does not
+  // contend now and the attempt is left out. The next one probes again, so a host that changes
+  // its state within the attempts still gets one. (Development VM, 2026-12-06, L3 260 MB, 2 GB
+  // sets: the probes found 0.98-0.99x, and the test took 53-63 s with one attempt and four
+  // probes; five attempts would take several minutes of every CI run, for a check that could not
+  // be made.)
   std::optional<Protection> best;  // of the attempts that had interference to remove
   int left_out = 0;                // attempts left out after a probe
   std::string ratios;              // those probes' ratios

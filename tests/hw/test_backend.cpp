@@ -272,9 +272,9 @@ void check_protection(TransportKind transport) {
   // where the co-runner slows the stream by less than the 10 % the check needs, the host does not
   // contend now and the attempt is left out. The next one probes again, so a host that changes
   // its state within the attempts still gets one. (Development VM, 2026-12-06, L3 260 MB, 2 GB
-  // sets: the probes found 0.98-0.99x, and the test took 53-63 s with one attempt and four
-  // probes; five attempts would take several minutes of every CI run, for a check that could not
-  // be made.)
+  // sets: the probes found 0.98-0.99x; the test took 53-63 s with one attempt and four probes,
+  // 118 s where a probe let a second attempt in, and 246 s with five attempts before this
+  // change, for a check that could not be made.)
   std::optional<Protection> best;  // of the attempts that had interference to remove
   int left_out = 0;                // attempts left out after a probe
   std::string ratios;              // those probes' ratios

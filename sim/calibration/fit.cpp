@@ -260,11 +260,7 @@ double predict_ns_per_line(const SimPlatform& platform, const KernelRun& run) {
   return 1.0 / r.inst_per_ns;  // one instruction per line
 }
 
-namespace {
-
-// The samples sorted and their summary (count, range, median, 90th percentile), no distribution
-// yet. Throws RunError without samples.
-CostFit summarize(std::vector<double>& samples) {
+CostFit fit_cost(std::vector<double> samples) {
   if (samples.empty()) throw RunError("a cost distribution needs samples");
   std::sort(samples.begin(), samples.end());
   CostFit c;
@@ -273,13 +269,6 @@ CostFit summarize(std::vector<double>& samples) {
   c.max_us = samples.back();
   c.median_us = percentile(samples, 50.0);
   c.p90_us = percentile(samples, 90.0);
-  return c;
-}
-
-}  // namespace
-
-CostFit fit_cost(std::vector<double> samples) {
-  CostFit c = summarize(samples);
   if (c.max_us <= c.min_us) {
     c.distribution = {{"dist", "constant"}, {"value_us", round_sig(c.min_us, 4)}};
     return c;
@@ -318,7 +307,14 @@ CostFit fit_cost(std::vector<double> samples) {
 }
 
 CostFit fit_mean_cost(std::vector<double> samples) {
-  CostFit c = summarize(samples);
+  if (samples.empty()) throw RunError("a cost needs samples");
+  std::sort(samples.begin(), samples.end());
+  CostFit c;
+  c.samples = samples.size();
+  c.min_us = samples.front();
+  c.max_us = samples.back();
+  c.median_us = percentile(samples, 50.0);
+  c.p90_us = percentile(samples, 90.0);
   c.distribution = {{"dist", "constant"}, {"value_us", round_sig(std::max(0.0, c.median_us), 4)}};
   return c;
 }

@@ -136,7 +136,7 @@ class Top : public sc_core::sc_module {
     auto it = cores_.find(id);
     if (it != cores_.end()) return *it->second;
     auto c = std::make_unique<Core>(("core" + std::to_string(id)).c_str(), id, cfg_.platform,
-                                    memory_, rt_, cfg_.trace);
+                                    memory_, rt_, cfg_.trace, cfg_.seed);
     return *cores_.emplace(id, std::move(c)).first->second;
   }
 

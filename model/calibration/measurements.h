@@ -161,7 +161,8 @@ struct Measurements {
   // Middleware and OS costs as raw samples in us, keyed by the sim cost they calibrate:
   // "pmc_callback", "publish", "message_latency", "local_message_latency" (optional),
   // "controller_callback", "controller_callback_local" (optional),
-  // "throttle_activation", "external_read", "timer_wakeup" (optional) (the names of the
+  // "throttle_activation", "external_read", "timer_wakeup" (optional), "preemption" (optional:
+  // one sample per pair of timed windows, the mean over that pair's wake-ups) (the names of the
   // platform's "costs" object).
   std::map<std::string, std::vector<double>> costs_us;
   double wall_s = 0.0;  // how long the suite took

@@ -177,7 +177,8 @@ sim::SimPlatform model_platform(const HostFacts& host);
 // the cluster has other cores.
 double predict_ns_per_line(const sim::SimPlatform& platform, const KernelRun& run);
 
-// The fit (see above). Costs: each costs_us entry with samples becomes a distribution (fit_cost).
+// The fit (see above). Costs: each costs_us entry with samples becomes a distribution (fit_cost;
+// "preemption": fit_mean_cost).
 FitReport fit(const Measurements& measurements, const FitOptions& options = {});
 
 // A cost distribution from raw samples (us): a shifted lognormal through the samples' 10th, 50th
@@ -187,6 +188,11 @@ FitReport fit(const Measurements& measurements, const FitOptions& options = {});
 // RT throttling delayed, widens neither); a constant when every sample is equal. Throws RunError
 // without samples.
 CostFit fit_cost(std::vector<double> samples_us);
+// A cost whose samples are each a mean over many events, not single events (costs_us
+// "preemption": one per pair of timed windows): a constant at their median, at least 0 (a pair
+// may find the stream faster beside the wake-ups than alone: noise). Throws RunError without
+// samples.
+CostFit fit_mean_cost(std::vector<double> samples_us);
 
 // A full platform document (validates against platform.schema.json, runs in sim): cpu and
 // caches from the host facts, memory and kernels from the fit, costs from the samples, reference

@@ -24,7 +24,7 @@ bool same_demand(const CoreDemand& a, const CoreDemand& b) {
 }  // namespace
 
 Core::Core(const sc_core::sc_module_name& name, int id, const SimPlatform& platform,
-           MemorySystem& memory, Runtime& rt, TraceSink* trace)
+           MemorySystem& memory, Runtime& rt, TraceSink* trace, std::uint64_t seed)
     : sc_core::sc_module(name),
       id_(id),
       cluster_(platform.cluster_of(id)),
@@ -35,6 +35,9 @@ Core::Core(const sc_core::sc_module_name& name, int id, const SimPlatform& platf
       rt_(rt),
       trace_(trace),
       overflow_timer_("overflow", rt, [this](TimeNs t) { overflow_timer(t); }) {
+  if (platform.costs.preemption)
+    preemption_cost_.emplace(*platform.costs.preemption,
+                             stream_seed(seed, "core" + std::to_string(id) + "/preemption"));
   SC_METHOD(wake);
   sensitive << wake_ev_;
   dont_initialize();
@@ -61,7 +64,11 @@ void Core::stop_work() {
 void Core::post(Prio prio, TimeNs cost_ns, std::string label, Done done) {
   const TimeNs now = now_ns();
   sync(now);
+  // The running workload is preempted: it pays its restart once the callbacks ahead of it are done.
+  const bool preempts = running_ == Running::Work && preemption_cost_;
   callbacks_.push_back({prio, seq_++, cost_ns, std::move(label), std::move(done)});
+  if (preempts)
+    callbacks_.push_back({Prio::Resume, seq_++, preemption_cost_->draw_ns(), "resume", {}});
   dispatch(now);
 }
 

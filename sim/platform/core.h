@@ -4,11 +4,14 @@
 // What runs, highest priority first: a callback of a controller that shares the core
 // (Prio::Controller, as its thread sits above the node's threads on hw), a CFB callback
 // (Prio::Cfb), the THR idle loop while
-// throttled, a PMC / publishing callback (Prio::Pmc), the workload (an RT job or the nRT node's
-// NCT), else nothing (the core idles and its cycle counter stops, as in WFI). Equal priorities
-// run in the order posted. Callbacks take a fixed time and move no data; the THR loop counts
-// cycles and instructions and moves no data; the workload progresses at the rates of the memory
-// model. So a throttled core's nominal work does not progress and it creates no traffic.
+// throttled, a PMC / publishing callback (Prio::Pmc), the workload's restart after a preemption
+// (Prio::Resume: where the platform has costs.preemption_us, a callback that preempts the running
+// workload is followed by one of that cost, in which the workload makes no progress), the
+// workload (an RT job or the nRT node's NCT), else nothing (the core idles and its cycle counter
+// stops, as in WFI). Equal priorities run in the order posted. Callbacks take a fixed time and move
+// no data; the THR loop counts cycles and instructions and moves no data; the workload progresses
+// at the rates of the memory model. So a throttled core's nominal work does not progress and it
+// creates no traffic.
 //
 // Contract: a SystemC module, driven from SystemC processes at the current simulated time.
 // Mutators first bring the PMU and the workload up to now, then reschedule; they may be called
@@ -25,6 +28,7 @@
 
 #include "backend/trace.h"
 #include "kernel/runtime.h"
+#include "nodes/costs.h"
 #include "platform/memory_system.h"
 #include "platform/pmu.h"
 #include "workload/profile.h"
@@ -34,11 +38,12 @@ namespace rosguard::sim {
 class Core : public sc_core::sc_module {
  public:
   SC_HAS_PROCESS(Core);
-  enum class Prio : std::uint8_t { Controller = 0, Cfb = 1, Pmc = 2 };
+  enum class Prio : std::uint8_t { Controller = 0, Cfb = 1, Pmc = 2, Resume = 3 };
   using Done = std::function<void(TimeNs)>;
 
+  // `seed`: the run's (RunConfig::seed), for the draws of the preemption cost.
   Core(const sc_core::sc_module_name& name, int id, const SimPlatform& platform,
-       MemorySystem& memory, Runtime& rt, TraceSink* trace);
+       MemorySystem& memory, Runtime& rt, TraceSink* trace, std::uint64_t seed);
 
   int id() const { return id_; }
   int cluster() const { return cluster_; }
@@ -105,6 +110,7 @@ class Core : public sc_core::sc_module {
   Runtime& rt_;
   TraceSink* trace_;
 
+  std::optional<CostStream> preemption_cost_;  // costs.preemption_us
   std::vector<Pending> callbacks_;
   std::uint64_t seq_ = 0;
   bool thr_ = false;

@@ -152,6 +152,7 @@ SimPlatform parse_sim_platform(const PlatformInfo& p) {
   s.costs.throttle_activation = dist("throttle_activation_us");
   s.costs.external_read = dist("external_read_us");
   if (costs.contains("timer_wakeup_us")) s.costs.timer_wakeup = dist("timer_wakeup_us");
+  if (costs.contains("preemption_us")) s.costs.preemption = dist("preemption_us");
   if (costs.contains("overflow_irq_us")) s.costs.overflow_irq = dist("overflow_irq_us");
   if (costs.contains("mmio_poll_us")) s.costs.mmio_poll = dist("mmio_poll_us");
 

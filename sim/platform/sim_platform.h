@@ -98,6 +98,11 @@ struct CostParams {
   // core, charged before each timer-driven callback (a PMC sample, the controller's reads and
   // period boundaries); none without it.
   std::optional<Distribution> timer_wakeup;
+  // Optional: what a workload loses to each preemption by a callback on its core beyond the
+  // callback's own time (the interrupted stream starts again: its prefetches and lines in flight
+  // are gone), charged as the workload's restart after the callback; none without it. rosguard
+  // calibrate measures it on a memory stream beside an empty timer wake-up.
+  std::optional<Distribution> preemption;
   // Optional (a platform without them refuses the sampling mode that needs them):
   // overflow sampling: from a PMU counter overflow to the throttle taking hold on that core (the
   // interrupt and its handler, MemGuard), and from a period boundary to a core's replenish;

@@ -242,6 +242,18 @@ TEST_CASE("a tiny calibration suite returns well-formed measurements", "[hw][cal
     CHECK(*std::max_element(v.begin(), v.end()) > 0.0);
   }
 
+  // preemption: one sample per pair of timed windows (4 pairs in this shape), each the extra time
+  // per wake-up (noise may make one negative), or none where every pair was left out (noted).
+  if (m.costs_us.count("preemption")) {
+    const auto& v = m.costs_us.at("preemption");
+    CHECK(v.size() >= 1);
+    CHECK(v.size() <= 4);
+    CHECK(std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); }));
+  } else {
+    CHECK(std::any_of(r.notes.begin(), r.notes.end(),
+                      [](const std::string& n) { return n.starts_with("preemption"); }));
+  }
+
   nlohmann::json j = m;
   const auto back = calibration::measurements_from_json(j, "test");
   CHECK(nlohmann::json(back) == j);

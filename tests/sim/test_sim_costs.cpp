@@ -114,3 +114,46 @@ TEST_CASE("a timer-driven sample costs its core timer_wakeup_us before the callb
   costs["external_read_us"] = 1.0;
   CHECK(median(samples(costs, "external", 1, "pmc_callback")) == Approx(1.0).margin(0.01));
 }
+
+TEST_CASE("a callback that preempts a running workload costs it preemption_us more",
+          "[sim][costs]") {
+  // The controller on the RT node's core, reading the nRT counters every 250 us: each read
+  // preempts the RT job.
+  const auto rt_time = [](double preemption_us) {
+    nlohmann::json plat = vm_platform();
+    for (const auto& [k, v] : {std::pair<const char*, double>{"timer_wakeup_us", 3.0},
+                               {"external_read_us", 1.0},
+                               {"controller_callback_us", 5.0},
+                               {"controller_callback_local_us", 5.0}})
+      plat["costs"][k] = {{"dist", "constant"}, {"value_us", v}, {"source", "the test"}};
+    if (preemption_us > 0)
+      plat["costs"]["preemption_us"] = {
+          {"dist", "constant"}, {"value_us", preemption_us}, {"source", "the test"}};
+    test::TempDir dir;
+    const auto file = dir.path() / "platform.json";
+    std::ofstream(file) << plat.dump();
+    const nlohmann::json doc = {
+        {"name", "preempted"},
+        {"platform", file.string()},
+        {"nodes",
+         {{"controller", {{"core", 0}}},
+          {"rt", {{{"name", "rt0"}, {"core", 0}, {"workload", "bandwidth_read"}}}},
+          {"nrt", {{{"name", "nrt0"}, {"core", 1}, {"workload", "bandwidth_read"}}}}}},
+        {"regulation",
+         {{"policy", "interval"},
+          {"sampling", "external"},
+          {"sampling_period_us", 250},
+          {"regulation_period_us", 5000},
+          {"threshold_pct", 50}}}};
+    const auto rep = test::run_point_report(test::load_points_json(doc, dir.path()).at(0));
+    return rep["rt"][0]["time_us"].get<double>();
+  };
+  const double without = rt_time(0.0), with = rt_time(20.0);
+  INFO("RT job " << without << " us without, " << with << " us with 20 us per preemption");
+  // About one preemption per read (every 250 us of the longer job; a period boundary every 5 ms
+  // adds a callback that mostly follows a read), each 20 us of the job's time.
+  const double preemptions = (with - without) / 20.0;
+  CHECK(preemptions == Approx(with / 250.0).epsilon(0.1));
+  // Nothing else changes: without the cost, a platform runs as before it existed.
+  CHECK(rt_time(0.0) == without);
+}

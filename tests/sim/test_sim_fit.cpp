@@ -759,3 +759,27 @@ TEST_CASE("fit: co-runs measured in another DRAM-interference state are left out
   for (const auto& run : fit(m).runs)
     CHECK(run.used);
 }
+
+TEST_CASE("fit: the preemption pairs become a constant cost at their median", "[sim][fit]") {
+  const CostFit c = fit_mean_cost({14.5, -3.0, 30.0, 12.0, 16.0});
+  CHECK(c.samples == 5);
+  CHECK(c.distribution == json{{"dist", "constant"}, {"value_us", 14.5}});
+  // Noise may put the median below 0: no cost, not a negative one.
+  CHECK(fit_mean_cost({-2.0, -1.0, 3.0}).distribution["value_us"].get<double>() == 0.0);
+  CHECK_THROWS_AS(fit_mean_cost({}), RunError);
+
+  // In the platform: preemption_us, constant, its source saying what the samples are.
+  const HostFacts h = host();
+  Measurements m = synthetic(truth(h), h, 0.02, 1);
+  m.costs_us["preemption"] = {13.0, 14.0, 15.0, 9.0};
+  const FitReport r = fit(m);
+  const json doc = fitted_platform(m, r, "fitted-host");
+  const SchemaSet schemas(Home::locate().schemas());
+  CHECK_FALSE(schemas.first_error(doc, SchemaKind::Platform).has_value());
+  const json& p = doc["costs"]["preemption_us"];
+  CHECK(p["dist"] == "constant");
+  CHECK(p["value_us"].get<double>() == Approx(13.5));
+  CHECK(p["source"].get<std::string>().find("the median of 4 pairs of timed windows") !=
+        std::string::npos);
+  CHECK(sim::parse_sim_platform(build_platform(doc, "fitted.json")).costs.preemption.has_value());
+}

@@ -260,7 +260,11 @@ double predict_ns_per_line(const SimPlatform& platform, const KernelRun& run) {
   return 1.0 / r.inst_per_ns;  // one instruction per line
 }
 
-CostFit fit_cost(std::vector<double> samples) {
+namespace {
+
+// The samples sorted and their summary (count, range, median, 90th percentile), no distribution
+// yet. Throws RunError without samples.
+CostFit summarize(std::vector<double>& samples) {
   if (samples.empty()) throw RunError("a cost distribution needs samples");
   std::sort(samples.begin(), samples.end());
   CostFit c;
@@ -269,6 +273,13 @@ CostFit fit_cost(std::vector<double> samples) {
   c.max_us = samples.back();
   c.median_us = percentile(samples, 50.0);
   c.p90_us = percentile(samples, 90.0);
+  return c;
+}
+
+}  // namespace
+
+CostFit fit_cost(std::vector<double> samples) {
+  CostFit c = summarize(samples);
   if (c.max_us <= c.min_us) {
     c.distribution = {{"dist", "constant"}, {"value_us", round_sig(c.min_us, 4)}};
     return c;
@@ -307,14 +318,7 @@ CostFit fit_cost(std::vector<double> samples) {
 }
 
 CostFit fit_mean_cost(std::vector<double> samples) {
-  if (samples.empty()) throw RunError("a cost needs samples");
-  std::sort(samples.begin(), samples.end());
-  CostFit c;
-  c.samples = samples.size();
-  c.min_us = samples.front();
-  c.max_us = samples.back();
-  c.median_us = percentile(samples, 50.0);
-  c.p90_us = percentile(samples, 90.0);
+  CostFit c = summarize(samples);
   c.distribution = {{"dist", "constant"}, {"value_us", round_sig(std::max(0.0, c.median_us), 4)}};
   return c;
 }

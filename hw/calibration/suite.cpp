@@ -15,6 +15,7 @@
 #include <optional>
 #include <set>
 #include <span>
+#include <stdexcept>
 #include <thread>
 #include <tuple>
 
@@ -81,16 +82,24 @@ void rethrow_if_failed(const RtThread& t) {
 
 // A spinner on one core at an RT job's priority that records each gap in its own progress: the
 // time another thread took that core. Used to see what a wake-up (a timer's, a callback's) costs
-// the work it preempts.
+// the work it preempts (gaps_at).
 class GapSpinner {
  public:
   GapSpinner(const std::string& name, int core, std::size_t capacity, Notes& notes)
       : gaps_(capacity) {
-    thread_ =
-        std::make_unique<RtThread>(ThreadSpec{name, core, SchedClass::Fifo, prio::kRt}, [this] {
+    // Settled when the spinner runs, or when its thread failed to start (on_error): the caller
+    // blocks until then. It must block, not yield: above the spinner's priority on its core, a
+    // yielding caller never lets it run (a run of the suite hung so on 2026-12-06).
+    const auto settle = [this] {
+      settled_.store(true, std::memory_order_release);
+      settled_.notify_all();
+    };
+    thread_ = std::make_unique<RtThread>(
+        ThreadSpec{name, core, SchedClass::Fifo, prio::kRt},
+        [this, settle] {
           constexpr TimeNs kGapNs = 300;  // the loop itself takes ~20-40 ns
           TimeNs last = now_ns();
-          spinning_.store(true, std::memory_order_release);
+          settle();
           while (!stop_.load(std::memory_order_relaxed)) {
             const TimeNs now = now_ns();
             if (now - last > kGapNs) {
@@ -102,10 +111,10 @@ class GapSpinner {
             }
             last = now;
           }
-        });
+        },
+        [settle](const std::string&, std::exception_ptr) { settle(); });
     notes.sched(thread_->outcome());
-    while (!spinning_.load(std::memory_order_acquire))
-      std::this_thread::yield();
+    settled_.wait(false, std::memory_order_acquire);
   }
   ~GapSpinner() {
     stop_.store(true, std::memory_order_relaxed);
@@ -119,34 +128,15 @@ class GapSpinner {
     thread_->join();
     rethrow_if_failed(*thread_);
   }
-  // After stop(): for each wake-up (monotonic ns, ascending), the length of the gap around it in
-  // us, when that gap began at most `window` before it (one that began long before is another
-  // preemption, e.g. RT throttling); `unmatched` counts the others.
-  std::vector<double> gaps_at(const std::vector<TimeNs>& woke, TimeNs window,
-                              std::size_t& unmatched) const {
-    std::vector<double> out;
-    out.reserve(woke.size());
-    const std::size_t n = count_.load(std::memory_order_acquire);
-    std::size_t g = 0;
-    unmatched = 0;
-    for (const TimeNs w : woke) {
-      while (g < n && gaps_[g].end < w)
-        ++g;
-      if (g < n && gaps_[g].start <= w && w - gaps_[g].start <= window)
-        out.push_back(ns_to_us(gaps_[g].end - gaps_[g].start));
-      else
-        ++unmatched;
-    }
-    return out;
+  // After stop(): the gaps seen, in time order.
+  std::span<const SpinGap> gaps() const {
+    return {gaps_.data(), count_.load(std::memory_order_acquire)};
   }
 
  private:
-  struct Gap {
-    TimeNs start, end;
-  };
-  std::vector<Gap> gaps_;
+  std::vector<SpinGap> gaps_;
   std::atomic<std::size_t> count_{0};
-  std::atomic<bool> stop_{false}, spinning_{false};
+  std::atomic<bool> stop_{false}, settled_{false};
   std::unique_ptr<RtThread> thread_;
 };
 
@@ -356,13 +346,15 @@ class Suite {
       const std::function<void(Topic<SampleMsg>&, std::size_t)>& publish_one);
   void message_costs(CounterGroup& group, const MetricPlan& plan, int nrt_core, int far_core,
                      dds::Participant* dds_participant);
-  std::vector<double> throttle_activations(int nrt_core, int far_core);
+  std::vector<double> cost_rounds(std::size_t n,
+                                  const std::function<std::vector<double>(std::size_t)>& round);
+  std::vector<double> throttle_activations(int nrt_core, int far_core, std::size_t count);
   std::vector<double> external_reads(CounterGroup& group, std::size_t group_size, int far_core);
   std::vector<double> controller_callbacks(const MetricPlan& plan, int feed_core, int ctl_core);
   std::vector<double> controller_callback_round(const MetricPlan& plan, int feed_core, int ctl_core,
                                                 std::size_t count, std::size_t& unmatched,
                                                 std::size_t& woken);
-  std::vector<double> timer_wakeups(int core, int count);
+  std::vector<double> timer_wakeups(int core, std::size_t count, std::size_t& unmatched);
   std::vector<double> preemptions(int core, double wakeup_us);
   struct StreamWindow {
     double ns_per_line = 0.0;
@@ -370,7 +362,7 @@ class Suite {
   };
   std::optional<StreamWindow> stream_window(BuiltinWorkload& w, double kb, int core, bool waker,
                                             double waker_share);
-  void paced(const std::function<void(int)>& sample, int count);
+  void paced(const std::function<void(int, TimeNs)>& sample, int count);
 
   const SuiteOptions& opt_;
   const SuiteShape& shape_;
@@ -676,14 +668,15 @@ std::optional<calibration::ContentionProbe> Suite::contention_only() {
   return probe_contention("");
 }
 
-// Runs sample(i) for i < count on the calling thread, one every cost_spacing_us (an absolute
-// schedule, but never less than cost_spacing_us after the previous sample), until done or stopped.
-void Suite::paced(const std::function<void(int)>& sample, int count) {
+// Runs sample(i, due) for i < count on the calling thread, one every cost_spacing_us (an absolute
+// schedule, but never less than cost_spacing_us after the previous sample), until done or stopped;
+// `due` is the time its timer was set for.
+void Suite::paced(const std::function<void(int, TimeNs)>& sample, int count) {
   const auto spacing = static_cast<TimeNs>(shape_.cost_spacing_us * 1e3);
   TimeNs next = now_ns() + spacing;
   for (int i = 0; i < count && !stopping(); ++i) {
     sleep_until(next);
-    sample(i);
+    sample(i, next);
     // A full spacing after this sample even when the sleep overslept: with a quarter spacing the
     // next sample could meet the previous one's wake-up still running (a cross-core wake takes
     // 15-60 us on the development VM), and such samples are not timed. The tiny suite's test
@@ -775,7 +768,8 @@ std::vector<double> Suite::timed_topic(
     }
   });
   notes_.sched(subscriber.outcome());
-  run_on(nrt_core, prio::kPmc, pub_name, [&] { paced([&](int) { publish_one(topic, pub); }, n); });
+  run_on(nrt_core, prio::kPmc, pub_name,
+         [&] { paced([&](int, TimeNs) { publish_one(topic, pub); }, n); });
   done.store(true, std::memory_order_release);
   sub_waker.notify();
   subscriber.join();
@@ -830,8 +824,8 @@ void Suite::message_costs(CounterGroup& group, const MetricPlan& plan, int nrt_c
 // throttle_activation: a command on the control topic wakes CFB, which wakes the waiting THR
 // (the zero-time timer) on the same core, where the NCT streams; from CFB taking the command to
 // THR entered (CFB > THR > NCT, as in an nRT node). The commands come from `far_core`.
-std::vector<double> Suite::throttle_activations(int nrt_core, int far_core) {
-  const int n = shape_.cost_samples;
+std::vector<double> Suite::throttle_activations(int nrt_core, int far_core, std::size_t count) {
+  const int n = static_cast<int>(count);
   InprocTopic<ControlMsg> control;
   Waker cfb_waker, thr_waker;
   const std::size_t pub = control.add_publisher();
@@ -872,7 +866,7 @@ std::vector<double> Suite::throttle_activations(int nrt_core, int far_core) {
   notes_.sched(cfb.outcome());
   run_on(far_core, prio::kController, "cal-ctl", [&] {
     paced(
-        [&](int) {
+        [&](int, TimeNs) {
           ControlMsg m;
           m.command = Command::Thr;
           m.t_cause = now_ns();
@@ -900,7 +894,7 @@ std::vector<double> Suite::external_reads(CounterGroup& group, std::size_t group
   std::array<CounterValue, kMaxGroupEvents> v{};
   run_on(far_core, prio::kController, "cal-ext", [&] {
     paced(
-        [&](int) {
+        [&](int, TimeNs) {
           const TimeNs t0 = now_ns();
           group.read(std::span(v.data(), group_size));
           reads.push_back(ns_to_us(now_ns() - t0));
@@ -945,7 +939,15 @@ void Suite::measure_costs() {
   message_costs(*group, plan, nrt_core, far_core, dds_participant.get());
   if (!stopping()) {
     step("costs: throttle_activation");
-    costs["throttle_activation"] = throttle_activations(nrt_core, far_core);
+    std::size_t sent = 0;
+    costs["throttle_activation"] = cost_rounds(static_cast<std::size_t>(n), [&](std::size_t k) {
+      sent += k;
+      return throttle_activations(nrt_core, far_core, k);
+    });
+    if (const std::size_t timed = costs["throttle_activation"].size(); timed < sent)
+      notes_.add("throttle_activation: " + std::to_string(sent - timed) + " of " +
+                 std::to_string(sent) +
+                 " commands came while the previous activation was still running (not timed)");
   }
   if (!stopping()) {
     step("costs: external_read");
@@ -956,27 +958,25 @@ void Suite::measure_costs() {
   // interrupt, the switch in and out), on each measured core (VMs' vCPUs differ), pooled.
   if (!stopping()) {
     step("costs: timer_wakeup");
-    std::vector<double> all = timer_wakeups(far_core, far_core == nrt_core ? n : n / 2);
+    // Per core: the samples wanted there, taken in rounds.
+    const auto on = [&](int core, std::size_t count) {
+      std::size_t unmatched = 0;
+      const std::vector<double> v =
+          cost_rounds(count, [&](std::size_t k) { return timer_wakeups(core, k, unmatched); });
+      if (unmatched)
+        notes_.add("timer_wakeup on core " + std::to_string(core) + ": " +
+                   std::to_string(unmatched) + " of " + std::to_string(v.size() + unmatched) +
+                   " wake-ups not seen as a gap of the spinner that began after the timer was "
+                   "due (left out)");
+      return v;
+    };
+    const auto un = static_cast<std::size_t>(n);
+    std::vector<double> all = on(far_core, far_core == nrt_core ? un : un / 2);
     if (far_core != nrt_core && !stopping()) {
-      const std::vector<double> near = timer_wakeups(nrt_core, n - n / 2);
+      const std::vector<double> near = on(nrt_core, un - un / 2);
       all.insert(all.end(), near.begin(), near.end());
     }
     costs["timer_wakeup"] = std::move(all);
-  }
-
-  // preemption: what a wake-up costs a memory stream beyond the gap a spinner sees (above), on
-  // the core the controller's costs are measured on.
-  if (!stopping()) {
-    step("costs: preemption");
-    const auto it = costs.find("timer_wakeup");
-    std::vector<double> wakeups = it != costs.end() ? it->second : std::vector<double>{};
-    if (wakeups.empty()) {
-      notes_.add("preemption: not measured (no timer_wakeup sample to take from it)");
-    } else {
-      std::sort(wakeups.begin(), wakeups.end());
-      const std::vector<double> extra = preemptions(far_core, wakeups[wakeups.size() / 2]);
-      if (!extra.empty()) costs["preemption"] = extra;
-    }
   }
 
   // controller_callback: the controller's core time per input woken from another core (a
@@ -990,6 +990,23 @@ void Suite::measure_costs() {
     step("costs: controller_callback_local");
     costs["controller_callback_local"] = controller_callbacks(plan, nrt_core, nrt_core);
   }
+
+  // preemption: what a wake-up costs a memory stream beyond the gap a spinner sees (above), on
+  // the core the controller's costs are measured on. Last: its 100 ms windows of a SCHED_FIFO
+  // stream leave the core to the kernel's RT throttling for a while, which the steps above would
+  // time.
+  if (!stopping()) {
+    step("costs: preemption");
+    const auto it = costs.find("timer_wakeup");
+    std::vector<double> wakeups = it != costs.end() ? it->second : std::vector<double>{};
+    if (wakeups.empty()) {
+      notes_.add("preemption: not measured (no timer_wakeup sample to take from it)");
+    } else {
+      std::sort(wakeups.begin(), wakeups.end());
+      const std::vector<double> extra = preemptions(far_core, wakeups[wakeups.size() / 2]);
+      if (!extra.empty()) costs["preemption"] = extra;
+    }
+  }
   nct.stop();
 }
 
@@ -997,23 +1014,41 @@ void Suite::measure_costs() {
 // `core`, where a spinner (an RT job's priority, above the NCT's) sees each as a gap in its own
 // progress: the timer interrupt, the switch in, the switch out. What every timer-driven callback
 // (a PMC sample, the controller's reads and period boundaries) costs its core before its own work.
-std::vector<double> Suite::timer_wakeups(int core, int count) {
-  GapSpinner spinner("cal-tspin", core, static_cast<std::size_t>(count) * 8, notes_);
-  std::vector<TimeNs> woke;
-  woke.reserve(static_cast<std::size_t>(count));
-  RtThread sleeper(ThreadSpec{"cal-timer", core, SchedClass::Fifo, prio::kController},
-                   [&] { paced([&](int) { woke.push_back(now_ns()); }, count); });
+std::vector<double> Suite::timer_wakeups(int core, std::size_t count, std::size_t& unmatched) {
+  GapSpinner spinner("cal-tspin", core, count * 8, notes_);
+  std::vector<TimeNs> due, woke;
+  due.reserve(count);
+  woke.reserve(count);
+  RtThread sleeper(ThreadSpec{"cal-timer", core, SchedClass::Fifo, prio::kController}, [&] {
+    paced(
+        [&](int, TimeNs at) {
+          woke.push_back(now_ns());
+          due.push_back(at);
+        },
+        static_cast<int>(count));
+  });
   notes_.sched(sleeper.outcome());
   sleeper.join();
   spinner.stop();
   rethrow_if_failed(sleeper);
+  std::size_t missed = 0;
+  std::vector<double> out = gaps_at(spinner.gaps(), due, woke, kWakeLeadNs, missed);
+  unmatched += missed;
+  return out;
+}
 
-  std::size_t unmatched = 0;
-  std::vector<double> out = spinner.gaps_at(woke, 50 * kNsPerUs, unmatched);
-  if (unmatched)
-    notes_.add("timer_wakeup on core " + std::to_string(core) + ": " + std::to_string(unmatched) +
-               " of " + std::to_string(woke.size()) +
-               " wake-ups not seen as a gap of the spinner (left out)");
+// Rounds of `round(k)` (k: the samples still wanted; it returns those it could time) until `n`
+// are timed or kCostRounds rounds have run. A wake-up that the kernel's RT throttling or the host
+// held back is not timed (its gap began before its cause; a command met the previous activation
+// still running), and such holds come in bursts: in 1 of 200 runs of the tiny suite on the Intel
+// Xeon VM of 2026-12-06, one round timed 5 of its 20 throttle activations.
+std::vector<double> Suite::cost_rounds(
+    std::size_t n, const std::function<std::vector<double>(std::size_t)>& round) {
+  std::vector<double> out;
+  for (int r = 0; r < kCostRounds && out.size() < n && !stopping(); ++r) {
+    const std::vector<double> more = round(n - out.size());
+    out.insert(out.end(), more.begin(), more.end());
+  }
   return out;
 }
 
@@ -1258,13 +1293,10 @@ std::vector<double> Suite::controller_callbacks(const MetricPlan& plan, int feed
   // Wake-ups that could not be timed (the spinner descheduled by the host around them, two
   // samples taken in one wake-up) are left out; further rounds take the shortfall, up to
   // kCostRounds in all (on the Xeon VM of 2026-11-28, 8 to 20 of 20 in one round).
-  std::vector<double> cb;
   std::size_t unmatched = 0, woken = 0;
-  for (int round = 0; round < kCostRounds && cb.size() < n; ++round) {
-    const std::vector<double> more =
-        controller_callback_round(plan, feed_core, ctl_core, n - cb.size(), unmatched, woken);
-    cb.insert(cb.end(), more.begin(), more.end());
-  }
+  std::vector<double> cb = cost_rounds(n, [&](std::size_t k) {
+    return controller_callback_round(plan, feed_core, ctl_core, k, unmatched, woken);
+  });
   if (unmatched)
     notes_.add(std::string(local ? "controller_callback_local: " : "controller_callback: ") +
                std::to_string(unmatched) + " of " + std::to_string(woken) +
@@ -1287,9 +1319,11 @@ std::vector<double> Suite::controller_callback_round(const MetricPlan& plan, int
   Waker ctl_waker;
   const std::size_t sample_pub = samples.add_publisher();
   const std::size_t sample_sub = samples.subscribe(ctl_waker);
-  std::vector<TimeNs> woke;      // the controller's wake-ups (monotonic ns)
-  std::vector<TimeNs> returned;  // local: the feed's publish returned (monotonic ns)
+  std::vector<TimeNs> woke;       // the controller's wake-ups (monotonic ns)
+  std::vector<TimeNs> published;  // the first sample each wake-up took: when it was published
+  std::vector<TimeNs> returned;   // local: the feed's publish returned (monotonic ns)
   woke.reserve(static_cast<std::size_t>(n));
+  published.reserve(static_cast<std::size_t>(n));
   returned.reserve(static_cast<std::size_t>(n));
   std::atomic<bool> done{false};
   std::optional<GapSpinner> spinner;
@@ -1302,7 +1336,10 @@ std::vector<double> Suite::controller_callback_round(const MetricPlan& plan, int
       SampleMsg msg;
       bool got = false;
       while (samples.take(sample_sub, msg)) {
-        if (!got) woke.push_back(now_ns());
+        if (!got) {
+          woke.push_back(now_ns());
+          published.push_back(msg.t_published);
+        }
         got = true;
         engine.on_sample();
       }
@@ -1312,7 +1349,7 @@ std::vector<double> Suite::controller_callback_round(const MetricPlan& plan, int
   notes_.sched(controller.outcome());
   RtThread feed(ThreadSpec{"cal-feed", feed_core, SchedClass::Fifo, prio::kPmc}, [&] {
     paced(
-        [&](int) {
+        [&](int, TimeNs) {
           SampleMsg m;
           m.t_published = now_ns();
           samples.publish(sample_pub, m);
@@ -1332,10 +1369,10 @@ std::vector<double> Suite::controller_callback_round(const MetricPlan& plan, int
   rethrow_if_failed(controller);
 
   // Each wake-up's cost: local, to the feed's publish return after it; else the spinner's gap
-  // around it.
+  // around it that began after the sample was published.
   std::size_t missed = 0;
   std::vector<double> cb = local ? until_returned(woke, returned, missed)
-                                 : spinner->gaps_at(woke, 20 * kNsPerUs, missed);
+                                 : gaps_at(spinner->gaps(), published, woke, 0, missed);
   unmatched += missed;
   woken += woke.size();
   return cb;
@@ -1435,6 +1472,24 @@ SuiteResult Suite::run() {
 }
 
 }  // namespace
+
+std::vector<double> gaps_at(std::span<const SpinGap> gaps, const std::vector<TimeNs>& caused,
+                            const std::vector<TimeNs>& woke, TimeNs lead, std::size_t& unmatched) {
+  if (caused.size() != woke.size()) throw std::invalid_argument("gaps_at: one cause per wake-up");
+  std::vector<double> out;
+  out.reserve(woke.size());
+  unmatched = 0;
+  std::size_t g = 0;
+  for (std::size_t i = 0; i < woke.size(); ++i) {
+    while (g < gaps.size() && gaps[g].end < woke[i])
+      ++g;
+    if (g < gaps.size() && gaps[g].start <= woke[i] && gaps[g].start >= caused[i] - lead)
+      out.push_back(ns_to_us(gaps[g].end - gaps[g].start));
+    else
+      ++unmatched;
+  }
+  return out;
+}
 
 double median_ci95_pct(std::vector<double> values) {
   constexpr double kInf = std::numeric_limits<double>::infinity();

@@ -28,10 +28,12 @@
 
 #include <atomic>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "calibration/measurements.h"
+#include "core/types.h"
 
 namespace rosguard::hw {
 
@@ -165,7 +167,7 @@ inline constexpr int kContentionRounds = 7;  // >= 6 for a 95 % interval of the 
 inline constexpr double kContentionPatienceS = 20.0;
 inline constexpr int kStateAttempts = 3;
 // A cost block whose samples could not all be timed is taken again for the shortfall, up to this
-// many rounds in all (controller_callback).
+// many rounds in all (throttle_activation, timer_wakeup, controller_callback and its local twin).
 inline constexpr int kCostRounds = 3;
 
 // One contention probe now (rosguard platform contention), on cores[0] beside cores[1], with the
@@ -182,5 +184,23 @@ struct ContentionResult {
   std::vector<std::string> notes;  // as SuiteResult's (SCHED_FIFO refused)
 };
 ContentionResult measure_contention(const ContentionOptions& options);
+
+// A spinner's gap (monotonic ns): from its last clock read before another thread took its core
+// to its first one after. The cost blocks time a wake-up on a core as the gap it makes there.
+struct SpinGap {
+  TimeNs start = 0, end = 0;
+};
+// How early a timer's wake-up may take the core before the timer is due: KVM delivered it
+// 0.76-1.03 us early on the Intel Xeon VM of 2026-12-06 (the guest's TSC deadline set ahead).
+inline constexpr TimeNs kWakeLeadNs = 10'000;
+// The gap of each wake-up, matched by its cause: for wake-up i, `caused[i]` is when it was caused
+// (a sample's publish time, a timer's due time) and `woke[i]` the woken thread's first clock read
+// (both ascending). Its gap is the one that holds woke[i] and began no earlier than caused[i] -
+// `lead` (one that began before is another thread's: a host's preemption of the spinner, RT
+// throttling). Returns the matched gaps' lengths in us; `unmatched` counts the other wake-ups.
+// A wake-up's latency into a busy core does not matter: 21-37 us on the Intel Xeon VM of
+// 2026-12-06, where a fixed 20 us window after the gap's start dropped good samples.
+std::vector<double> gaps_at(std::span<const SpinGap> gaps, const std::vector<TimeNs>& caused,
+                            const std::vector<TimeNs>& woke, TimeNs lead, std::size_t& unmatched);
 
 }  // namespace rosguard::hw

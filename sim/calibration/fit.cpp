@@ -1211,8 +1211,10 @@ json cost_section(const FitReport& rep, const std::string& by) {
       d["source"] = "measured by " + by + ": the median of " + std::to_string(cf.samples) +
                     " pairs of timed windows (a memory stream alone and beside an empty thread "
                     "woken by its timer on its core: the extra time per wake-up, less "
-                    "timer_wakeup_us's median); min " +
-                    fmt("%.3g", cf.min_us) + ", max " + fmt("%.3g", cf.max_us) + " us";
+                    "timer_wakeup_us's median): " +
+                    fmt("%.3g", cf.median_us) + " us" +
+                    (cf.median_us < 0.0 ? ", held at 0 (no cost, not a negative one)" : "") +
+                    "; min " + fmt("%.3g", cf.min_us) + ", max " + fmt("%.3g", cf.max_us) + " us";
     else
       d["source"] = "fitted by " + by + " to " + std::to_string(cf.samples) + " samples: min " +
                     fmt("%.3g", cf.min_us) + ", median " + fmt("%.3g", cf.median_us) + ", p90 " +

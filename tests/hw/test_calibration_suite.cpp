@@ -8,6 +8,7 @@
 #include <cmath>
 #include <regex>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -259,6 +260,31 @@ TEST_CASE("a tiny calibration suite returns well-formed measurements", "[hw][cal
   CHECK(nlohmann::json(back) == j);
   CHECK(back.runs.size() == m.runs.size());
   CHECK(back.costs_us.size() == m.costs_us.size());
+}
+
+TEST_CASE("a wake-up's gap is the one that began after its cause", "[hw][calibration]") {
+  constexpr TimeNs us = kNsPerUs;
+  // A spinner's gaps: a host's preemption (100-400 us), then three short ones.
+  const std::vector<SpinGap> gaps = {
+      {100 * us, 400 * us}, {1030 * us, 1050 * us}, {2000 * us, 2012 * us}, {2999 * us, 3011 * us}};
+  std::size_t unmatched = 99;
+  // Caused at 300 us, woke inside the host's gap that began before it: not this wake-up's.
+  // Caused at 1000 us, woke 35 us later into a gap that began 30 us after it: a slow wake into a
+  // busy core, still its own. Caused at 1500 us, woke in no gap: the spinner saw nothing.
+  // A timer due at 2000 us whose gap began on time; one due at 3000 us whose gap began 1 us early.
+  const std::vector<TimeNs> caused = {300 * us, 1000 * us, 1500 * us, 2000 * us, 3000 * us};
+  const std::vector<TimeNs> woke = {350 * us, 1035 * us, 1501 * us, 2003 * us, 3001 * us};
+  const std::vector<double> timer = gaps_at(gaps, caused, woke, kWakeLeadNs, unmatched);
+  CHECK(timer == std::vector<double>{20.0, 12.0, 12.0});
+  CHECK(unmatched == 2);
+  // Without a lead (a sample published on another core), the early gap is not its wake-up's.
+  const std::vector<double> published = gaps_at(gaps, caused, woke, 0, unmatched);
+  CHECK(published == std::vector<double>{20.0, 12.0});
+  CHECK(unmatched == 3);
+  // No gaps at all: every wake-up unmatched.
+  CHECK(gaps_at({}, caused, woke, kWakeLeadNs, unmatched).empty());
+  CHECK(unmatched == caused.size());
+  CHECK_THROWS_AS(gaps_at(gaps, {1}, woke, 0, unmatched), std::invalid_argument);
 }
 
 TEST_CASE("a calibration suite asked to stop returns at once, marked partial",

@@ -781,5 +781,11 @@ TEST_CASE("fit: the preemption pairs become a constant cost at their median", "[
   CHECK(p["value_us"].get<double>() == Approx(13.5));
   CHECK(p["source"].get<std::string>().find("the median of 4 pairs of timed windows") !=
         std::string::npos);
+  CHECK(p["source"].get<std::string>().find("): 13.5 us;") != std::string::npos);
+  // A median below 0, held at 0, says so.
+  m.costs_us["preemption"] = {-2.0, -1.0, 3.0};
+  const json held = fitted_platform(m, fit(m), "fitted-host")["costs"]["preemption_us"];
+  CHECK(held["value_us"].get<double>() == 0.0);
+  CHECK(held["source"].get<std::string>().find("-1 us, held at 0") != std::string::npos);
   CHECK(sim::parse_sim_platform(build_platform(doc, "fitted.json")).costs.preemption.has_value());
 }

@@ -112,9 +112,8 @@ def cell_column(results, node: Node, what: str) -> str | None:
 
 def node_rows(results) -> list:
     """The tidy table: one dict per point, repetition and node (the row's nodes whose workload
-    cell is filled), with NODE_TABLE_COLUMNS; NaN / None where a value does not apply.
-    ``unregulated_slowdown`` exists for the first node of each role only (points.csv has no
-    other)."""
+    cell is filled), with NODE_TABLE_COLUMNS; NaN / None where a value does not apply (older
+    folders have ``unregulated_slowdown`` for the first node of each role only)."""
     nodes = nodes_of(results)
     columns = {n: {what: cell_column(results, n, what)
                    for what in ("name", "core", "workload", *NODE_TABLE_VALUES)}

@@ -36,14 +36,13 @@ from analysis.tables import write_csv
 # Per node (its points.csv prefix + these), then per point.
 NODE_METRICS = {
     "rt": ("slowdown", "time_us", "response_p99_us", "response_max_us", "deadline_misses",
-           "isolation_cv"),
+           "isolation_cv", "unregulated_slowdown"),
     "nrt": ("slowdown", "time_us", "bandwidth_mbps", "throttle_count", "throttled_us",
-            "isolation_cv"),
+            "isolation_cv", "unregulated_slowdown"),
 }
 POINT_METRICS = (
     "activation_delay_p50_us", "activation_delay_max_us", "pmc_callback_p50_us",
-    "pmc_callback_max_us", "sampling_overhead_p50_us", "rt_unregulated_slowdown",
-    "nrt_unregulated_slowdown",
+    "pmc_callback_max_us", "sampling_overhead_p50_us",
 )
 SAMPLE_KINDS = ("activation_delay", "pmc_callback", "sampling_overhead", "rt_job")
 STATS = ("mean", "min", "max", "std")
@@ -118,24 +117,23 @@ def print_digest(results, stream) -> None:
 
 
 def print_unregulated(results, stream) -> None:
-    """What the unregulated co-run (policy none) costs the first RT and nRT node, per workload
-    pair: the reference every slowdown figure draws."""
+    """What the unregulated co-run (policy none) costs each node, by name, per workload pair:
+    the reference every slowdown figure draws."""
+    nodes = [(n, c) for n in nodes_of(results)
+             if (c := cell_column(results, n, "unregulated_slowdown"))]
     pairs: dict = {}
     for p in results.points:
-        rt, nrt = p.stat("rt_unregulated_slowdown"), p.stat("nrt_unregulated_slowdown")
-        if rt or nrt:
+        cells = [(n.label if n.several else n.tag, p.stat(c)) for n, c in nodes]
+        if any(v for _, v in cells):
             pairs.setdefault(describe({c: p.config.get(c) for c in ("rt_workload",
                                                                     "nrt_workload")}),
-                             (rt.mean if rt else None, nrt.mean if nrt else None))
+                             [(label, v.mean) for label, v in cells if v])
     if not pairs:
         return
     print("unregulated co-run (the same nodes with policy none; slowdown = time / isolation "
           "time):", file=stream)
-    first = {n.role: n.label if n.several else n.tag for n in nodes_of(results) if n.index == 0}
-    for words, (rt, nrt) in list(pairs.items())[:DIGEST_ROWS]:
-        cells = [f"{first.get(role, role)} {v:.3f}"
-                 for role, v in (("rt", rt), ("nrt", nrt)) if v is not None]
-        print(f"  {words}: {', '.join(cells)}", file=stream)
+    for words, cells in list(pairs.items())[:DIGEST_ROWS]:
+        print(f"  {words}: {', '.join(f'{label} {v:.3f}' for label, v in cells)}", file=stream)
     if len(pairs) > DIGEST_ROWS:
         print(f"  ... {len(pairs) - DIGEST_ROWS} more pairs", file=stream)
 

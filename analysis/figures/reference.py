@@ -23,12 +23,17 @@ UNREGULATED_METRIC = {"rt_slowdown": "rt_unregulated_slowdown",
                       "nrt_slowdown": "nrt_unregulated_slowdown"}
 
 
+_NODE_SLOWDOWN = re.compile(r"^(n?rt\d*)_slowdown$")
+
+
 def unregulated(points, metric: str) -> list:
     """The distinct unregulated co-run slowdowns (means over repetitions) behind the points'
-    ``metric`` ("rt_slowdown" or "nrt_slowdown"), ascending; [] when none was measured."""
-    column = UNREGULATED_METRIC.get(metric)
-    if column is None:
+    ``metric`` (a node's slowdown: "rt_slowdown", "nrt2_slowdown", ...), ascending; [] when none
+    was measured."""
+    node = _NODE_SLOWDOWN.match(metric)
+    if node is None:
         return []
+    column = f"{node.group(1)}_unregulated_slowdown"
     # The regulated points carry the co-run the runner measured (one value per co-run); the
     # policy-none points carry their own runs, each a little different on hw: they stand in,
     # as their mean, only where no regulated point says.

@@ -27,6 +27,12 @@ const std::vector<ColumnInfo>& rt_node_columns() {
        "half-width of the 95 % confidence interval (Student t) of the point's mean slowdown over "
        "its repetitions, in percent of that mean: each repetition's co-run time over the "
        "baseline measured in the same round (hw; empty in sim and with one repetition)"},
+      {"unregulated_time_us", "us",
+       "the RT node's job time in the unregulated co-run: the same nodes with policy none, "
+       "measured once per distinct co-run (median over its measurements; a point with policy "
+       "none: its own time_us; empty with rosguard run --no-unregulated)"},
+      {"unregulated_slowdown", "ratio",
+       "unregulated_time_us / isolation_us: the RT node's slowdown without regulation"},
   };
   return c;
 }
@@ -52,6 +58,11 @@ const std::vector<ColumnInfo>& nrt_node_columns() {
        "half-width of the 95 % confidence interval (Student t) of the point's mean slowdown over "
        "its repetitions, in percent of that mean: each repetition's co-run time over the "
        "baseline measured in the same round (hw; empty in sim and with one repetition)"},
+      {"unregulated_time_us", "us",
+       "the nRT node's time for one run in the unregulated co-run (as time_us; a point with "
+       "policy none: its own time_us; empty with rosguard run --no-unregulated)"},
+      {"unregulated_slowdown", "ratio",
+       "unregulated_time_us / isolation_us: the nRT node's slowdown without regulation"},
   };
   return c;
 }
@@ -113,16 +124,6 @@ std::vector<ColumnInfo> build_points() {
        "median delay of an RT enable / disable signal from its publish to the controller (hw)"},
       {"signal_to_thr_p50_us", "us",
        "median delay from an RT enable signal's publish to the first throttle (hw)"},
-      {"rt_unregulated_time_us", "us",
-       "the first RT node's job time in the unregulated co-run: the same nodes with policy "
-       "none (measured once per co-run, hw: median of the baseline measurements; a point "
-       "with policy none: its own rt_time_us; empty with rosguard run --no-unregulated)"},
-      {"rt_unregulated_slowdown", "ratio",
-       "rt_unregulated_time_us / rt_isolation_us: the RT slowdown without regulation"},
-      {"nrt_unregulated_time_us", "us",
-       "the first nRT node's time for one run in the unregulated co-run (as nrt_time_us)"},
-      {"nrt_unregulated_slowdown", "ratio",
-       "nrt_unregulated_time_us / nrt_isolation_us: the nRT slowdown without regulation"},
   };
   d.insert(d.end(), rest.begin(), rest.end());
   node("rt<i>_", rt_node_columns(), "");

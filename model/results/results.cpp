@@ -179,14 +179,16 @@ std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
   for (const char* c : {"rt_slowdown_ci95_pct", "nrt_slowdown_ci95_pct"})
     h.emplace_back(c);
   for (std::size_t i = 1; i < max_rt; ++i)
-    for (const char* c : {"workload", "name", "core", "time_us", "isolation_us", "slowdown",
-                          "isolation_n", "isolation_cv", "response_p99_us", "response_max_us",
-                          "deadline_misses", "slowdown_ci95_pct"})
+    for (const char* c :
+         {"workload", "name", "core", "time_us", "isolation_us", "slowdown", "isolation_n",
+          "isolation_cv", "response_p99_us", "response_max_us", "deadline_misses",
+          "slowdown_ci95_pct", "unregulated_time_us", "unregulated_slowdown"})
       h.push_back("rt" + std::to_string(i) + "_" + c);
   for (std::size_t i = 1; i < max_nrt; ++i)
     for (const char* c :
          {"workload", "name", "core", "time_us", "isolation_us", "slowdown", "isolation_n",
-          "isolation_cv", "bandwidth_mbps", "throttle_count", "throttled_us", "slowdown_ci95_pct"})
+          "isolation_cv", "bandwidth_mbps", "throttle_count", "throttled_us", "slowdown_ci95_pct",
+          "unregulated_time_us", "unregulated_slowdown"})
       h.push_back("nrt" + std::to_string(i) + "_" + c);
   for (const auto& p : sweep_paths)
     h.push_back("param:" + p);

@@ -22,7 +22,8 @@ const std::vector<std::string>& fixed_point_columns();
 // Header of points.csv for a run: the fixed columns, then platform / counts, the first nodes'
 // names and cores (rt_name, nrt_core, ...) and the unregulated co-run (rt_ /
 // nrt_unregulated_time_us, _slowdown), then per-node columns for the second and later RT / nRT
-// nodes, then one "param:<path>" column per swept path.
+// nodes (their unregulated co-run last: rt1_unregulated_time_us, ...), then one "param:<path>"
+// column per swept path.
 std::vector<std::string> points_header(std::size_t max_rt, std::size_t max_nrt,
                                        const std::vector<std::string>& sweep_paths);
 

@@ -25,7 +25,9 @@ NAMES = ["rt_name", "rt_core", "nrt_name", "nrt_core", "nrt_throttle_count",
          "nrt_throttled_us"]
 NRT_NODE = ["workload", "name", "core", "time_us", "isolation_us", "slowdown", "isolation_n",
             "isolation_cv", "bandwidth_mbps", "throttle_count", "throttled_us",
-            "slowdown_ci95_pct"]
+            "slowdown_ci95_pct", "unregulated_time_us", "unregulated_slowdown"]
+# The columns an older rosguard did not write for the second and later nodes.
+NEWER = ("name", "core", "unregulated_time_us", "unregulated_slowdown")
 THRESHOLDS = (10, 30)
 POLICIES = ("interval", "monolithic")
 REPS = 2
@@ -40,6 +42,11 @@ def slowdown(key: str, threshold: int, policy: str, rep: int, scale: dict) -> fl
     return (base + 0.3 * i + 0.01 * rep) * scale.get(key, 1.0)
 
 
+def unregulated(key: str) -> float:
+    """A toy unregulated co-run: the RT node 1.5, nRT node i 2 + i / 4."""
+    return 1.5 if key == "rt" else 2.0 + int(key[3:] or 0) / 4
+
+
 def write_folder(folder, *, scale=None, names=True, first_nrt=("bandwidth_read",)):
     """A results folder of 4 points x 2 repetitions per workload of the first nRT node
     (``first_nrt``); ``scale``: {prefix: factor} on a node's slowdowns (a second side for
@@ -50,7 +57,7 @@ def write_folder(folder, *, scale=None, names=True, first_nrt=("bandwidth_read",
     header = (resultgen.FIXED_COLUMNS + resultgen.EXTRA_COLUMNS
               + (NAMES if names else []) + resultgen.UNREGULATED_COLUMNS
               + [f"nrt{i}_{c}" for i in (1, 2) for c in NRT_NODE
-                 if names or c not in ("name", "core")]
+                 if names or c not in NEWER]
               + ["param:regulation.threshold_pct", "param:regulation.policy"])
     with (folder / "points.csv").open("w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
@@ -69,7 +76,9 @@ def write_folder(folder, *, scale=None, names=True, first_nrt=("bandwidth_read",
                     s = slowdown(key, t, policy, rep, scale)
                     cells.update({f"{key}_workload": workload, f"{key}_name": name,
                                   f"{key}_core": core, f"{key}_isolation_us": 1000.0,
-                                  f"{key}_time_us": 1000.0 * s, f"{key}_slowdown": s})
+                                  f"{key}_time_us": 1000.0 * s, f"{key}_slowdown": s,
+                                  f"{key}_unregulated_time_us": 1000.0 * unregulated(key),
+                                  f"{key}_unregulated_slowdown": unregulated(key)})
                     if key != "rt":
                         throttles = 100 - t + int(key[3:] or 0)
                         cells.update({f"{key}_bandwidth_mbps": 500.0 * t,
@@ -110,6 +119,7 @@ def test_the_tidy_table_has_a_row_per_point_repetition_and_node(folder, tmp_path
         (name, core, workload), = [(n, c, w) for k, n, c, w in NODES if k == key]
         assert (row["name"], row["core"], row["workload"]) == (name, str(core), workload)
         assert float(row["slowdown"]) == pytest.approx(slowdown(key, t, policy, rep, {}))
+        assert float(row["unregulated_slowdown"]) == unregulated(key)
         if row["role"] == "nrt":
             assert int(row["throttle_count"]) == 100 - t + int(row["node"])
             assert float(row["bandwidth_mbps"]) == 500.0 * t
@@ -138,6 +148,12 @@ def test_summary_and_the_printed_table_name_every_node(folder, tmp_path):
         assert float(row["nrt_throttle_count_mean"]) == 100 - t
         assert float(row["nrt2_throttle_count_mean"]) == 100 - t + 2
         assert "throttle_count_mean" not in row
+        # Every node's unregulated co-run, the first nodes' under their old names.
+        for key, _, _, _ in NODES:
+            assert float(row[f"{key}_unregulated_slowdown_mean"]) == unregulated(key)
+    assert ("unregulated co-run (the same nodes with policy none; slowdown = time / isolation "
+            "time):\n  RT mser / nRT bandwidth_read: RT 1.500, nRT0 reader 2.000, nRT1 stereo "
+            "2.250, nRT2 tracker 2.500\n") in printed
 
 
 def _axes_texts(fig):

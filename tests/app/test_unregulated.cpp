@@ -131,6 +131,38 @@ TEST_CASE("a row gets the co-run's median over its isolation, a policy-none row 
   CHECK(cell(header, own, "nrt_unregulated_slowdown") == "1.500000");
 }
 
+TEST_CASE("every node's unregulated cells are filled, the second nRT node's too", "[unregulated]") {
+  const auto header = points_header(1, 2, {});
+  Scenario s = point("interval", 20);
+  s.document["nodes"]["nrt"].push_back({{"core", 3}});
+  s.nodes.nrt.push_back({"disp", 3, {"disparity", "inline", {{"w", 3}}}, NrtMode::Loop});
+  Baselines b;
+  b.put(Baselines::key(s, s.nodes.rt[0].workload, 1), {100.0, 1.0, 10.0});
+  b.put(Baselines::key(s, s.nodes.nrt[0].workload, 2), {200.0, 1.0, 10.0});
+  b.put(Baselines::key(s, s.nodes.nrt[1].workload, 3), {50.0, 1.0, 10.0});
+  PointOutcome o;
+  o.rt.push_back({"rt0", 150.0, 1, {150.0}, -1});
+  o.nrt.push_back({"nrt0", 300.0, 10.0, 0, 0.0, 1.0});
+  o.nrt.push_back({"disp", 60.0, 10.0, 0, 0.0, 1.0});
+  std::string row = points_row(header, {0, "p0", {}, {}}, s, 0, o, b);
+  row.pop_back();
+  UnregulatedCoruns coruns;
+  const std::string key = UnregulatedCoruns::key(s);
+  coruns.put(key, {{400.0}, {220.0, 80.0}}, 0);
+  const std::string filled = fill_unregulated_cells(header, row, s, key, coruns, b);
+  CHECK(cell(header, filled, "nrt_unregulated_slowdown") == "1.100000");
+  CHECK(cell(header, filled, "nrt1_unregulated_time_us") == "80.000");
+  CHECK(cell(header, filled, "nrt1_unregulated_slowdown") == "1.600000");
+  // With policy none each node carries its own.
+  Scenario none = s;
+  none.regulation.policy = "none";
+  std::string own = points_row(header, {0, "p0", {}, {}}, none, 0, o, b);
+  own.pop_back();
+  own = fill_unregulated_cells(header, own, none, "", coruns, b);
+  CHECK(cell(header, own, "nrt1_unregulated_time_us") == cell(header, own, "nrt1_time_us"));
+  CHECK(cell(header, own, "nrt1_unregulated_slowdown") == "1.200000");
+}
+
 TEST_CASE("unregulated.json keeps every measurement and merges other writers'", "[unregulated]") {
   const fs::path dir = fs::temp_directory_path() / ("rosguard-unreg-" + std::to_string(::getpid()));
   fs::remove_all(dir);

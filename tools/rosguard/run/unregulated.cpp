@@ -223,18 +223,22 @@ std::string fill_unregulated_cells(const std::vector<std::string>& header, const
       changed = true;
     }
   };
-  // One node's pair of cells: `prefix` "rt" or "nrt".
-  const auto node = [&](const std::string& prefix, double time_us, double slowdown) {
-    set(prefix + "_unregulated_time_us", fixed(time_us, 3));
-    set(prefix + "_unregulated_slowdown", fixed(slowdown, 6));
+  // Node i's pair of cells: its prefix "rt" / "nrt" for the first node, "rt1", "nrt2", ... after.
+  const auto prefix = [](bool rt, std::size_t i) {
+    return std::string(rt ? "rt" : "nrt") + (i ? std::to_string(i) : "");
+  };
+  const auto node = [&](bool rt, std::size_t i, double time_us, double slowdown) {
+    set(prefix(rt, i) + "_unregulated_time_us", fixed(time_us, 3));
+    set(prefix(rt, i) + "_unregulated_slowdown", fixed(slowdown, 6));
   };
   if (s.regulation.policy == "none") {
-    for (const std::string prefix : {"rt", "nrt"}) {
-      const std::string* time = at(prefix + "_time_us");
-      const std::string* slowdown = at(prefix + "_slowdown");
-      if (time) set(prefix + "_unregulated_time_us", *time);
-      if (slowdown) set(prefix + "_unregulated_slowdown", *slowdown);
-    }
+    for (const bool rt : {true, false})
+      for (std::size_t i = 0; i < (rt ? s.nodes.rt.size() : s.nodes.nrt.size()); ++i) {
+        const std::string* time = at(prefix(rt, i) + "_time_us");
+        const std::string* slowdown = at(prefix(rt, i) + "_slowdown");
+        if (time) set(prefix(rt, i) + "_unregulated_time_us", *time);
+        if (slowdown) set(prefix(rt, i) + "_unregulated_slowdown", *slowdown);
+      }
   } else if (UnregulatedCoruns::needed(s)) {
     const auto m = coruns.median(corun_key);
     if (!m) return line;
@@ -242,33 +246,34 @@ std::string fill_unregulated_cells(const std::vector<std::string>& header, const
       // Each run of the co-run against its own baselines, measured right before it: the median
       // of those ratios.
       const Scenario c = UnregulatedCoruns::scenario_of(s);
-      const auto slowdown = [&](bool rt, const WorkloadInfo& w, int core) {
+      const auto slowdown = [&](bool rt, std::size_t i, const WorkloadInfo& w, int core) {
         const auto it = baselines.all().find(Baselines::key(c, w, core));
         if (it == baselines.all().end()) return kNaN;
         std::vector<double> ratios;
         for (const auto& [rep, run] : coruns.all().at(corun_key)) {
           const std::vector<double>& t = rt ? run.rt_time_us : run.nrt_time_us;
-          if (!t.empty())
-            ratios.push_back(t[0] / round_baseline_us(it->second, rep, adjacent_pairing()));
+          if (i < t.size())
+            ratios.push_back(t[i] / round_baseline_us(it->second, rep, adjacent_pairing()));
         }
         return median(ratios);
       };
-      if (!m->rt_time_us.empty())
-        node("rt", m->rt_time_us[0], slowdown(true, c.nodes.rt[0].workload, c.nodes.rt[0].core));
-      if (!m->nrt_time_us.empty())
-        node("nrt", m->nrt_time_us[0],
-             slowdown(false, c.nodes.nrt[0].workload, c.nodes.nrt[0].core));
+      for (std::size_t i = 0; i < m->rt_time_us.size() && i < c.nodes.rt.size(); ++i)
+        node(true, i, m->rt_time_us[i],
+             slowdown(true, i, c.nodes.rt[i].workload, c.nodes.rt[i].core));
+      for (std::size_t i = 0; i < m->nrt_time_us.size() && i < c.nodes.nrt.size(); ++i)
+        node(false, i, m->nrt_time_us[i],
+             slowdown(false, i, c.nodes.nrt[i].workload, c.nodes.nrt[i].core));
     } else {
       const auto isolation = [&](const WorkloadInfo& w, int core) {
         return baselines.all().count(Baselines::key(s, w, core)) ? baselines.at(s, w, core).time_us
                                                                  : kNaN;
       };
-      if (!m->rt_time_us.empty())
-        node("rt", m->rt_time_us[0],
-             m->rt_time_us[0] / isolation(s.nodes.rt[0].workload, s.nodes.rt[0].core));
-      if (!m->nrt_time_us.empty())
-        node("nrt", m->nrt_time_us[0],
-             m->nrt_time_us[0] / isolation(s.nodes.nrt[0].workload, s.nodes.nrt[0].core));
+      for (std::size_t i = 0; i < m->rt_time_us.size() && i < s.nodes.rt.size(); ++i)
+        node(true, i, m->rt_time_us[i],
+             m->rt_time_us[i] / isolation(s.nodes.rt[i].workload, s.nodes.rt[i].core));
+      for (std::size_t i = 0; i < m->nrt_time_us.size() && i < s.nodes.nrt.size(); ++i)
+        node(false, i, m->nrt_time_us[i],
+             m->nrt_time_us[i] / isolation(s.nodes.nrt[i].workload, s.nodes.nrt[i].core));
     }
   }
   if (!changed) return line;

@@ -12,7 +12,8 @@
 //          "runs": [{"rep", "rt_time_us": [...], "nrt_time_us": [...]}, ...]}}
 // (NaN written null), merged under DIR/.lock like baselines.json, so that resumed runs and other
 // shards take what is there and do not measure it again. The points.csv columns
-// rt_unregulated_time_us / _slowdown and nrt_unregulated_time_us / _slowdown come from it (a
+// rt_unregulated_time_us / _slowdown and nrt_unregulated_time_us / _slowdown, and those of every
+// further node (rt1_unregulated_time_us, nrt2_unregulated_slowdown, ...), come from it (a
 // point whose policy is none carries its own times; with hw.adjacent_baselines a co-run has
 // baselines of its own, measured right before each of its runs, and the slowdown is the median
 // of the runs' ratios). `rosguard run --no-unregulated` skips the
@@ -77,9 +78,9 @@ class UnregulatedCoruns {
 // The points.csv line `line` (no newline; columns `header`; a point of scenario `s`, whose
 // co-run key is `corun_key`: UnregulatedCoruns::key(s), read only when the point needs a
 // co-run) with its unregulated cells set: from the co-run's median over the isolation
-// baselines' median when the point needs a co-run and it was measured, from the row's own rt /
-// nrt time and slowdown when the policy is none, left as they are otherwise. A header without
-// those columns leaves the line unchanged.
+// baselines' median when the point needs a co-run and it was measured, from the row's own time
+// and slowdown of each node when the policy is none, left as they are otherwise; for every node
+// the header has columns for. A header without those columns leaves the line unchanged.
 std::string fill_unregulated_cells(const std::vector<std::string>& header, const std::string& line,
                                    const Scenario& s, const std::string& corun_key,
                                    const UnregulatedCoruns& coruns, const Baselines& baselines);

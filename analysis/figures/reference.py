@@ -19,8 +19,8 @@ from analysis import style
 
 _RT_SLOWDOWN = re.compile(r"^rt\d*_slowdown$")
 
-UNREGULATED_METRIC = {"rt_slowdown": "rt_unregulated_slowdown",
-                      "nrt_slowdown": "nrt_unregulated_slowdown"}
+# The first nodes' slowdowns: a folder with an unregulated co-run has one for them.
+UNREGULATED_METRIC = ("rt_slowdown", "nrt_slowdown")
 
 
 _NODE_SLOWDOWN = re.compile(r"^(n?rt\d*)_slowdown$")

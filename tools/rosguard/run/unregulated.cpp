@@ -227,13 +227,10 @@ std::string fill_unregulated_cells(const std::vector<std::string>& header, const
   const auto prefix = [](bool rt, std::size_t i) {
     return std::string(rt ? "rt" : "nrt") + (i ? std::to_string(i) : "");
   };
-  const auto node = [&](bool rt, std::size_t i, double time_us, double slowdown) {
-    set(prefix(rt, i) + "_unregulated_time_us", fixed(time_us, 3));
-    set(prefix(rt, i) + "_unregulated_slowdown", fixed(slowdown, 6));
-  };
+  const auto count = [&](bool rt) { return rt ? s.nodes.rt.size() : s.nodes.nrt.size(); };
   if (s.regulation.policy == "none") {
     for (const bool rt : {true, false})
-      for (std::size_t i = 0; i < (rt ? s.nodes.rt.size() : s.nodes.nrt.size()); ++i) {
+      for (std::size_t i = 0; i < count(rt); ++i) {
         const std::string* time = at(prefix(rt, i) + "_time_us");
         const std::string* slowdown = at(prefix(rt, i) + "_slowdown");
         if (time) set(prefix(rt, i) + "_unregulated_time_us", *time);
@@ -242,38 +239,35 @@ std::string fill_unregulated_cells(const std::vector<std::string>& header, const
   } else if (UnregulatedCoruns::needed(s)) {
     const auto m = coruns.median(corun_key);
     if (!m) return line;
-    if (s.hw.adjacent_baselines) {
-      // Each run of the co-run against its own baselines, measured right before it: the median
-      // of those ratios.
-      const Scenario c = UnregulatedCoruns::scenario_of(s);
-      const auto slowdown = [&](bool rt, std::size_t i, const WorkloadInfo& w, int core) {
-        const auto it = baselines.all().find(Baselines::key(c, w, core));
-        if (it == baselines.all().end()) return kNaN;
-        std::vector<double> ratios;
-        for (const auto& [rep, run] : coruns.all().at(corun_key)) {
-          const std::vector<double>& t = rt ? run.rt_time_us : run.nrt_time_us;
-          if (i < t.size())
-            ratios.push_back(t[i] / round_baseline_us(it->second, rep, adjacent_pairing()));
-        }
-        return median(ratios);
-      };
-      for (std::size_t i = 0; i < m->rt_time_us.size() && i < c.nodes.rt.size(); ++i)
-        node(true, i, m->rt_time_us[i],
-             slowdown(true, i, c.nodes.rt[i].workload, c.nodes.rt[i].core));
-      for (std::size_t i = 0; i < m->nrt_time_us.size() && i < c.nodes.nrt.size(); ++i)
-        node(false, i, m->nrt_time_us[i],
-             slowdown(false, i, c.nodes.nrt[i].workload, c.nodes.nrt[i].core));
-    } else {
-      const auto isolation = [&](const WorkloadInfo& w, int core) {
-        return baselines.all().count(Baselines::key(s, w, core)) ? baselines.at(s, w, core).time_us
-                                                                 : kNaN;
-      };
-      for (std::size_t i = 0; i < m->rt_time_us.size() && i < s.nodes.rt.size(); ++i)
-        node(true, i, m->rt_time_us[i],
-             m->rt_time_us[i] / isolation(s.nodes.rt[i].workload, s.nodes.rt[i].core));
-      for (std::size_t i = 0; i < m->nrt_time_us.size() && i < s.nodes.nrt.size(); ++i)
-        node(false, i, m->nrt_time_us[i],
-             m->nrt_time_us[i] / isolation(s.nodes.nrt[i].workload, s.nodes.nrt[i].core));
+    // The co-run's own scenario keys its adjacent baselines (built only for them: rows are many).
+    std::optional<Scenario> c;
+    if (s.hw.adjacent_baselines) c = UnregulatedCoruns::scenario_of(s);
+    // Node i's slowdown in the co-run. With hw.adjacent_baselines each run of the co-run against
+    // its own baselines, measured right before it: the median of those ratios; else the median
+    // time over the isolation baselines' median.
+    const auto slowdown = [&](bool rt, std::size_t i, const WorkloadInfo& w, int core) {
+      if (!s.hw.adjacent_baselines)
+        return baselines.all().count(Baselines::key(s, w, core))
+                   ? (rt ? m->rt_time_us : m->nrt_time_us)[i] / baselines.at(s, w, core).time_us
+                   : kNaN;
+      const auto it = baselines.all().find(Baselines::key(*c, w, core));
+      if (it == baselines.all().end()) return kNaN;
+      std::vector<double> ratios;
+      for (const auto& [rep, run] : coruns.all().at(corun_key)) {
+        const std::vector<double>& t = rt ? run.rt_time_us : run.nrt_time_us;
+        if (i < t.size())
+          ratios.push_back(t[i] / round_baseline_us(it->second, rep, adjacent_pairing()));
+      }
+      return median(ratios);
+    };
+    for (const bool rt : {true, false}) {
+      const std::vector<double>& times = rt ? m->rt_time_us : m->nrt_time_us;
+      for (std::size_t i = 0; i < times.size() && i < count(rt); ++i) {
+        const WorkloadInfo& w = rt ? s.nodes.rt[i].workload : s.nodes.nrt[i].workload;
+        const int core = rt ? s.nodes.rt[i].core : s.nodes.nrt[i].core;
+        set(prefix(rt, i) + "_unregulated_time_us", fixed(times[i], 3));
+        set(prefix(rt, i) + "_unregulated_slowdown", fixed(slowdown(rt, i, w, core), 6));
+      }
     }
   }
   if (!changed) return line;

@@ -27,7 +27,9 @@ the goals (``GOALS``) met or missed. Every nRT node of a point is a pair (``nrt_
 ``nrt1_slowdown``, ...): the nRT errors are over every co-runner, and each scenario also has
 them per node (``nrt_nodes``: by index and name), per k their min..max. Scenarios not run on
 purpose (``--skipped NAME=REASON``: make validate's scale scenarios that need more CPUs than
-the host has) are listed with their reason. Writes ``DIR/report.json``, ``DIR/report.md`` and
+the host has) are listed with their reason. Per scenario the report also gives the hw run's
+precision (``hw_precision``, from its manifest: the CI target of its adaptive repetitions, the
+fewest and most repetitions a point took). Writes ``DIR/report.json``, ``DIR/report.md`` and
 ``DIR/validation_scatter.png`` / ``.pdf`` (``analysis/figures/validation.py``).
 
 With ``--band-root BAND_ROOT`` (``BAND_ROOT/<variant>/<scenario>/``: the sim runs of each
@@ -115,6 +117,10 @@ DEFINITIONS = {
                       "- 1, in % (the host's speed against the model's: reported, not part of "
                       "matches), null when not known"),
     "in_model_state": "the scenarios whose both probes found the model's state, pooled",
+    "hw_precision": ("per scenario, from the hw run's manifest: the target of the 95 % "
+                     "confidence interval of each slowdown (hw.precision_pct, in % of the "
+                     "slowdown; null: fixed repetitions), the cap (hw.max_repetitions), the "
+                     "fewest and most repetitions a point took, and the run's summary line"),
 }
 STATE_KEYS = ("before", "after", "model", "matches", "waited_s", "attempts", "alike", "other_way",
               "speed_before", "speed_after")
@@ -402,6 +408,18 @@ def _description(results) -> str:
     return str(scenario.get("description", "")) if isinstance(scenario, dict) else ""
 
 
+def _precision(results) -> dict:
+    """The hw run's precision (its manifest's ``precision``): the CI target (None: fixed
+    repetitions), the cap, the fewest and most repetitions a point took, and the summary line;
+    every value None in a run without it."""
+    p = results.manifest.get("precision") or {}
+    reps = [q.get("repetitions") for q in (p.get("points") or {}).values()
+            if isinstance(q, dict) and _is_number(q.get("repetitions"))]
+    return {"target_pct": p.get("target_pct"), "max_repetitions": p.get("max_repetitions"),
+            "fewest": min(reps) if reps else None, "most": max(reps) if reps else None,
+            "summary": p.get("summary")}
+
+
 def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
                  cpu=None, band_root=None, skipped=(), state_dir=None) -> tuple:
     """(report dict, [Pair]) for the scenarios in ``names`` (default: every folder of
@@ -449,6 +467,7 @@ def build_report(hw_root, sim_root, names=None, failed=(), notes=(), now=None,
             "hw": compare._side(hw),
             "sim": compare._side(sim),
             "repetitions": {"hw": hw.repetitions, "sim": sim.repetitions},
+            "hw_precision": _precision(hw),
             "common_points": len(comp.common),
             "only_hw": [p.id for p in comp.only_a],
             "only_sim": [p.id for p in comp.only_b],
@@ -715,6 +734,15 @@ def verdict(report: dict) -> str:
     return f"{met} of {len(goals)} goals met over the suite; missed: {', '.join(missed)}"
 
 
+def _hw_repetitions(scenario: dict) -> str:
+    """'5' for fixed repetitions; '5-10' where adaptive rounds gave points different counts."""
+    p = scenario.get("hw_precision") or {}
+    fewest, most = p.get("fewest"), p.get("most")
+    if fewest is not None and most is not None and fewest != most:
+        return f"{fewest}-{most}"
+    return str(scenario["repetitions"]["hw"])
+
+
 def markdown(report: dict) -> str:
     """report.md."""
     lines = ["# rosguard validation: sim vs hw", "",
@@ -745,9 +773,11 @@ def markdown(report: dict) -> str:
     lines += ["", "## Scenarios", ""]
     for s in report["scenarios"]:
         lines.append(f"- **{s['name']}** ({s['common_points']} points, hw x"
-                     f"{s['repetitions']['hw']} / sim x{s['repetitions']['sim']} repetitions; "
+                     f"{_hw_repetitions(s)} / sim x{s['repetitions']['sim']} repetitions; "
                      f"hw status {s['hw']['status']}, sim {s['sim']['status']}): "
                      f"{s['description']}")
+        if (s.get("hw_precision") or {}).get("summary"):
+            lines.append(f"  - hw precision: {s['hw_precision']['summary']}")
         for node in ("rt", "nrt"):
             e = s[node]
             if e["pairs"]:

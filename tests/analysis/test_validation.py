@@ -867,3 +867,28 @@ def test_a_malformed_state_file_is_an_input_error_naming_it(suite, tmp_path, tex
     assert done.stderr.startswith(f"error: {out / 'state' / 'beta.json'}: ")
     assert words in done.stderr and "Traceback" not in done.stderr
     assert not (out / "report.md").exists() and not (out / "report.json").exists()
+
+
+def test_the_hw_run_s_precision_is_given_per_scenario(suite, tmp_path):
+    """An hw run with adaptive repetitions: its target, cap, the fewest and most repetitions
+    a point took and its summary, in report.json and on the scenario's line in report.md; a
+    run without a precision in its manifest gives None and its fixed repetitions."""
+    manifest = suite[0] / "alpha" / "manifest.json"
+    doc = json.loads(manifest.read_text())
+    doc["precision"] = {"target_pct": 3.0, "max_repetitions": 10, "min_repetitions": 5,
+                        "summary": "slowdown 95 % CI within 3 % on 1 of 2 point(s)",
+                        "points": {"p0000000001": {"repetitions": 7},
+                                   "p0000000002": {"repetitions": 10}}}
+    manifest.write_text(json.dumps(doc))
+    out = tmp_path / "out"
+    assert run_cli("validate", *suite, "--out", out).returncode == 0
+    report = json.loads((out / "report.json").read_text())
+    by_name = {s["name"]: s for s in report["scenarios"]}
+    assert by_name["alpha"]["hw_precision"] == {
+        "target_pct": 3.0, "max_repetitions": 10, "fewest": 7, "most": 10,
+        "summary": "slowdown 95 % CI within 3 % on 1 of 2 point(s)"}
+    assert set(by_name["beta"]["hw_precision"].values()) == {None}
+    md = (out / "report.md").read_text()
+    assert "- **alpha** (2 points, hw x7-10 / sim x2 repetitions;" in md
+    assert "  - hw precision: slowdown 95 % CI within 3 % on 1 of 2 point(s)" in md
+    assert "- **beta** (1 points, hw x1 / sim x1 repetitions;" in md

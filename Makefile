@@ -2,6 +2,10 @@
 #   make run    installs what is missing, builds rosguard (not the tests), runs the quickstart
 #               sweep in sim, plots it
 #   make test   installs what is missing, builds, runs every test
+#   make ros2   the ROS 2 side of the tests (tools/ros2/workspace.sh): a ROS 2 Humble (the one
+#               sourced, or one built from ../shared/thirdparty/ros2-humble and cached under
+#               ~/.cache/rosguard), rosguard_msgs and the rclcpp test peer in $(BUILD)/ros2/;
+#               where there is no ROS 2 the ROS 2 tests skip and say why (ROSGUARD_ROS2=OFF: none)
 #   make install [PREFIX=/usr/local]   installs bin/rosguard, share/rosguard/, the CMake package
 #   make test-nosim   builds without the sim backend (no SystemC) in $(BUILD)-nosim, runs its tests
 #   make test-aarch64 cross-builds for aarch64 (the Orin's architecture; hw backend, no sim) in
@@ -22,7 +26,7 @@ CMAKE_ARGS ?=
 PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
-.PHONY: all deps configure build rosguard test test-nosim test-aarch64 run install reproduce sensitivity audit-hw validate \
+.PHONY: all deps configure build rosguard ros2 test test-nosim test-aarch64 run install reproduce sensitivity audit-hw validate \
         validate-readme docs bench-parallel bench-large bench-soak bench-middleware bench format clean fit-table1
 
 all: build
@@ -42,7 +46,10 @@ build: configure
 rosguard: configure
 	@cmake --build $(BUILD) -j $(JOBS) --target rosguard
 
-test: build
+ros2:
+	@tools/ros2/workspace.sh $(BUILD)
+
+test: build ros2
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 test-nosim:

@@ -6,6 +6,9 @@
 # ROSGUARD_AARCH64=ON (as `make test-aarch64` sets it): also what the aarch64 cross build needs,
 # the cross compiler, qemu-user and the arm64 libraries as Debian multiarch packages (adds the
 # arm64 architecture to dpkg once, which needs its own `apt-get update`).
+# ROSGUARD_ROS2=ON (as tools/ros2/humble.sh sets it): also Debian's ROS 2 tooling, what a build of
+# ROS 2 Humble from source needs (ament, colcon and its plugins, rosidl's Python dependencies,
+# libyaml for the libyaml_vendor stand-in); ROS 2 itself is not in Debian 12.
 set -euo pipefail
 
 packages=(
@@ -20,6 +23,9 @@ packages=(
   slurm-wlm munge
 )
 [[ "${ROSGUARD_WITH_SIM:-ON}" == OFF ]] || packages+=(libsystemc-dev)
+[[ "${ROSGUARD_ROS2:-OFF}" != ON ]] || packages+=(ament-cmake ament-cmake-ros
+  python3-ament-package libament-index-cpp-dev colcon python3-colcon-cmake python3-colcon-ros
+  python3-empy python3-lark python3-catkin-pkg python3-importlib-metadata libyaml-dev)
 # The aarch64 build (cmake/aarch64-linux-gnu.cmake) is without the sim backend; its header-only
 # dependencies (nlohmann-json, CLI11, valijson, Catch2) and idlc are the ones above, Cyclone DDS
 # is the arm64 package, and its programs run under qemu-user on the arm64 loader, C library and

@@ -190,9 +190,11 @@ void PointRig::make_topics() {
                                path(f->private_key), path(f->permissions_ca),
                                path(f->governance),  path(f->permissions)};
     }
-    participant_ =
-        std::make_unique<dds::Participant>(s_.hw.dds_domain_id, security ? &*security : nullptr);
     const std::string& ns = s_.hw.dds_namespace;
+    // Announced to ROS 2 as the node <ns>/rosguard/run_<scenario name>.
+    participant_ = std::make_unique<dds::Participant>(
+        s_.hw.dds_domain_id, security ? &*security : nullptr,
+        dds::RosNode{dds::rosguard_node_namespace(ns), dds::ros_node_name("run_" + s_.name)});
     std::vector<DdsSlot> rt_slots;
     if (s_.nodes.rt.empty()) rt_slots.push_back({"run", 0});
     for (int pass = 0; pass < 2; ++pass)

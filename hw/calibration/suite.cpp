@@ -698,7 +698,8 @@ void Suite::run_on(int core, int priority, const std::string& name, std::functio
 std::unique_ptr<dds::Participant> Suite::message_transport() {
   std::unique_ptr<dds::Participant> dds_participant;
   if (opt_.transport == "dds") {
-    dds_participant = std::make_unique<dds::Participant>();
+    dds_participant = std::make_unique<dds::Participant>(
+        std::nullopt, nullptr, dds::RosNode{dds::rosguard_node_namespace(""), "calibrate"});
     notes_.add(
         "message costs (publish, message_latency, local_message_latency) over Cyclone DDS "
         "(hw.transport dds), domain " +

@@ -10,11 +10,8 @@
 
 namespace rosguard::hw {
 
-DdsActivity::DdsActivity(std::optional<std::uint32_t> domain_id, std::string ns,
-                         const dds::Security* security)
-    : participant_(std::make_unique<dds::Participant>(domain_id, security)),
-      secured_(security != nullptr),
-      ns_(std::move(ns)) {}
+DdsActivity::DdsActivity(dds::Participant& participant, std::string ns, bool secured)
+    : participant_(participant), secured_(secured), ns_(std::move(ns)) {}
 
 DdsActivity::~DdsActivity() {
   stop();
@@ -24,8 +21,8 @@ std::string DdsActivity::describe() const {
   std::string topics;
   for (const auto& r : readers_)
     topics += (topics.empty() ? "" : ", ") + r->ros_topic();
-  const dds::ReceiveBinding& b = participant_->receive_binding();
-  return "DDS domain " + std::to_string(participant_->domain_id()) +
+  const dds::ReceiveBinding& b = participant_.receive_binding();
+  return "DDS domain " + std::to_string(participant_.domain_id()) +
          (secured_ ? " with DDS Security" : "") + ": " + topics + " (std_msgs/msg/Bool)" +
          (b.bound ? "; " + b.text : "");
 }
@@ -34,12 +31,12 @@ std::vector<std::string> DdsActivity::exposure() const {
   std::vector<std::string> out;
   if (!secured_)
     out.push_back("any process that reaches DDS domain " +
-                  std::to_string(participant_->domain_id()) +
+                  std::to_string(participant_.domain_id()) +
                   " can publish the RT nodes' activity (no DDS Security): it cannot stop the "
                   "guard or unbalance its state, but it can hold regulation on (up to "
                   "activity.max_active_ms at a time) and, by flooding, crowd out an RT node's own "
                   "messages; keep the domain on a private network (CYCLONEDDS_URI)");
-  if (const dds::ReceiveBinding& b = participant_->receive_binding(); !b.bound)
+  if (const dds::ReceiveBinding& b = participant_.receive_binding(); !b.bound)
     out.push_back("fallback (dds binding): " + b.text);
   return out;
 }
@@ -49,7 +46,7 @@ void DdsActivity::start(const std::vector<std::string>& rt_names, Signal signal)
   signal_ = std::move(signal);
   for (const auto& n : rt_names)
     readers_.push_back(std::make_unique<dds::Reader<dds::BoolMsg>>(
-        *participant_, dds::active_topic(ns_, n), [this] { waker_.notify(); }));
+        participant_, dds::active_topic(ns_, n), [this] { waker_.notify(); }));
   sigset_t block, old;
   sigemptyset(&block);
   for (int sig : {SIGINT, SIGTERM, SIGHUP})
@@ -109,15 +106,14 @@ void DdsActivity::stop() {
   readers_.clear();
 }
 
-DdsPublisher::DdsPublisher(const std::vector<std::string>& core_names,
-                           std::optional<std::uint32_t> domain_id, std::string ns,
-                           const dds::Security* security)
-    : participant_(std::make_unique<dds::Participant>(domain_id, security)), names_(core_names) {
+DdsPublisher::DdsPublisher(dds::Participant& participant,
+                           const std::vector<std::string>& core_names, const std::string& ns)
+    : participant_(participant), names_(core_names) {
   std::vector<DdsSlot> slots;
   for (std::size_t i = 0; i < core_names.size(); ++i)
     slots.push_back({core_names[i], i});
-  samples_ = std::make_unique<DdsTopic<SampleMsg>>(*participant_, ns, slots);
-  commands_ = std::make_unique<DdsTopic<ControlMsg>>(*participant_, ns, slots);
+  samples_ = std::make_unique<DdsTopic<SampleMsg>>(participant_, ns, slots);
+  commands_ = std::make_unique<DdsTopic<ControlMsg>>(participant_, ns, slots);
   for (std::size_t i = 0; i < core_names.size(); ++i) {
     sample_pubs_.push_back(samples_->add_publisher());
     command_pubs_.push_back(commands_->add_publisher());
@@ -134,7 +130,7 @@ std::string DdsPublisher::describe() const {
   for (std::size_t i = 0; i < names_.size(); ++i)
     topics +=
         (topics.empty() ? "" : ", ") + samples_->ros_topic(i) + ", " + commands_->ros_topic(i);
-  return "DDS domain " + std::to_string(participant_->domain_id()) + ": " + topics;
+  return "DDS domain " + std::to_string(participant_.domain_id()) + ": " + topics;
 }
 
 std::size_t DdsPublisher::index_of(const std::string& core_name) const {

@@ -13,8 +13,8 @@
 //                                    budget in bytes}
 //     /rosguard/<core name>/command  rosguard_msgs/msg/Command: OFF / ON / THR / REPLENISH as the
 //                                    controller sends them, cause_ns = the read that caused a THR
-// Contract: built and destroyed on the guard's main thread; the participant outlives readers and
-// writers (member order).
+// Both take the guard's one DDS participant (which announces the guard as a ROS 2 node); it
+// outlives them. Contract: built and destroyed on the guard's main thread.
 #pragma once
 
 #include <map>
@@ -31,9 +31,8 @@ namespace rosguard::hw {
 
 class DdsActivity : public ActivitySource {
  public:
-  // security: null for none.
-  explicit DdsActivity(std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "",
-                       const dds::Security* security = nullptr);
+  // secured: the participant runs DDS Security (for what the guard says of its exposure).
+  DdsActivity(dds::Participant& participant, std::string ns, bool secured);
   ~DdsActivity() override;
   std::string describe() const override;
   std::vector<std::string> exposure() const override;
@@ -44,7 +43,7 @@ class DdsActivity : public ActivitySource {
   void main();
   std::string name_of(const dds::Endpoint& reader, dds_instance_handle_t writer);
 
-  std::unique_ptr<dds::Participant> participant_;
+  dds::Participant& participant_;
   bool secured_ = false;
   std::string ns_;
   std::vector<std::unique_ptr<dds::Reader<dds::BoolMsg>>> readers_;  // per RT node
@@ -59,9 +58,8 @@ class DdsActivity : public ActivitySource {
 
 class DdsPublisher : public GuardPublisher {
  public:
-  DdsPublisher(const std::vector<std::string>& core_names,
-               std::optional<std::uint32_t> domain_id = std::nullopt, std::string ns = "",
-               const dds::Security* security = nullptr);
+  DdsPublisher(dds::Participant& participant, const std::vector<std::string>& core_names,
+               const std::string& ns);
   ~DdsPublisher() override;
   std::string describe() const override;
   void sample(const GuardSample& s) override;
@@ -70,7 +68,7 @@ class DdsPublisher : public GuardPublisher {
 
  private:
   std::size_t index_of(const std::string& core_name) const;
-  std::unique_ptr<dds::Participant> participant_;
+  dds::Participant& participant_;
   std::vector<std::string> names_;
   std::unique_ptr<DdsTopic<SampleMsg>> samples_;
   std::unique_ptr<DdsTopic<ControlMsg>> commands_;

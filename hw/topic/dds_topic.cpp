@@ -82,12 +82,13 @@ struct DdsCodec<ControlMsg> {
           break;
       }
     }
-    return Wire{c, m.t_cause};
+    // rosguard_msgs/msg/Command: 0 when no sample caused it (the engine's -1).
+    return Wire{c, m.t_cause < 0 ? 0 : m.t_cause};
   }
   // nullopt for a code the message type does not define (counted and ignored by take()).
   static std::optional<ControlMsg> decode(const Wire& w, const dds::SampleOrigin&, const DdsSlot&) {
     ControlMsg m;
-    m.t_cause = w.cause_ns;
+    m.t_cause = w.cause_ns > 0 ? w.cause_ns : -1;
     switch (w.command) {
       case dds::command::kOff:
         m.command = Command::Off;

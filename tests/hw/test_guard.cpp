@@ -542,8 +542,10 @@ TEST_CASE("guard over DDS: Bool activity in, samples (with budgets) and commands
   const std::string ns = "/guard_test_" + std::to_string(::getpid());
   const int core = cpus.back(), ctl = cpus.front();
   Stress st(core);
-  DdsActivity activity(std::nullopt, ns);
-  DdsPublisher publisher({"be"}, std::nullopt, ns);
+  dds::Participant guard_participant(std::nullopt, nullptr,
+                                     dds::RosNode{dds::rosguard_node_namespace(ns), "guard_test"});
+  DdsActivity activity(guard_participant, ns, false);
+  DdsPublisher publisher(guard_participant, {"be"}, ns);
   // Plain Cyclone endpoints with the ROS 2 names, as an RT node and a `ros2 topic echo` would use.
   dds::Participant outside;
   dds::Writer<dds::BoolMsg> rt(outside, ns + "/rosguard/planner/active");

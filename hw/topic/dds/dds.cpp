@@ -6,6 +6,7 @@
 
 #include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -86,6 +87,19 @@ std::string dds_type_name(std::string_view ros_type) {
          "::dds_::" + std::string(ros_type.substr(b + 1)) + "_";
 }
 
+std::string ros_node_name(std::string_view text) {
+  std::string out;
+  if (text.empty() || std::isdigit(static_cast<unsigned char>(text.front()))) out = "_";
+  for (char c : text)
+    out += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+  return out;
+}
+
+std::string rosguard_node_namespace(std::string_view ns) {
+  if (!ns.empty()) check_ros_name(ns, "namespace");
+  return std::string(ns) + "/rosguard";
+}
+
 std::string active_topic(std::string_view ns, std::string_view node) {
   return rosguard_topic(ns, node, "active");
 }
@@ -132,11 +146,19 @@ std::string file_uri(const std::string& path, const char* what) {
 
 }  // namespace
 
-Participant::Participant(std::optional<std::uint32_t> domain_id, const Security* security)
-    : domain_(domain_id ? *domain_id : default_domain_id()) {
-  dds_qos_t* qos = nullptr;
+Participant::Participant(std::optional<std::uint32_t> domain_id, const Security* security,
+                         std::optional<RosNode> node)
+    : domain_(domain_id ? *domain_id : default_domain_id()), node_(std::move(node)) {
+  if (node_) {
+    check_ros_name(node_->ns, "node namespace");
+    check_ros_name("/" + node_->name, "node name");
+  }
+  dds_qos_t* qos = dds_create_qos();
+  // ROS 2's participant USER_DATA (rmw_cyclonedds_cpp): the security enclave, "/" by default.
+  // ROS 2 programs count a participant into their graph by it.
+  static constexpr char kEnclave[] = "enclave=/;";
+  dds_qset_userdata(qos, kEnclave, sizeof kEnclave - 1);
   if (security) {
-    qos = dds_create_qos();
     const auto prop = [&](const char* k, const std::string& v) {
       dds_qset_prop(qos, k, v.c_str());
     };
@@ -169,7 +191,7 @@ Participant::Participant(std::optional<std::uint32_t> domain_id, const Security*
   const std::lock_guard lock(bindings_lock);
   const UdpSockets before = udp_sockets();
   handle_ = dds_create_participant(domain_, qos, nullptr);
-  if (qos) dds_delete_qos(qos);
+  dds_delete_qos(qos);
   if (handle_ < 0)
     throw DdsError(fail_text("dds_create_participant on domain " + std::to_string(domain_) +
                                  (security ? " with DDS Security (a certificate, key or signed "
@@ -184,15 +206,96 @@ Participant::Participant(std::optional<std::uint32_t> domain_id, const Security*
     binding_ = it->second;
   else
     binding_.text = "the domain's sockets were opened before, by no Participant of rosguard's";
+  if (node_) {
+    // As rmw_cyclonedds_cpp's discovery writer: reliable, transient-local, keep last 1, so a
+    // ROS 2 program that starts later still learns of the node.
+    discovery_topic_ =
+        dds_create_topic(handle_, &rmw_dds_common_msg_dds__ParticipantEntitiesInfo__desc,
+                         "ros_discovery_info", nullptr, nullptr);
+    dds_qos_t* dq = dds_create_qos();
+    dds_qset_reliability(dq, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+    dds_qset_history(dq, DDS_HISTORY_KEEP_LAST, 1);
+    dds_qset_durability(dq, DDS_DURABILITY_TRANSIENT_LOCAL);
+    discovery_writer_ = discovery_topic_ < 0
+                            ? discovery_topic_
+                            : dds_create_writer(handle_, discovery_topic_, dq, nullptr);
+    dds_delete_qos(dq);
+    if (discovery_writer_ < 0) {
+      const dds_return_t rc = discovery_writer_;
+      dds_delete(handle_);
+      throw DdsError(fail_text("the ROS 2 discovery writer", "ros_discovery_info", rc));
+    }
+    const std::lock_guard g(graph_lock_);
+    announce();
+  }
 }
 
 Participant::~Participant() {
   if (handle_ > 0) dds_delete(handle_);
 }
 
+namespace {
+
+rmw_dds_common_msg_dds__Gid_ gid_of(const dds_guid_t& guid) {
+  // Humble's rmw_cyclonedds_cpp: the GUID's 16 bytes, the rest of the 24 zero.
+  rmw_dds_common_msg_dds__Gid_ g{};
+  static_assert(sizeof g.data >= sizeof guid.v);
+  std::memcpy(g.data, guid.v, sizeof guid.v);
+  return g;
+}
+
+}  // namespace
+
+void Participant::add_entity(const dds_guid_t& guid, bool writer) {
+  if (!node_) return;
+  const std::lock_guard g(graph_lock_);
+  (writer ? writers_ : readers_).push_back(gid_of(guid));
+  announce();
+}
+
+void Participant::remove_entity(const dds_guid_t& guid, bool writer) {
+  if (!node_) return;
+  const std::lock_guard g(graph_lock_);
+  auto& v = writer ? writers_ : readers_;
+  const rmw_dds_common_msg_dds__Gid_ gid = gid_of(guid);
+  for (auto it = v.begin(); it != v.end(); ++it)
+    if (std::memcmp(it->data, gid.data, sizeof gid.data) == 0) {
+      v.erase(it);
+      break;
+    }
+  announce();
+}
+
+void Participant::announce() {
+  rmw_dds_common_msg_dds__NodeEntitiesInfo_ n{};
+  std::snprintf(n.node_namespace, sizeof n.node_namespace, "%s", node_->ns.c_str());
+  std::snprintf(n.node_name, sizeof n.node_name, "%s", node_->name.c_str());
+  // Cyclone only reads the buffers while it serialises the sample in dds_write.
+  const auto seq = [](std::vector<rmw_dds_common_msg_dds__Gid_>& v) {
+    dds_sequence_rmw_dds_common_msg_dds__Gid_ s{};
+    s._length = s._maximum = static_cast<std::uint32_t>(v.size());
+    s._buffer = v.data();
+    return s;
+  };
+  n.reader_gid_seq = seq(readers_);
+  n.writer_gid_seq = seq(writers_);
+  rmw_dds_common_msg_dds__ParticipantEntitiesInfo_ m{};
+  dds_guid_t self{};
+  dds_get_guid(handle_, &self);
+  m.gid = gid_of(self);
+  m.node_entities_info_seq._length = m.node_entities_info_seq._maximum = 1;
+  m.node_entities_info_seq._buffer = &n;
+  // A graph notice that fails to go out leaves ROS 2 tools with a stale node list, nothing
+  // more: the topics themselves are unaffected, so it is not an error of the caller's.
+  (void)dds_write(discovery_writer_, &m);
+}
+
 Endpoint::Endpoint(Participant& p, std::string ros_topic, const dds_topic_descriptor_t* desc,
                    bool writer, int depth, std::function<void()> on_data)
-    : ros_topic_(std::move(ros_topic)), writer_(writer), on_data_(std::move(on_data)) {
+    : participant_(p),
+      ros_topic_(std::move(ros_topic)),
+      writer_(writer),
+      on_data_(std::move(on_data)) {
   const std::string name = dds_topic_name(ros_topic_);
   // The descriptor's type name is the DDS form already (rosguard_msgs::msg::dds_::PmcSample_).
   topic_ = dds_create_topic(p.handle(), desc, name.c_str(), nullptr, nullptr);
@@ -216,9 +319,12 @@ Endpoint::Endpoint(Participant& p, std::string ros_topic, const dds_topic_descri
     dds_delete(topic_);
     throw DdsError(fail_text(writer_ ? "dds_create_writer" : "dds_create_reader", ros_topic_, rc));
   }
+  dds_get_guid(entity_, &guid_);
+  participant_.add_entity(guid_, writer_);
 }
 
 Endpoint::~Endpoint() {
+  participant_.remove_entity(guid_, writer_);
   // Deleting the reader waits for a listener call in progress, so `this` outlives it.
   if (entity_ > 0) dds_delete(entity_);
   if (topic_ > 0) dds_delete(topic_);

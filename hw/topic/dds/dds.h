@@ -20,6 +20,13 @@
 //   <ns>/rosguard/<nrt node>/pmc      rosguard_msgs/msg/PmcSample   self-sampling reads
 //   <ns>/rosguard/<nrt node>/command  rosguard_msgs/msg/Command     controller -> nRT node
 //
+// ROS 2's graph: every Participant carries ROS 2's participant USER_DATA (`enclave=/;`), and
+// one given a RosNode announces it as rmw_cyclonedds_cpp announces its nodes: a
+// rmw_dds_common/msg/ParticipantEntitiesInfo on the DDS topic `ros_discovery_info` (reliable,
+// transient-local, keep last 1) naming the node and the GIDs of the participant's readers and
+// writers, published again whenever one is created or deleted. ROS 2 programs then list it
+// (`get_node_names()`, `ros2 node list`) and its topics per node (`ros2 node info`).
+//
 // Contract:
 // - Participant, Writer and Reader own their DDS entities (RAII); none is copyable or movable
 //   (a Reader's listener holds its address). Destroy readers and writers before their
@@ -50,6 +57,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -58,6 +66,7 @@
 
 #include "Bool.h"
 #include "Command.h"
+#include "ParticipantEntitiesInfo.h"
 #include "PmcSample.h"
 #include "hw/topic/dds/receive_binding.h"
 
@@ -135,11 +144,27 @@ struct Security {
   std::string permissions;           // S/MIME-signed XML (.p7s): this participant's grants
 };
 
+// A ROS 2 node a Participant announces: its namespace ("/rosguard", "/lab1/rosguard") and name
+// (a ROS 2 name token: ros_node_name() makes one of any text).
+struct RosNode {
+  std::string ns;
+  std::string name;
+};
+// `text` as a ROS 2 node name token: each character outside [A-Za-z0-9_] becomes '_', and a
+// leading digit (or an empty text) gets a '_' before it.
+std::string ros_node_name(std::string_view text);
+// The namespace of rosguard's nodes under a topic namespace `ns` ("" or "/a[/b...]"):
+// "<ns>/rosguard", the prefix its topics have.
+std::string rosguard_node_namespace(std::string_view ns);
+
 class Participant {
  public:
   // security: null for none (then the CYCLONEDDS_URI configuration decides, as in ROS 2).
+  // node: the ROS 2 node this participant announces (none: it stays out of ROS 2's node list;
+  // its topics are listed all the same).
   explicit Participant(std::optional<std::uint32_t> domain_id = std::nullopt,
-                       const Security* security = nullptr);
+                       const Security* security = nullptr,
+                       std::optional<RosNode> node = std::nullopt);
   ~Participant();
   Participant(const Participant&) = delete;
   Participant& operator=(const Participant&) = delete;
@@ -149,11 +174,23 @@ class Participant {
   // What was done to the domain's receive sockets (hw/topic/dds/receive_binding.h): bound to the
   // one interface the Cyclone configuration selects, or why not (then report a fallback).
   const ReceiveBinding& receive_binding() const { return binding_; }
+  // The node announced, if any.
+  const std::optional<RosNode>& node() const { return node_; }
+
+  // An Endpoint's GUID joins / leaves the announced node's readers or writers (any thread).
+  void add_entity(const dds_guid_t& guid, bool writer);
+  void remove_entity(const dds_guid_t& guid, bool writer);
 
  private:
+  void announce();  // graph_lock_ held
+
   dds_entity_t handle_ = 0;
   std::uint32_t domain_ = 0;
   ReceiveBinding binding_;
+  std::optional<RosNode> node_;
+  dds_entity_t discovery_topic_ = 0, discovery_writer_ = 0;
+  std::mutex graph_lock_;
+  std::vector<rmw_dds_common_msg_dds__Gid_> readers_, writers_;
 };
 
 // Where a sample came from: the writer's source timestamp (CLOCK_REALTIME ns, as DDS stamps
@@ -194,9 +231,11 @@ class Endpoint {
   static void on_data_available(dds_entity_t reader, void* arg);
   static void on_matched(dds_entity_t reader, dds_subscription_matched_status_t, void* arg);
 
+  Participant& participant_;
   std::string ros_topic_;
   bool writer_ = false;
   dds_entity_t topic_ = 0, entity_ = 0;
+  dds_guid_t guid_{};
   std::function<void()> on_data_;
 };
 

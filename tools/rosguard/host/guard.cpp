@@ -125,24 +125,34 @@ int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& p
                   << std::flush;
       },
       hw::kLogRepeatNs);
+  // One DDS participant for the guard's activity readers and its publishers, announced to ROS 2
+  // as the node <ns>/rosguard/guard_<name>.
+  const bool dds_activity = act.at("source").get<std::string>() == "dds";
+  const bool dds_publish = doc.at("publish").at("transport").get<std::string>() != "none";
+  std::unique_ptr<dds::Participant> participant;
+  if (dds_activity || dds_publish)
+    participant = std::make_unique<dds::Participant>(
+        domain, sec,
+        dds::RosNode{dds::rosguard_node_namespace(ns),
+                     dds::ros_node_name("guard_" + settings.name)});
   std::unique_ptr<hw::ActivitySource> activity;
-  if (act.at("source").get<std::string>() == "fifo") {
+  if (!dds_activity) {
     activity = std::make_unique<hw::FifoActivity>(
         act.at("path").get<std::string>(), [name = settings.name](const std::string& line) {
           std::cerr << "guard " << name << ": ignored activity line '" << line
                     << "' (expected '<rt name> 1|0')\n";
         });
   } else {
-    activity = std::make_unique<hw::DdsActivity>(domain, ns, sec);
+    activity = std::make_unique<hw::DdsActivity>(*participant, ns, sec != nullptr);
   }
   std::unique_ptr<hw::GuardPublisher> publisher;
-  if (doc.at("publish").at("transport").get<std::string>() == "none") {
+  if (!dds_publish) {
     publisher = std::make_unique<hw::NullPublisher>();
   } else {
     std::vector<std::string> cores;
     for (const auto& n : settings.nrt)
       cores.push_back(n.name);
-    publisher = std::make_unique<hw::DdsPublisher>(cores, domain, ns, sec);
+    publisher = std::make_unique<hw::DdsPublisher>(*participant, cores, ns);
   }
 
   // Signals: SIGINT / SIGTERM stop, SIGHUP reloads; the handlers only set flags, which the main

@@ -493,6 +493,13 @@ TEST_CASE("rosguard guard: SIGHUP reloads, SIGTERM leaves no throttled core and 
   CHECK(wait_for("new policy parameters in force from the next window", 5));
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   const double at5 = st.share(std::chrono::milliseconds(600));
+  // A line the activity pipe cannot read, and a file that no longer validates: both refused,
+  // logged, and the guard keeps going.
+  { std::ofstream(dir / "activity") << "planner maybe\n"; }
+  CHECK(wait_for("ignored activity line 'planner maybe'", 5));
+  { std::ofstream(dir / "guard.json") << "{ \"name\": 7 }"; }
+  ::kill(pid, SIGHUP);
+  CHECK(wait_for("reload refused: ", 5));
   // Still regulating (the RT node is active) when stopped: SIGTERM must release the core.
   ::kill(pid, SIGTERM);
   int status = 0;
@@ -511,6 +518,15 @@ TEST_CASE("rosguard guard: SIGHUP reloads, SIGTERM leaves no throttled core and 
                        Catch::Contains("stopped: 1 core(s) back to nominal") &&
                        Catch::Contains("0 thread(s) left under SCHED_FIFO"));
   CHECK_THAT(text, !Catch::Contains("regulation inactive"));  // no gap across the reload
+  // Every line in one form: an ISO time stamp, the guard's name, the text.
+  std::istringstream lines(text);
+  for (std::string l; std::getline(lines, l);) {
+    INFO("log line: " << l);
+    CHECK(l.size() > 25);
+    CHECK(l.compare(4, 1, "-") == 0);
+    CHECK(l.compare(10, 1, "T") == 0);
+    CHECK(l.find("Z guard cli: ") != std::string::npos);
+  }
   // Nothing of the guard is left: no thread anywhere named after its core's callbacks, and the
   // core runs stress-ng freely again, under its own scheduling.
   for (const auto& p :

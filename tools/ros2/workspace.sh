@@ -75,6 +75,10 @@ if ((rc != 0)); then
 fi
 cat >"$out/env.sh" <<EOF
 # Written by tools/ros2/workspace.sh: the ROS 2 Humble the tests use and the packages built on it.
+if [ ! -f "$humble_setup" ]; then
+  echo "FAIL: the ROS 2 Humble this build folder was set up with is gone ($humble_setup): run make ros2" >&2
+  return 1
+fi
 set +u
 source "$humble_setup"
 source "$out/install/setup.sh"

@@ -119,12 +119,12 @@ int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& p
   const dds::Security* sec = security ? &*security : nullptr;
   // Cyclone's own warnings (e.g. a line per malformed datagram anyone sends to its ports) through
   // the same rate limit as the guard's lines, before any DDS entity exists.
-  const dds::LimitedCycloneLog cyclone_log(
-      [name = settings.name](const std::string& line) {
-        std::cerr << hw::wall_clock_iso() << " guard " << name << ": " << line << '\n'
-                  << std::flush;
-      },
-      hw::kLogRepeatNs);
+  // Every line the guard writes outside hw::Guard's own log, in its form: an ISO time stamp,
+  // the guard's name, the text.
+  const auto log_line = [name = settings.name](const std::string& text) {
+    std::cerr << hw::wall_clock_iso() << " guard " << name << ": " << text << '\n' << std::flush;
+  };
+  const dds::LimitedCycloneLog cyclone_log(log_line, hw::kLogRepeatNs);
   // One DDS participant for the guard's activity readers and its publishers, announced to ROS 2
   // as the node <ns>/rosguard/guard_<name>.
   const bool dds_activity = act.at("source").get<std::string>() == "dds";
@@ -138,9 +138,8 @@ int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& p
   std::unique_ptr<hw::ActivitySource> activity;
   if (!dds_activity) {
     activity = std::make_unique<hw::FifoActivity>(
-        act.at("path").get<std::string>(), [name = settings.name](const std::string& line) {
-          std::cerr << "guard " << name << ": ignored activity line '" << line
-                    << "' (expected '<rt name> 1|0')\n";
+        act.at("path").get<std::string>(), [log_line](const std::string& line) {
+          log_line("ignored activity line '" + line + "' (expected '<rt name> 1|0')");
         });
   } else {
     activity = std::make_unique<hw::DdsActivity>(*participant, ns, sec != nullptr);
@@ -182,18 +181,16 @@ int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& p
               try {
                 return load_guard(args.config, loader, policies);
               } catch (const InputError& e) {
-                std::cerr << "guard " << settings.name << ": reload refused: " << e.what()
-                          << "; the running configuration stays\n";
+                log_line(std::string("reload refused: ") + e.what() +
+                         "; the running configuration stays");
                 return std::nullopt;
               }
             });
-  std::cerr << "guard " << settings.name << ": " << (g_stop.load() == SIGINT ? "SIGINT" : "SIGTERM")
-            << " received\n";
+  log_line(std::string(g_stop.load() == SIGINT ? "SIGINT" : "SIGTERM") + " received");
   guard.shutdown();
   if (const auto n = cyclone_log.left_out())
-    std::cerr << hw::wall_clock_iso() << " guard " << settings.name
-              << ": cyclone: " << cyclone_log.written() << " log line(s) written, " << n
-              << " repeat(s) not logged\n";
+    log_line("cyclone: " + std::to_string(cyclone_log.written()) + " log line(s) written, " +
+             std::to_string(n) + " repeat(s) not logged");
   return 0;
 }
 

@@ -12,6 +12,7 @@
 
 #include <catch2/catch.hpp>
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -611,4 +612,19 @@ TEST_CASE("guard over DDS: Bool activity in, samples (with budgets) and commands
   CHECK(thr == g.stats().throttles);
   g.shutdown();
   CHECK(realtime_threads().empty());
+}
+
+TEST_CASE("rosguard guard --help gives the guard's own examples, not the quickstart's",
+          "[hw][guard][cli]") {
+  std::string out;
+  FILE* p = ::popen(ROSGUARD_BINARY " guard --help 2>&1", "r");
+  REQUIRE(p);
+  char buf[4096];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;)
+    out.append(buf, n);
+  CHECK(::pclose(p) == 0);
+  INFO(out);
+  CHECK_THAT(out, Catch::Contains("rosguard guard /etc/rosguard/guard.json --check") &&
+                      Catch::Contains("kill -HUP") && Catch::Contains("docs/guard.md") &&
+                      !Catch::Contains("Start here") && !Catch::Contains("quickstart"));
 }

@@ -202,8 +202,18 @@ assert j["state"] == "complete" and j["rerun"] == [] and j["runs_done"] == 24, j
   "$bin" status "$tmp/f" >"$tmp/out" || fail "status exited $?"
   grep -qE '^  0/1 .* failed: point .*fake failure at threshold 15$' "$tmp/out" ||
     fail "the failed shard: $(cat "$tmp/out")"
-  grep -qF "rosguard run $scenario --out $tmp/f --shard 0/1 --resume" "$tmp/out" ||
+  grep -qF "rosguard run $scenario --backend sim --out $tmp/f --shard 0/1 --resume" "$tmp/out" ||
     fail "no re-run command for the failed shard"
+  # Run on another backend than the scenario's (--backend hw): the re-run command keeps it, and
+  # finishes the run.
+  ROSGUARD_FAKE_FAIL_AT=15 "$bin" run $scenario --backend hw --out "$tmp/h" --jobs 1 --quiet 2>/dev/null
+  "$bin" status "$tmp/h" >"$tmp/out" || fail "status exited $?"
+  grep -qF "rosguard run $scenario --backend hw --out $tmp/h --shard 0/1 --resume" "$tmp/out" ||
+    fail "the re-run command of an hw run does not keep --backend hw: $(cat "$tmp/out")"
+  grep -oE 'rosguard run .* --resume$' "$tmp/out" | sed "s|^rosguard |$bin |" >"$tmp/rerun"
+  bash "$tmp/rerun" >/dev/null 2>&1 || fail "the printed re-run command failed"
+  grep -q '"backend": "hw"' "$tmp/h/manifest.json" || fail "the re-run changed the backend"
+  [[ $(dups "$tmp/h") -eq 0 ]] || fail "duplicate rows after the re-run"
   ;;
 status-slurm)
   # Shards of a submitted job that have not started: Slurm's queue says pending, starting, or

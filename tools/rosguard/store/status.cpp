@@ -38,6 +38,7 @@ struct Folder {
   json shards = json::object();                 // the manifest's entries by "I/N"
   std::string status;                           // the manifest's (as its last writer left it)
   std::string scenario_file;
+  std::string backend;  // the one the run used (the manifest's): the re-run must use it too
   std::string command;  // the manifest's
   json job;             // slurm/job.json, or null
 };
@@ -84,6 +85,7 @@ Folder read_folder(const fs::path& dir) {
   if (m.contains("shards") && m["shards"].is_object()) f.shards = m["shards"];
   f.status = m.value("status", "");
   f.command = m.value("command", "");
+  f.backend = m.value("backend", "");
   f.scenario_file = has_job ? f.job.value("scenario_file", "") : m.value("scenario_file", "");
 
   // Rows: complete lines only (a row being appended now has no '\n' yet), each run once.
@@ -521,11 +523,13 @@ int tune_status(const fs::path& dir, bool as_json) {
               << (command.empty() ? std::string(".") : ":\n  " + command + " --overwrite") << "\n";
   return 0;
 }
-// `rosguard run ... --shard INDEX/COUNT --resume` of a shard of the run in `dir`.
+// `rosguard run ... [--backend B] --shard INDEX/COUNT --resume` of a shard of the run in `dir`,
+// on the backend the run used (which --backend may have chosen over the scenario's own).
 std::string rerun_command(const fs::path& dir, const Folder& f, int index, int count) {
   return "rosguard run " +
          (f.scenario_file.empty() ? std::string("SCENARIO.json") : shell_quote(f.scenario_file)) +
-         " --out " + shell_quote(dir.string()) + " --shard " + std::to_string(index) + "/" +
+         (f.backend.empty() ? std::string() : " --backend " + shell_quote(f.backend)) + " --out " +
+         shell_quote(dir.string()) + " --shard " + std::to_string(index) + "/" +
          std::to_string(count) + " --resume";
 }
 

@@ -117,17 +117,17 @@ def print_digest(results, stream) -> None:
 
 
 def print_unregulated(results, stream) -> None:
-    """What the unregulated co-run (policy none) costs each node, by name, per workload pair:
-    the reference every slowdown figure draws."""
+    """What the unregulated co-run (policy none) costs each node, by name, per combination of
+    the nodes' workloads: the reference every slowdown figure draws."""
     nodes = [(n, c) for n in nodes_of(results)
              if (c := cell_column(results, n, "unregulated_slowdown"))]
     pairs: dict = {}
     for p in results.points:
         cells = [(n.label if n.several else n.tag, p.stat(c)) for n, c in nodes]
         if any(v for _, v in cells):
-            pairs.setdefault(describe({c: p.config.get(c) for c in ("rt_workload",
-                                                                    "nrt_workload")}),
-                             [(label, v.mean) for label, v in cells if v])
+            # Every node's workload (rt_workload, nrt_workload, nrt1_workload, ...).
+            workloads = {c: v for c, v in p.config.items() if c.endswith("_workload")}
+            pairs.setdefault(describe(workloads), [(label, v.mean) for label, v in cells if v])
     if not pairs:
         return
     print("unregulated co-run (the same nodes with policy none; slowdown = time / isolation "

@@ -152,8 +152,8 @@ def test_summary_and_the_printed_table_name_every_node(folder, tmp_path):
         for key, _, _, _ in NODES:
             assert float(row[f"{key}_unregulated_slowdown_mean"]) == unregulated(key)
     assert ("unregulated co-run (the same nodes with policy none; slowdown = time / isolation "
-            "time):\n  RT mser / nRT bandwidth_read: RT 1.500, nRT0 reader 2.000, nRT1 stereo "
-            "2.250, nRT2 tracker 2.500\n") in printed
+            "time):\n  RT mser / nRT0 bandwidth_read, nRT1 disparity, nRT2 tracking: RT 1.500, "
+            "nRT0 reader 2.000, nRT1 stereo 2.250, nRT2 tracker 2.500\n") in printed
 
 
 def _axes_texts(fig):

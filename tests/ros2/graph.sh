@@ -22,17 +22,8 @@ guard_node=$ns/rosguard/guard_ros2graph
   { cat "$tmp/guard_graph.json"; fail "the guard's node or topics are missing from the ROS 2 graph"; }
 
 # An hw run over DDS, seen while it runs.
-cat >"$tmp/run.json" <<EOF2
-{ "name": "ros2-graph", "platform": "vm-2core", "backend": "hw", "repetitions": 1,
-  "nodes": { "controller": { "core": 1 },
-    "rt": [ { "name": "rt0", "core": 0, "iterations": 20,
-              "workload": { "name": "read_8m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 8192, "passes": 4 } } } ],
-    "nrt": [ { "name": "nrt0", "core": 1,
-               "workload": { "name": "read_8m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 8192, "passes": 4 } } } ] },
-  "regulation": { "policy": "interval", "sampling": "self", "sampling_period_us": 1000,
-                  "regulation_period_us": 5000, "threshold_pct": 20 },
-  "hw": { "baseline_repetitions": 1, "transport": "dds", "dds": { "namespace": "$ns" } } }
-EOF2
+hw_scenario "$tmp/run.json" ros2-graph '{ "name": "rt0", "core": 0, "iterations": 20,
+  "workload": { "name": "read_8m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 8192, "passes": 4 } } }'
 "$rosguard" run "$tmp/run.json" --out "$tmp/out" --quiet >"$tmp/run.log" 2>&1 &
 run_pid=$!
 extra_pids=$run_pid

@@ -10,36 +10,14 @@ set -euo pipefail
 rosguard=$1 build=$2 src=$3 domain=$4
 # shellcheck source=ros2_common.sh
 source "$src/tests/ros2/ros2_common.sh"
-tmp=$(mktemp -d)
-listen_pid=""
-cleanup() {
-  [[ -n "$listen_pid" ]] && kill "$listen_pid" 2>/dev/null || true
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-
-cat >"$tmp/run.json" <<EOF
-{
-  "name": "ros2-listen",
-  "platform": "vm-2core",
-  "backend": "hw",
-  "repetitions": 1,
-  "nodes": {
-    "controller": { "core": 1 },
-    "rt": [ { "name": "rt0", "core": 0, "iterations": 4,
-              "workload": { "name": "read_64m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 65536, "passes": 3 } } } ],
-    "nrt": [ { "name": "nrt0", "core": 1,
-               "workload": { "name": "read_64m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 65536, "passes": 3 } } } ]
-  },
-  "regulation": { "policy": "interval", "sampling": "self", "sampling_period_us": 1000,
-                  "regulation_period_us": 5000, "threshold_pct": 2 },
-  "hw": { "baseline_repetitions": 1, "transport": "dds", "dds": { "namespace": "$ns" } }
-}
-EOF
+with_tmp
+hw_scenario "$tmp/run.json" ros2-listen '{ "name": "rt0", "core": 0, "iterations": 4,
+  "workload": { "name": "read_64m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 65536, "passes": 3 } } }'
 # Above rosguard's threads, so that it takes each message when it comes ($above).
 $above "$peer" listen --ns "$ns" --active rt0 --pmc nrt0 --command nrt0 --seconds 300 \
   >"$tmp/heard.jsonl" 2>"$tmp/listen.err" &
 listen_pid=$!
+bg=$listen_pid
 peer_ready "$tmp/heard.jsonl"
 # Without the unregulated co-run: its RT node would publish the same topics from a
 # participant of its own, and this test compares with the regulated point's counts.
@@ -49,7 +27,6 @@ peer_ready "$tmp/heard.jsonl"
 sleep 1
 kill -INT "$listen_pid"
 wait "$listen_pid" || true
-listen_pid=""
 
 /usr/bin/python3 - "$tmp/out" "$tmp/heard.jsonl" <<'PY'
 import csv, json, sys

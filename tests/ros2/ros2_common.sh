@@ -11,6 +11,12 @@
 #            to spare, a SCHED_OTHER subscriber is starved while a point's SCHED_FIFO threads
 #            run, and takes the point's messages in one burst after it: by then those beyond the
 #            writers' history (keep last 10), or sent before it matched, are gone.
+# with_tmp: makes $tmp and, on exit, kills every pid in $bg and removes $tmp (the tests that do
+#   not take guard_common.sh's).
+# hw_scenario FILE NAME RT_NODE [DDS_EXTRA]: writes an hw scenario to FILE: RT_NODE (the JSON of
+#   its one RT node, on core 0), nRT node nrt0 (a 64 MB read stream) and the controller on
+#   core 1, interval regulation with self-sampling every 1 ms, 5 ms windows, 2 %; transport dds
+#   in $ns (DDS_EXTRA: more keys of hw.dds, JSON text).
 # peer_ready FILE [SECONDS]: waits until a `ros2_peer listen` writing FILE is subscribed.
 # count_json FILE PYTHON_EXPR: how many JSON lines of FILE the expression (on `m`) holds for.
 if [[ ! -f $build/ros2/env.sh ]]; then
@@ -30,6 +36,32 @@ peer=$build/ros2/install/lib/rosguard_ros2_peer/ros2_peer
 ns="/ros2_test_$$_${RANDOM}"
 above=""
 chrt -f 70 true 2>/dev/null && above="chrt -f 70"
+
+with_tmp() {
+  tmp=$(mktemp -d)
+  bg=""
+  trap 'for p in $bg; do kill "$p" 2>/dev/null || true; done; rm -rf "$tmp"' EXIT
+}
+
+hw_scenario() {
+  cat >"$1" <<EOF
+{
+  "name": "$2",
+  "platform": "vm-2core",
+  "backend": "hw",
+  "repetitions": 1,
+  "nodes": {
+    "controller": { "core": 1 },
+    "rt": [ $3 ],
+    "nrt": [ { "name": "nrt0", "core": 1,
+               "workload": { "name": "read_64m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 65536, "passes": 3 } } } ]
+  },
+  "regulation": { "policy": "interval", "sampling": "self", "sampling_period_us": 1000,
+                  "regulation_period_us": 5000, "threshold_pct": 2 },
+  "hw": { "baseline_repetitions": 1, "transport": "dds", "dds": { "namespace": "$ns"${4:+, $4} } }
+}
+EOF
+}
 
 peer_ready() {
   for _ in $(seq $((${2:-20} * 20))); do

@@ -9,41 +9,18 @@ set -euo pipefail
 rosguard=$1 build=$2 src=$3 domain=$4
 # shellcheck source=ros2_common.sh
 source "$src/tests/ros2/ros2_common.sh"
-tmp=$(mktemp -d)
-run_pid=""
-cleanup() {
-  [[ -n "$run_pid" ]] && kill "$run_pid" 2>/dev/null || true
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-
-cat >"$tmp/run.json" <<EOF
-{
-  "name": "ros2-signal",
-  "platform": "vm-2core",
-  "backend": "hw",
-  "repetitions": 1,
-  "nodes": {
-    "controller": { "core": 1 },
-    "rt": [ { "name": "planner", "core": 0, "signal": "topic", "iterations": 3,
-              "workload": { "name": "read_8m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 8192, "passes": 4 } } } ],
-    "nrt": [ { "name": "nrt0", "core": 1,
-               "workload": { "name": "read_64m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 65536, "passes": 3 } } } ]
-  },
-  "regulation": { "policy": "interval", "sampling": "self", "sampling_period_us": 1000,
-                  "regulation_period_us": 5000, "threshold_pct": 2 },
-  "hw": { "baseline_repetitions": 1, "transport": "dds",
-          "dds": { "namespace": "$ns", "signal_timeout_ms": 60000 } }
-}
-EOF
+with_tmp
+hw_scenario "$tmp/run.json" ros2-signal '{ "name": "planner", "core": 0, "signal": "topic", "iterations": 3,
+  "workload": { "name": "read_8m", "hw": { "kernel": "bandwidth_read", "working_set_kb": 8192, "passes": 4 } } }' \
+  '"signal_timeout_ms": 60000'
 "$rosguard" run "$tmp/run.json" --out "$tmp/out" --quiet >"$tmp/run.log" 2>&1 &
 run_pid=$!
+bg=$run_pid
 # The rclcpp program waits for the run's controller to subscribe (after its baselines).
 "$peer" signal --ns "$ns" --name planner --jobs 3 --job-ms 300 --gap-ms 150 --wait-ms 60000 \
   | tee "$tmp/sent.jsonl"
 rc=0
 wait "$run_pid" || rc=$?
-run_pid=""
 cat "$tmp/run.log"
 [[ $rc -eq 0 ]] || { echo "FAIL: rosguard run exited $rc"; exit 1; }
 sent=$(count_json "$tmp/sent.jsonl" 'm.get("event") == "sent"')

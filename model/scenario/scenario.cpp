@@ -5,6 +5,9 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/error.h"
 #include "policy/rules.h"
@@ -142,39 +145,46 @@ WorkloadInfo size_working_set(const WorkloadInfo& w, const PlatformInfo& platfor
 namespace {
 
 // Assigns nodes to cores: each core exists on the platform and runs at most one application
-// node, and node names are unique. Throws InputError at the offending node.
+// node, and node names are unique. Every problem is recorded at its node (problems()), so that
+// one report names them all: a core taken twice does not hide a core that does not exist.
 class NodePlacer {
  public:
-  NodePlacer(const PlatformInfo& plat, const std::string& file) : plat_(plat), file_(file) {}
+  explicit NodePlacer(const PlatformInfo& plat) : plat_(plat) {}
 
-  // Throws when `core` is not on the platform; `at` is the JSON pointer of the core value.
-  void check_core_exists(const std::string& at, int core) const {
-    if (core >= plat_.cores())
-      throw InputError(file_, at,
-                       "core " + std::to_string(core) + " does not exist on platform " +
-                           plat_.name + " (" + core_range(plat_) + ")");
+  // False (and a problem recorded) when `core` is not on the platform; `at` is the JSON pointer
+  // of the core value.
+  bool check_core_exists(const std::string& at, int core) {
+    if (core < plat_.cores()) return true;
+    problems_.emplace_back(at, "core " + std::to_string(core) + " does not exist on platform " +
+                                   plat_.name + " (" + core_range(plat_) + ")");
+    return false;
   }
 
   // `base` is the node's JSON pointer ("/nodes/rt/0").
   void place(const std::string& base, const std::string& name, int core) {
-    check_core_exists(base + "/core", core);
-    if (auto it = core_owner_.find(core); it != core_owner_.end())
-      throw InputError(file_, base + "/core",
-                       "core " + std::to_string(core) + " already runs node '" + it->second +
-                           "' (one RT or nRT node per core: a throttled node's idle loop " +
-                           "would starve the other)");
+    if (check_core_exists(base + "/core", core)) {
+      if (auto it = core_owner_.find(core); it != core_owner_.end())
+        problems_.emplace_back(
+            base + "/core", "core " + std::to_string(core) + " already runs node '" + it->second +
+                                "' (one RT or nRT node per core: a throttled node's idle " +
+                                "loop would starve the other)");
+      else
+        core_owner_[core] = name;
+    }
     if (auto it = name_owner_.find(name); it != name_owner_.end())
-      throw InputError(file_, base + "/name",
-                       "node name '" + name + "' is already used at " + it->second);
-    core_owner_[core] = name;
-    name_owner_[name] = base;
+      problems_.emplace_back(base + "/name",
+                             "node name '" + name + "' is already used at " + it->second);
+    else
+      name_owner_[name] = base;
   }
+
+  const std::vector<std::pair<std::string, std::string>>& problems() const { return problems_; }
 
  private:
   const PlatformInfo& plat_;
-  const std::string& file_;
   std::map<int, std::string> core_owner_;
   std::map<std::string, std::string> name_owner_;
+  std::vector<std::pair<std::string, std::string>> problems_;  // (JSON pointer, message)
 };
 
 void build_rt_nodes(const nlohmann::json& rt, std::vector<WorkloadInfo>& workloads,
@@ -246,13 +256,14 @@ NodesSpec build_nodes(const nlohmann::json& nodes, ResolvedRefs& refs, const std
                       const std::string& file) {
   const PlatformInfo& plat = refs.platform;
   NodesSpec out;
-  NodePlacer placer(plat, file);
+  NodePlacer placer(plat);
   out.controller_core = nodes.at("controller").at("core").get<int>();
   placer.check_core_exists("/nodes/controller/core", out.controller_core);
 
   const auto& rt = nodes.at("rt");
   build_rt_nodes(rt, refs.rt_workloads, placer, file, out);
   build_nrt_nodes(nodes.at("nrt"), !rt.empty(), refs.nrt_workloads, placer, file, out);
+  if (!placer.problems().empty()) throw InputError(file, placer.problems());
   if (out.rt.empty() && out.nrt.empty())
     throw InputError(file, "/nodes", "no RT and no nRT node: nothing to run");
 

@@ -289,6 +289,27 @@ TEST_CASE("loader: an error the scenario has without any sweep value is reported
         "loop would starve the other)");
 }
 
+TEST_CASE("loader: every node placement problem is reported at once", "[loader]") {
+  TempDir dir;
+  // A core taken twice, a core the platform lacks, a name used twice: three problems, one report
+  // (before, the shared core hid the impossible one).
+  const auto file = dir.write(
+      "s.json", R"({"name": "t", "platform": "orin-agx", "nodes": {"controller": {"core": 0},
+      "rt": [{"name": "rt0", "core": 1, "workload": "mser"}],
+      "nrt": [{"name": "n0", "core": 1, "workload": "bandwidth_read"},
+              {"name": "n1", "core": 12, "workload": "bandwidth_read"},
+              {"name": "n0", "core": 3, "workload": "bandwidth_read"}]}})");
+  const auto e = load_error(file);
+  const auto problems = e.problems();
+  REQUIRE(problems.size() == 3);
+  CHECK_THAT(problems[0], Contains("/nodes/nrt/0/core: core 1 already runs node 'rt0'"));
+  CHECK_THAT(
+      problems[1],
+      Contains("/nodes/nrt/1/core: core 12 does not exist on platform orin-agx (cores 0-11)"));
+  CHECK_THAT(problems[2],
+             Contains("/nodes/nrt/2/name: node name 'n0' is already used at /nodes/nrt/0"));
+}
+
 TEST_CASE("loader: an error caused by a combination of sweep values names the sweep point",
           "[loader]") {
   TempDir dir;

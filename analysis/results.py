@@ -169,12 +169,29 @@ def load_results(folder) -> Results:
             f"create one with: rosguard run SCENARIO.json --out {folder}")
     manifest = _read_manifest(folder / "manifest.json")
     columns, rows = _read_points(folder / "points.csv")
+    _check_points_belong(folder, manifest, rows)
     samples = _read_samples(folder / "samples.csv")
     config_columns = _config_columns(columns, rows)
     points = _aggregate(rows, columns, config_columns)
     tune = _read_tune(folder / "tune.json")
     return Results(folder, manifest, columns, rows, samples, points, config_columns, tune,
                    tune.get("rt_slowdown_max"))
+
+
+def _check_points_belong(folder: Path, manifest: dict, rows: list) -> None:
+    """Every row of points.csv is a run of a point the manifest lists (its scenario.points):
+    a points.csv copied from another run's folder would be drawn as if it were this one's."""
+    listed = manifest.get("scenario", {}).get("points")
+    if not isinstance(listed, list) or not listed:
+        return  # a manifest without the list (nothing to check against)
+    ids = {p.get("id") for p in listed if isinstance(p, dict)}
+    for number, row in enumerate(rows, start=2):
+        if row["point"] not in ids:
+            raise InvalidInput(
+                f"{folder / 'points.csv'}: line {number}: point '{row['point']}' is not one of "
+                f"the {len(ids)} points of the scenario in {folder / 'manifest.json'} "
+                f"({manifest.get('scenario_file', 'its scenario')}): the folder holds files of "
+                "different runs; run the scenario again into a folder of its own")
 
 
 TUNE_SETTINGS = ("best", "runner_up", "unregulated")

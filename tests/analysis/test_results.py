@@ -124,6 +124,19 @@ def test_unsupported_schema_version(results_dir, tmp_path):
         load_results(folder)
 
 
+def test_points_of_another_scenario_are_refused(results_dir, tmp_path):
+    # A points.csv beside the manifest of another run (copied, or two runs into one folder):
+    # refused, naming the point and the folder, not drawn as if it were this run's.
+    folder = _copy(results_dir, tmp_path)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    gone = manifest["scenario"]["points"][0]["id"]
+    manifest["scenario"]["points"] = manifest["scenario"]["points"][1:]
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(InvalidInput, match=rf"points.csv: line \d+: point '{gone}' is not one of "
+                                           r"the \d+ points of the scenario in .*manifest.json"):
+        load_results(folder)
+
+
 def test_points_csv_without_the_fixed_columns(results_dir, tmp_path):
     folder = _copy(results_dir, tmp_path)
     (folder / "points.csv").write_text("point,rep,value\np1,0,1\n")

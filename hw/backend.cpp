@@ -37,13 +37,6 @@
 namespace rosguard::hw {
 namespace {
 
-std::string cpu_list(const std::vector<int>& cpus) {
-  std::string s;
-  for (int c : cpus)
-    s += (s.empty() ? "" : ", ") + std::to_string(c);
-  return s.empty() ? "none" : s;
-}
-
 // The transport in the manifest; for DDS, where a ROS 2 user finds the traffic.
 void report_transport(const Scenario& s, RunContext& ctx) {
   ctx.fact("transport", std::string(to_string(s.hw.transport)));
@@ -131,7 +124,7 @@ class HwBackend : public Backend {
       if (std::find(cpus.begin(), cpus.end(), core) == cpus.end())
         throw InputError(s.file, path,
                          "core " + std::to_string(core) +
-                             " is not available on this host (usable CPUs: " + cpu_list(cpus) +
+                             " is not available on this host (usable CPUs: " + cpu_list_text(cpus) +
                              "); the hw backend runs every node on a real core");
     };
     check_core("/nodes/controller/core", s.nodes.controller_core);

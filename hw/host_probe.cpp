@@ -65,19 +65,6 @@ std::vector<int> parse_cpu_list(const std::string& text) {
   return out;
 }
 
-std::string cpu_list_text(const std::vector<int>& cpus) {
-  std::string s;
-  for (std::size_t i = 0; i < cpus.size();) {
-    std::size_t j = i;
-    while (j + 1 < cpus.size() && cpus[j + 1] == cpus[j] + 1)
-      ++j;
-    s += (s.empty() ? "" : ",") + std::to_string(cpus[i]) +
-         (j > i ? "-" + std::to_string(cpus[j]) : "");
-    i = j + 1;
-  }
-  return s.empty() ? "none" : s;
-}
-
 // "48K" -> 48, "1M" -> 1024, "32768K" -> 32768.
 double size_kb(const std::string& text) {
   if (text.empty()) return 0.0;

@@ -38,6 +38,19 @@ void set_usable_cpus_override(std::vector<int> cpus) {
   g_override = std::move(cpus);
 }
 
+std::string cpu_list_text(const std::vector<int>& cpus) {
+  std::string s;
+  for (std::size_t i = 0; i < cpus.size();) {
+    std::size_t j = i;
+    while (j + 1 < cpus.size() && cpus[j + 1] == cpus[j] + 1)
+      ++j;
+    s += (s.empty() ? "" : ",") + std::to_string(cpus[i]) +
+         (j > i ? "-" + std::to_string(cpus[j]) : "");
+    i = j + 1;
+  }
+  return s.empty() ? "none" : s;
+}
+
 std::vector<int> usable_cpus() {
   {
     const std::lock_guard lock(g_override_mutex);

@@ -51,6 +51,8 @@ std::vector<int> usable_cpus();
 // Set by hw/housekeeping.h's pin (the mask before it pinned the calling thread), cleared (empty)
 // when it is released.
 void set_usable_cpus_override(std::vector<int> cpus);
+// CPUs as Linux writes a CPU list: "0-3,8", "none" for none (`cpus` ascending).
+std::string cpu_list_text(const std::vector<int>& cpus);
 
 // One thread of this process as /proc/self/task/<tid>/stat shows it.
 struct ThreadSchedInfo {

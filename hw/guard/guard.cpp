@@ -89,17 +89,25 @@ std::string Guard::repair_after_crash() {
   return record;
 }
 
+std::vector<std::pair<std::string, std::string>> core_problems(const GuardSettings& s) {
+  const auto cpus = usable_cpus();
+  std::vector<std::pair<std::string, std::string>> problems;
+  const auto check = [&](const std::string& at, int core) {
+    if (std::find(cpus.begin(), cpus.end(), core) == cpus.end())
+      problems.emplace_back(
+          at, "core " + std::to_string(core) +
+                  " is not usable on this host (usable CPUs: " + cpu_list_text(cpus) + ")");
+  };
+  for (std::size_t i = 0; i < s.nrt.size(); ++i)
+    check("/nrt/" + std::to_string(i) + "/core", s.nrt[i].core);
+  if (s.controller_core >= 0) check("/controller/core", s.controller_core);
+  return problems;
+}
+
 // Every nRT core, and the controller's, must be usable here.
 void Guard::check_cores() const {
-  const auto cpus = usable_cpus();
-  for (std::size_t i = 0; i < s_.nrt.size(); ++i)
-    if (std::find(cpus.begin(), cpus.end(), s_.nrt[i].core) == cpus.end())
-      throw InputError(s_.file, "/nrt/" + std::to_string(i) + "/core",
-                       "core " + std::to_string(s_.nrt[i].core) + " is not usable on this host");
-  if (s_.controller_core >= 0 &&
-      std::find(cpus.begin(), cpus.end(), s_.controller_core) == cpus.end())
-    throw InputError(s_.file, "/controller/core",
-                     "core " + std::to_string(s_.controller_core) + " is not usable on this host");
+  if (const auto problems = core_problems(s_); !problems.empty())
+    throw InputError(s_.file, problems);
 }
 
 // How the cores are measured: the hardware PMU's L2 refills and write-backs where perf provides

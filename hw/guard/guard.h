@@ -36,6 +36,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hw/guard/core_tasks.h"
@@ -89,6 +90,11 @@ struct ActivitySignal {
   std::string publisher;
   bool gone = false;
 };
+
+// What this host lacks for a configuration: each configured core (nRT, controller) that is not
+// usable here, as (JSON pointer, message). The guard refuses to start with any; `guard --check`
+// warns of them (a configuration is often checked on another machine than its own).
+std::vector<std::pair<std::string, std::string>> core_problems(const GuardSettings& s);
 
 class ActivitySource {
  public:

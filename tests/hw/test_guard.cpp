@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -627,4 +628,40 @@ TEST_CASE("rosguard guard --help gives the guard's own examples, not the quickst
   CHECK_THAT(out, Catch::Contains("rosguard guard /etc/rosguard/guard.json --check") &&
                       Catch::Contains("kill -HUP") && Catch::Contains("docs/guard.md") &&
                       !Catch::Contains("Start here") && !Catch::Contains("quickstart"));
+}
+
+TEST_CASE(
+    "rosguard guard --check: a valid file with a core this host lacks is printed, with a "
+    "warning that the guard would refuse to start here",
+    "[hw][guard][cli]") {
+  const auto cpus = usable_cpus();
+  const int missing = cpus.back() + 1;
+  const fs::path dir =
+      fs::temp_directory_path() / ("rosguard-guard-check-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const nlohmann::json doc = {{"name", "elsewhere"},
+                              {"controller", {{"core", cpus.front()}}},
+                              {"rt", {{{"name", "planner"}}}},
+                              {"nrt", {{{"name", "be"}, {"core", missing}}}},
+                              {"regulation", {{"threshold_pct", 10}, {"reference_mbps", 1000}}}};
+  std::ofstream(dir / "guard.json") << doc.dump(2);
+  const std::string cmd = std::string(ROSGUARD_BINARY) + " guard " + (dir / "guard.json").string() +
+                          " --check 2>" + (dir / "err").string();
+  FILE* p = ::popen(cmd.c_str(), "r");
+  REQUIRE(p);
+  std::string out;
+  char buf[4096];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;)
+    out.append(buf, n);
+  const int status = ::pclose(p);
+  std::ifstream in(dir / "err");
+  const std::string err((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  fs::remove_all(dir);
+  INFO(out << err);
+  CHECK(WEXITSTATUS(status) == 0);
+  CHECK(nlohmann::json::parse(out).at("nrt").at(0).at("core") == missing);
+  CHECK_THAT(err, Catch::Contains("warning: ") &&
+                      Catch::Contains("/nrt/0/core: core " + std::to_string(missing) +
+                                      " is not usable on this host") &&
+                      Catch::Contains("the guard would refuse to start on this host"));
 }

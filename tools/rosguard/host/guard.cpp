@@ -90,6 +90,10 @@ int guard_command(const GuardArgs& args, Loader& loader, const PolicyRegistry& p
   const hw::GuardSettings settings = load_guard(args.config, loader, policies, &doc);
   if (args.check) {
     std::cout << doc.dump(2) << "\n";
+    // The file is valid; what this host lacks is said, not refused: the guard itself refuses it.
+    for (const auto& [at, message] : hw::core_problems(settings))
+      std::cerr << "warning: " << settings.file << ": " << at << ": " << message
+                << ": the guard would refuse to start on this host\n";
     return 0;
   }
   // One malloc arena for all of the daemon's threads, set before any starts. glibc gives each

@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "hw/common/clock.h"
 #include "hw/common/sys.h"
+#include "hw/pmc_source/perf.h"
 
 namespace rosguard::hw {
 namespace {
@@ -123,7 +124,38 @@ long long thread_cpu_ns_of(pid_t tid) {
   return std::strtoll(buf, nullptr, 10);
 }
 
+const NamedEvent& task_clock_event() {
+  static const NamedEvent e{"task_clock", *software_event("task_clock")};
+  return e;
+}
+
 }  // namespace
+
+std::optional<std::string> task_clock_unavailable() {
+  try {
+    open_perf_group({task_clock_event()}, PmcTarget{});
+    return std::nullopt;
+  } catch (const RunError& e) {
+    return std::string(e.what());
+  }
+}
+
+long long CpuTimeGroup::thread_ns(pid_t tid) {
+  if (!task_clock_) return thread_cpu_ns_of(tid);
+  auto it = clocks_.find(tid);
+  if (it == clocks_.end()) {
+    PmcTarget t;
+    t.pid = tid;
+    try {
+      it = clocks_.emplace(tid, open_perf_group({task_clock_event()}, t)).first;
+    } catch (const RunError&) {
+      return -1;  // gone before it could be counted
+    }
+  }
+  CounterValue v;
+  it->second->read(std::span(&v, 1));
+  return static_cast<long long>(v.value);
+}
 
 void CpuTimeGroup::publish(std::vector<pid_t> tids) {
   std::lock_guard lock(mutex_);
@@ -143,13 +175,14 @@ void CpuTimeGroup::read(std::span<CounterValue> out) {
       ended_ns_ += it->second;
       total += it->second;
       base_.erase(it->first);
+      clocks_.erase(it->first);
       it = last_.erase(it);
     } else {
       ++it;
     }
   }
   for (pid_t tid : tids_) {
-    const long long ns = thread_cpu_ns_of(tid);
+    const long long ns = thread_ns(tid);
     auto it = last_.find(tid);
     if (ns < 0) continue;  // gone: dropped at the next list
     // Counted from when it was first seen pinned (its earlier CPU time is not this core's).

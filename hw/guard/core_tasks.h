@@ -8,7 +8,10 @@
 //   still alive back as it was (policy, nice value, cgroup). fifo needs nothing of them.
 // - CpuTimeGroup is a CounterGroup read by the controller thread: the CPU time (ns) of the threads
 //   pinned to its core, cumulative (threads that ended keep their last reading). It never blocks
-//   on the main thread: it takes the latest list rescan() published with a try_lock.
+//   on the main thread: it takes the latest list rescan() published with a try_lock. It reads
+//   each thread's perf task clock (a software event, exact at every read: the kernel brings a
+//   running thread's clock up to date) where the host opens one (task_clock_unavailable()), else
+//   /proc/<tid>/schedstat, which a running thread's scheduler tick updates (4 ms at HZ=250).
 // - Threads under a real-time policy are left alone (noted once): the guard regulates work that
 //   the scheduler can preempt, not another real-time program.
 // - Crash safety: with a record file (the guard's `state_dir`), every change CoreTasks makes to
@@ -24,6 +27,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,8 +36,13 @@
 
 namespace rosguard::hw {
 
+// Why this host opens no perf task clock on a thread (nullopt: it does).
+std::optional<std::string> task_clock_unavailable();
+
 class CpuTimeGroup : public CounterGroup {
  public:
+  // task_clock: read perf task clocks (else schedstat).
+  explicit CpuTimeGroup(bool task_clock) : task_clock_(task_clock) {}
   std::size_t size() const override { return 1; }
   void read(std::span<CounterValue> out) override;
   // Main thread: the threads pinned to the core now.
@@ -42,10 +51,15 @@ class CpuTimeGroup : public CounterGroup {
  private:
   std::mutex mutex_;
   std::vector<pid_t> published_;  // guarded by mutex_
+  // CPU time of a thread in ns, or -1 when it is gone (controller thread).
+  long long thread_ns(pid_t tid);
+
+  const bool task_clock_;
   // Controller thread only:
   std::vector<pid_t> tids_;
-  std::map<pid_t, std::uint64_t> last_;  // CPU time since first seen pinned
-  std::map<pid_t, std::uint64_t> base_;  // its CPU time when first seen
+  std::map<pid_t, std::unique_ptr<CounterGroup>> clocks_;  // task_clock_: each thread's
+  std::map<pid_t, std::uint64_t> last_;                    // CPU time since first seen pinned
+  std::map<pid_t, std::uint64_t> base_;                    // its CPU time when first seen
   std::uint64_t ended_ns_ = 0;
   TimeNs first_ = -1;
 };

@@ -131,11 +131,20 @@ void Guard::choose_source() {
     group_events_ = {"l2d_cache_refill", "l2d_cache_wb"};
   } else {
     source_name_ = "cputime";
+    const auto no_clock = task_clock_unavailable();
+    task_clock_ = !no_clock;
     source_why_ =
         "cputime: " + (s_.source == GuardSource::Auto ? no_pmu + ", so " : std::string()) +
-        "the budget is CPU time, not bandwidth: the CPU time of the processes pinned to each core "
-        "(/proc/<tid>/schedstat) x reference_mbps; a core may run its processes threshold_pct % "
-        "of each window";
+        "the budget is CPU time, not bandwidth: the CPU time of the processes pinned to each "
+        "core " +
+        (task_clock_ ? "(each thread's perf task clock)" : "(/proc/<tid>/schedstat)") +
+        " x reference_mbps; a core may run its processes threshold_pct % of each window";
+    if (no_clock)
+      start_log_.push_back("warning: fallback (cputime): no perf task clock opens here (" +
+                           *no_clock +
+                           "), so CPU time is read from /proc/<tid>/schedstat, which moves only at "
+                           "the scheduler's ticks: a core may overrun its budget by up to a tick "
+                           "per window");
     MetricSpec& m = s_.regulation.metric;
     m.line_bytes = 64;
     m.events = {{"task_clock", s_.regulation.params.reference_mbps * kBytesPerMb / 1e9 / 64.0}};
@@ -157,6 +166,10 @@ void Guard::wire(const RtThread::ErrorHandler& on_error, const std::string& reco
   cc.sampling = Sampling::External;
   cc.sampling_period_ns = s_.regulation.sampling_period_ns;
   cc.keepalive_ns = std::max<TimeNs>(kNsPerMs, s_.watchdog_ns / 4);
+  // CPU time is spent at one ns per ns at most: a read is due when a core could have spent its
+  // budget's remainder, not only every sampling period (ControllerDriverConfig).
+  if (source_name_ == "cputime")
+    cc.max_bytes_per_ns = s_.regulation.params.reference_mbps * kBytesPerMb / 1e9;
   cc.metric_events = group_events_.size();
   cc.keep_measurements = false;
   cc.notes = &notes_;
@@ -189,7 +202,7 @@ void Guard::wire(const RtThread::ErrorHandler& on_error, const std::string& reco
       t.cpu = c.core;
       group = perf_->open(group_events_, t);
     } else {
-      auto g = std::make_unique<CpuTimeGroup>();
+      auto g = std::make_unique<CpuTimeGroup>(task_clock_);
       cpu = g.get();
       group = std::move(g);
     }

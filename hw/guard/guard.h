@@ -245,6 +245,7 @@ class Guard {
   std::vector<std::unique_ptr<Topic<ControlMsg>>> controls_;
   std::vector<std::unique_ptr<NrtRunner>> nodes_;
   std::vector<CpuTimeGroup*> cputime_;
+  bool task_clock_ = false;  // cputime: perf task clocks (else schedstat)
   std::unique_ptr<Controller> controller_;
   std::unique_ptr<CoreTasks> tasks_;
   std::shared_ptr<ErrorSink> error_sink_;

@@ -11,8 +11,9 @@ Controller::Controller(ControllerConfig config, std::unique_ptr<Regulator> regul
                        std::vector<Topic<ControlMsg>*> controls, EntityMeter* meter,
                        Waker& engine_waker, RtThread::ErrorHandler on_error, TimeNs origin)
     : cfg_(std::move(config)),
-      driver_({cfg_.sampling, cfg_.sampling_period_ns, cfg_.keepalive_ns, false},
-              std::move(regulator), meter),
+      driver_(
+          {cfg_.sampling, cfg_.sampling_period_ns, cfg_.keepalive_ns, false, cfg_.max_bytes_per_ns},
+          std::move(regulator), meter),
       rt_topic_(rt_topic),
       samples_(samples),
       controls_(std::move(controls)),

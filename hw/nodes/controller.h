@@ -66,6 +66,7 @@ struct ControllerConfig {
   Sampling sampling = Sampling::Self;
   TimeNs sampling_period_ns = kNsPerMs;
   TimeNs keepalive_ns = 25 * kNsPerMs;
+  double max_bytes_per_ns = 0.0;         // ControllerDriverConfig's: paced reads of a time metric
   std::vector<int> entity_cores;         // for the trace
   std::vector<std::size_t> group_sizes;  // events opened per entity (metric's first)
   std::size_t metric_events = 1;

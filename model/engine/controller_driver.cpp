@@ -1,6 +1,8 @@
 #include "engine/controller_driver.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include "core/error.h"
 
@@ -50,6 +52,7 @@ void ControllerDriver::sample(TimeNs t, std::size_t entity, std::span<const Coun
                               std::optional<TimeNs> measured, DriverOutput& out) {
   commands_.clear();
   regulator_->sample(t, entity, counters, commands_, measured);
+  pace_read(t);
   if (regulator_->active()) {
     const Account& acc = regulator_->accounts()[regulator_->entity(entity).account];
     if (acc.budget_bytes > 0)
@@ -63,11 +66,15 @@ void ControllerDriver::tick(TimeNs t, DriverOutput& out) {
   commands_.clear();
   const auto boundary = regulator_->next_tick();
   regulator_->tick(t, commands_);
+  pace_read(t);
   after_input(t, -1, out);
   // Overflow sampling has no periodic reads: each window's usage is measured from a reading at
   // its start (MemGuard's period timer reads its counter), not spread over the time since the
-  // last interrupt, most of which the core may have spent throttled in the previous window.
-  if (cfg_.sampling == Sampling::Overflow && boundary && t >= *boundary && regulator_->active())
+  // last interrupt, most of which the core may have spent throttled in the previous window. Paced
+  // reads (max_bytes_per_ns) start each window from a reading too, for the same reason.
+  const bool paced = cfg_.max_bytes_per_ns > 0.0 && periodic_reads();
+  if ((cfg_.sampling == Sampling::Overflow || paced) && boundary && t >= *boundary &&
+      regulator_->active())
     for (std::size_t e = 0; e < regulator_->entity_count(); ++e)
       out.reads.push_back(e);
 }
@@ -117,6 +124,7 @@ void ControllerDriver::activation_end(TimeNs t, DriverOutput& out) {
   was_active_ = false;
   next_window_.reset();
   next_read_.reset();
+  paced_read_.reset();
   totals_.active_ns += t - active_since_;
   for (std::size_t e = 0; e < at_activation_.size(); ++e) {
     const EntityReading now = meter_ ? meter_->read(e, t) : EntityReading{};
@@ -140,11 +148,47 @@ void ControllerDriver::close_window(TimeNs t, bool complete, DriverOutput& out) 
   ++window_index_;
 }
 
+std::optional<TimeNs> ControllerDriver::next_read() const {
+  if (paced_read_ && (!next_read_ || *paced_read_ < *next_read_)) return paced_read_;
+  return next_read_;
+}
+
+// The earliest time an ON entity could have spent what its account (or the global cap) has left
+// at max_bytes_per_ns per entity drawing on it; none while nothing can run out.
+void ControllerDriver::pace_read(TimeNs t) {
+  paced_read_.reset();
+  if (cfg_.max_bytes_per_ns <= 0.0 || !next_read_ || !periodic_reads()) return;
+  const GlobalAccount& g = regulator_->global();
+  if (g.released || g.capped) return;
+  std::vector<std::size_t> drawing(regulator_->accounts().size(), 0);
+  std::size_t on = 0;
+  for (std::size_t e = 0; e < regulator_->entity_count(); ++e)
+    if (regulator_->entity(e).state == NodeState::On) {
+      ++drawing[regulator_->entity(e).account];
+      ++on;
+    }
+  double ns = std::isfinite(g.cap_bytes) && on > 0
+                  ? (g.cap_bytes - g.used_bytes) / (cfg_.max_bytes_per_ns * static_cast<double>(on))
+                  : std::numeric_limits<double>::infinity();
+  for (std::size_t a = 0; a < drawing.size(); ++a) {
+    const Account& acc = regulator_->accounts()[a];
+    if (drawing[a] == 0 || acc.throttled || !std::isfinite(acc.budget_bytes)) continue;
+    ns = std::min(ns, (acc.budget_bytes - acc.used_bytes) /
+                          (cfg_.max_bytes_per_ns * static_cast<double>(drawing[a])));
+  }
+  if (!std::isfinite(ns)) return;
+  const TimeNs at = t + std::max<TimeNs>(kMinPacedReadNs, static_cast<TimeNs>(std::ceil(ns)));
+  if (at < *next_read_) paced_read_ = at;
+}
+
 void ControllerDriver::read_due(TimeNs t, DriverOutput& out) {
-  if (!next_read_ || t < *next_read_) return;
+  const bool paced = paced_read_ && t >= *paced_read_;
+  if (!paced && (!next_read_ || t < *next_read_)) return;
+  paced_read_.reset();
   for (std::size_t e = 0; e < regulator_->entity_count(); ++e)
     out.reads.push_back(e);
-  if (!periodic_reads()) {  // overflow sampling: the baseline only
+  if (t < *next_read_) return;  // a paced read: the periodic grid goes on
+  if (!periodic_reads()) {      // overflow sampling: the baseline only
     next_read_.reset();
     return;
   }
@@ -186,7 +230,7 @@ std::optional<TimeNs> ControllerDriver::next_tick() const {
 
 std::optional<TimeNs> ControllerDriver::next_wakeup() const {
   std::optional<TimeNs> best;
-  for (const auto& t : {next_tick(), next_read_, next_window_, next_keepalive_})
+  for (const auto& t : {next_tick(), next_read(), next_window_, next_keepalive_})
     if (t && (!best || *t < *best)) best = t;
   return best;
 }

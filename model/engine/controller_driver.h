@@ -109,7 +109,16 @@ struct ControllerDriverConfig {
   TimeNs sampling_period_ns = kNsPerMs;
   TimeNs keepalive_ns = 0;      // while an entity is not OFF; 0: no keep-alives
   bool record_windows = false;  // per regulation window traffic (policies with periodic windows)
+  // Periodic external reads of a metric whose top rate is known (CPU time: a core spends at most
+  // one ns of it per ns): bytes an entity can use per ns at most (0: unknown). A read is then
+  // also due when an ON entity could have spent its account's remainder at that rate (not sooner
+  // than kMinPacedReadNs after the last), so a budget smaller than a sampling period is still
+  // caught when it runs out, not up to a period later.
+  double max_bytes_per_ns = 0.0;
 };
+
+// The closest paced reads (max_bytes_per_ns) follow each other.
+inline constexpr TimeNs kMinPacedReadNs = 20 * kNsPerUs;
 
 class ControllerDriver {
  public:
@@ -131,7 +140,7 @@ class ControllerDriver {
   void finish(TimeNs t, DriverOutput& out);
 
   std::optional<TimeNs> next_tick() const;
-  std::optional<TimeNs> next_read() const { return next_read_; }
+  std::optional<TimeNs> next_read() const;
   std::optional<TimeNs> next_window() const { return next_window_; }
   std::optional<TimeNs> next_keepalive() const { return next_keepalive_; }
   std::optional<TimeNs> next_wakeup() const;
@@ -162,7 +171,10 @@ class ControllerDriver {
   std::vector<double> window_bytes_start_;
   TimeNs window_start_ = 0;
   std::size_t window_index_ = 0;
+  void pace_read(TimeNs t);
+
   std::optional<TimeNs> next_read_, next_window_, next_keepalive_;
+  std::optional<TimeNs> paced_read_;  // max_bytes_per_ns: before next_read_ where a budget runs out
   ActivationTotals totals_;
   std::vector<WindowUsage> windows_;
 };

@@ -131,7 +131,8 @@ class Stress {
 };
 
 GuardSettings settings_for(int ctl, int core, double threshold_pct,
-                           const std::string& policy = "interval") {
+                           const std::string& policy = "interval",
+                           std::int64_t regulation_period_us = 10000) {
   GuardSettings s;
   s.name = "test";
   s.file = "test";
@@ -142,7 +143,7 @@ GuardSettings settings_for(int ctl, int core, double threshold_pct,
   r.policy = policy;
   r.sampling = Sampling::External;
   r.sampling_period_us = 1000;
-  r.regulation_period_us = 10000;
+  r.regulation_period_us = regulation_period_us;
   r.threshold_pct = threshold_pct;
   r.reference_mbps = 1000.0;  // cputime: the budget is threshold_pct % of each window's time
   s.regulation = regulation_setup(r, {1, 1}, builtin_registry(), "test");
@@ -364,6 +365,51 @@ TEST_CASE("guard holds a pinned stress-ng to its budget while the RT node is act
   CHECK(st.all_sched_other());
   CHECK_THAT(log.str(), Catch::Contains("stopped: 1 core(s) back to nominal") &&
                             Catch::Contains("0 thread(s) left under SCHED_FIFO"));
+}
+
+TEST_CASE(
+    "guard, cputime source: a pinned stress-ng gets at most its budget plus one sampling period "
+    "and the throttle's activation per window, at 2, 10 and 50 %",
+    "[hw][guard]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng, taskset and two CPUs");
+    return;
+  }
+  const int core = cpus.back(), ctl = cpus.front();
+  Stress st(core);
+  for (const double pct : {2.0, 10.0, 50.0}) {
+    InprocActivity activity;
+    Recorder rec;
+    std::ostringstream log;
+    GuardSettings s = settings_for(ctl, core, pct, "interval", 5000);
+    s.source = GuardSource::Cputime;
+    Guard g(s, activity, rec, log);
+    g.start();
+    serve_for(g, std::chrono::milliseconds(300));  // a rescan finds stress-ng
+    const double before = share_while_serving(g, st, std::chrono::milliseconds(300));
+    activity.signal(0, true);
+    serve_for(g, std::chrono::milliseconds(50));
+    const double active = share_while_serving(g, st, std::chrono::milliseconds(1500));
+    activity.signal(0, false);
+    serve_for(g, std::chrono::milliseconds(50));
+    double activation_us = 0.0;
+    for (const auto& m : g.throttle().measured)
+      if (m.kind == g.throttle().kind) activation_us = m.activation_us;
+    g.shutdown();
+    // The documented bound (docs/guard.md): per 5 ms window the budget, one 1 ms sampling period
+    // and the throttle's activation delay as the guard measured it at start.
+    const double bound = pct / 100.0 + (1000.0 + activation_us) / 5000.0;
+    INFO(log.str());
+    INFO("threshold " << pct << " %: stress-ng's share " << active << " (unregulated " << before
+                      << "), bound " << bound << " (activation " << activation_us << " us)");
+    CHECK_THAT(log.str(),
+               Catch::Contains("perf task clock") || Catch::Contains("fallback (cputime)"));
+    CHECK(g.stats().throttles > 10);
+    CHECK(active <= bound);
+    if (before < kQuiet)
+      WARN("other work held the core (stress-ng got " << before << " of it unregulated)");
+  }
 }
 
 TEST_CASE("guard reload: a new threshold from the next window, regulation never pauses",

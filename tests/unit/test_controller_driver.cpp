@@ -168,3 +168,40 @@ TEST_CASE("controller driver: finish() closes an open activation's accounting on
   CHECK(rig.out.commands.empty());
   CHECK(rig.driver.totals().active_ns == ms(3));
 }
+
+TEST_CASE(
+    "controller driver: with a known top rate, a read is due when the budget's remainder could "
+    "be spent, and at each window's start",
+    "[engine][controller]") {
+  // The budget (16 384 lines x 64 B per 5 ms window) takes 2 ms to spend at the top rate.
+  const double rate = static_cast<double>(kBudgetLines) * 64.0 / static_cast<double>(ms(2));
+  DriverRig rig({Sampling::External, ms(1), 0, false, rate}, make_interval_policy(params()), 1);
+  rig.driver.rt_signal(0, 0, true, rig.out);
+  rig.driver.read_due(0, rig.out);
+  rig.sample(us(5), 0, 0, 0);  // baseline: 2 ms of budget left, after the next periodic read
+  CHECK(rig.driver.next_read() == ms(1));
+  rig.driver.read_due(ms(1), rig.out);
+  rig.sample(ms(1) + us(5), 0, kBudgetLines * 3 / 4, ms(1));  // a quarter left: 0.5 ms
+  CHECK(rig.driver.next_read() == ms(1) + us(5) + us(500));
+  rig.out.clear();
+  rig.driver.read_due(ms(1) + us(505), rig.out);
+  CHECK(rig.out.reads == std::vector<std::size_t>{0});
+  CHECK(rig.driver.next_read() == ms(2));                              // the periodic grid goes on
+  rig.sample(ms(1) + us(510), 0, kBudgetLines - 10, ms(1) + us(505));  // 10 lines left
+  CHECK(rig.driver.next_read() == ms(1) + us(510) + kMinPacedReadNs);  // not sooner
+  rig.sample(ms(1) + us(540), 0, kBudgetLines + 1, ms(1) + us(535));
+  CHECK(rig.out.commands.back().command == Thr);
+  CHECK(rig.driver.next_read() == ms(2));  // throttled: nothing to run out
+  rig.out.clear();
+  rig.driver.tick(ms(5), rig.out);  // replenished: the new window starts from a reading
+  CHECK(rig.out.commands == std::vector<DriverCommand>{{ms(5), 0, Rep, -1}});
+  CHECK(rig.out.reads == std::vector<std::size_t>{0});
+  SECTION("without a top rate, reads stay on the grid") {
+    DriverRig grid({Sampling::External, ms(1), 0, false}, make_interval_policy(params()), 1);
+    grid.driver.rt_signal(0, 0, true, grid.out);
+    grid.driver.read_due(0, grid.out);
+    grid.sample(us(5), 0, 0, 0);
+    grid.sample(ms(1) + us(5), 0, kBudgetLines * 3 / 4, ms(1));
+    CHECK(grid.driver.next_read() == ms(1));
+  }
+}

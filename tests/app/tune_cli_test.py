@@ -20,6 +20,11 @@ Cases:
                 best setting), stopped (tune.json gone, the process ended: how to run it again),
                 interrupted, and while it runs (its process group stopped mid-search);
                 --json of the finished and the stopped one.
+  emit-guard    --emit-guard for each policy the guard deploys: the file is tune's best as a
+                guard configuration (monolithic: rt_window_us the RT node's time alone) and
+                `rosguard guard FILE --check` accepts it; --deployable guard simulates external
+                sampling only, the rest noted with the reason; exit 2 when nothing is
+                deployable, 1 and no file when nothing meets the bound.
   confirm-hw    --confirm hw on the 2-core example measures the winner and the unregulated
                 co-run on this machine (SKIPPED where the hw backend cannot run here).
 """
@@ -412,6 +417,77 @@ elif CASE == "confirm-hw":
         fail(f"confirm-hw manifest: backend {m['backend']}, status {m['status']}")
     if "RT sim" not in text or "RT hw" not in text:
         fail("the sim prediction and the hw measurement are not printed side by side")
+elif CASE == "emit-guard":
+    base = json.load(open("scenarios/examples/tune.json"))
+    base["$schema"] = os.path.abspath("scenarios/schema/scenario.schema.json")
+    base["sweep"] = {}
+    base["regulation"]["sampling"] = "external"
+
+    def scenario(name, **changes):
+        doc = json.loads(json.dumps(base))
+        doc["name"] = name
+        for k, v in changes.items():
+            doc[k] = v
+        path = f"{TMP}/{name}.json"
+        json.dump(doc, open(path, "w"))
+        return path
+
+    # Each policy the guard deploys: the emitted file is a guard configuration of the winner.
+    for policy in ("interval", "monolithic", "memguard", "mempol"):
+        s = scenario(f"emit-{policy}", sweep={"regulation.policy": [policy]})
+        out, cfg = f"{TMP}/out-{policy}", f"{TMP}/guard-{policy}.json"
+        code, text = cli("tune", s, "--rt-slowdown-max", "1.5", "--thresholds", "2,5,10,20,40",
+                         "--out", out, "--emit-guard", cfg, "--jobs", "2")
+        if code != 0 or not os.path.exists(cfg):
+            fail(f"{policy}: tune --emit-guard exited {code}, {cfg} written: "
+                 f"{os.path.exists(cfg)}\n{text}")
+        best = json.load(open(f"{out}/tune.json"))["best"]
+        g = json.load(open(cfg))
+        r = g["regulation"]
+        if (r["policy"], r["threshold_pct"], r["sampling_period_us"]) != \
+                (policy, best["threshold_pct"], best["sampling_period_us"]):
+            fail(f"{policy}: the guard's regulation {r} is not tune's best {best}")
+        if g["rt"] != [{"name": "rt0"}] or g["nrt"] != [{"name": "nrt0", "core": 2}] or \
+                g["controller"] != {"core": 0}:
+            fail(f"{policy}: the guard's nodes are not the scenario's: {g}")
+        iso = {float(x["rt_isolation_us"]) for x in rows(out)
+               if x["point"] == best["cases"][0]["point"] and x["rt_name"] == "rt0"}
+        if policy == "monolithic":
+            if r.get("rt_window_us") != round(max(iso)):
+                fail(f"monolithic: rt_window_us {r.get('rt_window_us')}, rt0 alone {iso}")
+        elif "rt_window_us" in r:
+            fail(f"{policy}: rt_window_us in a periodic policy's configuration: {r}")
+        code, text = cli("guard", cfg, "--check")
+        if code != 0 or json.loads(text[:text.rfind("}") + 1])["regulation"]["policy"] != policy:
+            fail(f"{policy}: rosguard guard --check exited {code}:\n{text}")
+    # The default space, deployable only: every simulated setting samples externally; the rest
+    # is named in the notes with the reason.
+    s = scenario("emit-default")
+    code, text = cli("tune", s, "--rt-slowdown-max", "1.5", "--thresholds", "5,20",
+                     "--out", f"{TMP}/out-default", "--deployable", "guard", "--jobs", "2")
+    t = json.load(open(f"{TMP}/out-default/tune.json"))
+    samplings = {x["sampling"] for x in t["settings"]}
+    if code != 0 or samplings != {"external"}:
+        fail(f"--deployable guard exited {code}, simulated samplings {samplings}\n{text}")
+    for why in ("self sampling needs the regulated program", "does not arm per-core PMU overflow",
+                "debug registers"):
+        if not any(why in n for n in t["notes"]):
+            fail(f"no note says '{why}': {t['notes']}")
+    # Self sampling only: nothing to deploy, exit 2 with what to change; no bound met: exit 1
+    # and nothing written.
+    regulation = dict(base["regulation"], sampling="self")
+    s = scenario("emit-self", regulation=regulation, sweep={"regulation.policy": ["interval"]})
+    code, text = cli("tune", s, "--rt-slowdown-max", "1.5", "--out", f"{TMP}/out-self",
+                     "--emit-guard", f"{TMP}/guard-self.json")
+    if code != 2 or 'set regulation.sampling to "external"' not in text or \
+            os.path.exists(f"{TMP}/guard-self.json"):
+        fail(f"self sampling only: exit {code}, expected 2 with what to change:\n{text}")
+    s = scenario("emit-none", sweep={"regulation.policy": ["interval"]})
+    code, text = cli("tune", s, "--rt-slowdown-max", "1.0", "--thresholds", "40",
+                     "--out", f"{TMP}/out-none", "--emit-guard", f"{TMP}/guard-none.json")
+    if code != 1 or os.path.exists(f"{TMP}/guard-none.json") or \
+            "no guard configuration written" not in text:
+        fail(f"no setting meets 1.0: exit {code}, expected 1 and no file:\n{text}")
 else:
     fail("unknown case " + CASE)
 print("ok: " + CASE)

@@ -412,6 +412,88 @@ TEST_CASE(
   }
 }
 
+TEST_CASE(
+    "guard runs every policy tune can choose: monolithic throttles once per RT execution, "
+    "memguard and mempol every window",
+    "[hw][guard]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng, taskset and two CPUs");
+    return;
+  }
+  const int core = cpus.back(), ctl = cpus.front();
+  Stress st(core);
+  for (const std::string policy : {"monolithic", "memguard", "mempol"}) {
+    InprocActivity activity;
+    Recorder rec;
+    std::ostringstream log;
+    GuardSettings s = settings_for(ctl, core, 10.0, policy);
+    s.source = GuardSource::Cputime;
+    // monolithic: 10 % of a 100 ms RT execution, 10 ms of CPU time, spent early in each 400 ms
+    // activation.
+    s.regulation.params.monolithic_window_ns = 100 * kNsPerMs;
+    Guard g(s, activity, rec, log);
+    g.start();
+    serve_for(g, std::chrono::milliseconds(300));  // a rescan finds stress-ng
+    for (int job = 0; job < 2; ++job) {
+      activity.signal(0, true);
+      serve_for(g, std::chrono::milliseconds(400));
+      activity.signal(0, false);
+      serve_for(g, std::chrono::milliseconds(100));
+    }
+    g.shutdown();
+    INFO(policy << ":\n" << log.str());
+    CHECK_THAT(log.str(),
+               Catch::Contains("regulating be (CPU " + std::to_string(core) + ") with " + policy));
+    CHECK(g.stats().activations == 2);
+    if (policy == "monolithic")
+      CHECK(g.stats().throttles == 2);
+    else
+      CHECK(g.stats().throttles > 20);  // 10 ms windows, 800 ms active
+  }
+  CHECK(st.all_sched_other());
+}
+
+TEST_CASE("rosguard guard --check: monolithic needs rt_window_us, and no other policy takes it",
+          "[hw][guard][cli]") {
+  const fs::path dir =
+      fs::temp_directory_path() / ("rosguard-guard-window-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const auto check = [&](const nlohmann::json& regulation) {
+    const nlohmann::json doc = {{"name", "window"},
+                                {"controller", {{"core", 0}}},
+                                {"rt", {{{"name", "planner"}}}},
+                                {"nrt", {{{"name", "be"}, {"core", 1}}}},
+                                {"regulation", regulation}};
+    std::ofstream(dir / "guard.json") << doc.dump(2);
+    const std::string cmd =
+        std::string(ROSGUARD_BINARY) + " guard " + (dir / "guard.json").string() + " --check 2>&1";
+    FILE* p = ::popen(cmd.c_str(), "r");
+    REQUIRE(p);
+    std::string out;
+    char buf[4096];
+    for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;)
+      out.append(buf, n);
+    return std::make_pair(WEXITSTATUS(::pclose(p)), out);
+  };
+  const nlohmann::json base = {{"threshold_pct", 10}, {"reference_mbps", 1000}};
+  auto r = base;
+  r["policy"] = "monolithic";
+  const auto [no_window, said] = check(r);
+  CHECK(no_window == 2);
+  CHECK_THAT(said, Catch::Contains("/regulation/rt_window_us") &&
+                       Catch::Contains("policy \"monolithic\" needs"));
+  r["rt_window_us"] = 120000;
+  const auto [with_window, printed] = check(r);
+  CHECK(with_window == 0);
+  CHECK_THAT(printed, Catch::Contains("\"rt_window_us\": 120000"));
+  r["policy"] = "memguard";
+  const auto [other, refused] = check(r);
+  CHECK(other == 2);
+  CHECK_THAT(refused, Catch::Contains("only policy \"monolithic\" uses rt_window_us"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("guard reload: a new threshold from the next window, regulation never pauses",
           "[hw][guard][reload]") {
   const auto cpus = usable_cpus();

@@ -29,6 +29,14 @@ CommandHandler setup_tune(CLI::App& sub) {
   sub.add_option("--out", opt.out, "Results folder (default: results/<scenario name>/tune)");
   sub.add_option("--jobs", opt.jobs, "Worker processes for sim (default: all CPUs)")
       ->check(CLI::Range(1, 65536));
+  sub.add_option("--deployable", opt.deployable,
+                 "guard: search only the settings `rosguard guard` deploys (external sampling, "
+                 "periods from 100 us, budgets by threshold; each setting left out is noted with "
+                 "the reason)")
+      ->check(CLI::IsMember({"guard"}));
+  sub.add_option("--emit-guard", opt.emit_guard,
+                 "Write the best setting as a guard configuration to this file (for `rosguard "
+                 "guard FILE`; implies --deployable guard)");
   sub.add_flag("--overwrite", opt.overwrite, "Replace an earlier tune in --out");
   sub.add_flag("--quiet", opt.quiet, "No progress on stderr");
   sub.footer(
@@ -44,8 +52,9 @@ CommandHandler setup_tune(CLI::App& sub) {
       "it); a configuration whose probes contradict that is scanned, with a note.\n"
       "Writes OUT/tune.json, OUT/points.csv (every simulated setting; rosguard plot OUT) and "
       "OUT/probes/ (unregulated/, step-NN/: one run folder per batch; rosguard status OUT "
-      "follows them). Exit 0: a setting meets the bound; 1: none does (the closest is printed); 2: "
-      "invalid input.");
+      "follows them); with --emit-guard, the guard configuration (rosguard guard FILE --check). "
+      "Exit 0: a setting meets the bound; 1: none does (the closest is printed, no guard "
+      "configuration is written); 2: invalid input.");
   return [options](const CommandContext& c) {
     options->command_line = c.command_line;
     return tune_scenario(*options, c.loader, c.backends, c.policies);

@@ -701,9 +701,18 @@ LoadedGuard Loader::load_guard(const std::string& file, const PolicyRegistry& po
     spec.name = n.value("name", "core" + std::to_string(spec.core));
     nodes.nrt.push_back(std::move(spec));
   }
+  const bool monolithic = reg.at("policy") == "monolithic";
+  if (monolithic != reg.contains("rt_window_us"))
+    throw InputError(out.file, "/regulation/rt_window_us",
+                     monolithic ? "policy \"monolithic\" needs the RT execution its budget covers "
+                                  "(rt_window_us: the RT node's time alone, in us)"
+                                : "only policy \"monolithic\" uses rt_window_us (this is \"" +
+                                      reg.at("policy").get<std::string>() + "\")");
   const RegulationSpec spec = build_regulation(reg, PlatformInfo{}, nodes, out.file);
   out.regulation =
       regulation_setup(spec, {doc.at("rt").size(), nodes.nrt.size()}, policies, out.file);
+  if (monolithic)
+    out.regulation.params.monolithic_window_ns = reg.at("rt_window_us").get<TimeNs>() * kNsPerUs;
   return out;
 }
 

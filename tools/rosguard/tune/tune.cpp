@@ -19,6 +19,7 @@
 #include "results/results.h"
 #include "run/runner.h"
 #include "scenario/sweep.h"
+#include "tune/guard_config.h"
 
 namespace rosguard {
 namespace fs = std::filesystem;
@@ -275,6 +276,9 @@ class Tuner {
   nlohmann::json tune_json(const Outcome& o) const;
   int confirm_hw(const Eval& best, const Eval* unregulated, json& doc);
   void note(const std::string& text) { notes_.push_back(text); }
+  bool for_guard() const { return opt_.deployable == "guard" || !opt_.emit_guard.empty(); }
+  // --emit-guard: the best setting as a guard configuration, checked as the guard reads it.
+  void emit_guard(const Eval& best);
 
   const TuneOptions& opt_;
   Loader& loader_;
@@ -609,11 +613,35 @@ void Tuner::keep_valid_configs() {
     }
   }
   searches_ = std::move(valid);
+  if (for_guard()) {
+    if (const auto why = guard_placement_refusal(src_.points.front().scenario.nodes))
+      throw InputError(file, "/nodes", "rosguard guard cannot deploy this scenario: " + *why);
+    std::vector<Search> deployable;
+    std::map<std::string, std::vector<std::string>> left_out;  // reason -> labels
+    for (auto& s : searches_) {
+      if (const auto why = guard_refusal(config_paths_, s.config))
+        left_out[*why].push_back(s.label);
+      else
+        deployable.push_back(std::move(s));
+    }
+    for (const auto& [why, labels] : left_out) {
+      std::string text;
+      for (const auto& l : labels)
+        text += (text.empty() ? "" : "; ") + l;
+      note("rosguard guard cannot deploy " + std::to_string(labels.size()) +
+           " configuration(s), left out: " + why + " (" + text + ")");
+    }
+    searches_ = std::move(deployable);
+  }
   if (searches_.empty()) {
     std::string why;
     for (const auto& n : notes_)
       why += "; " + n;
-    throw InputError(file, "/sweep", "no regulation setting to search" + why);
+    throw InputError(file, "/sweep",
+                     "no regulation setting to search" + why +
+                         (for_guard() ? " (rosguard guard samples externally: set "
+                                        "regulation.sampling to \"external\", or sweep it)"
+                                      : ""));
   }
   // --confirm hw: the scenario must run on this machine before the search spends its time.
   if (opt_.confirm == "hw") {
@@ -1132,6 +1160,56 @@ json Tuner::tune_json(const Outcome& o) const {
   return doc;
 }
 
+void Tuner::emit_guard(const Eval& best) {
+  const Scenario& sc = src_.points.front().scenario;
+  TunedSetting t;
+  t.paths = config_paths_;
+  t.values = json::array();
+  for (std::size_t c = 0; c < config_paths_.size(); ++c)
+    t.values.push_back(best.setting.at(c));
+  t.threshold_pct = best.setting.at(config_paths_.size()).get<double>();
+  // The reference and the RT node's time alone as the winner's points ran them.
+  std::set<std::string> points;
+  for (const auto& [key, c] : best.cases)
+    points.insert(c.point);
+  const auto rows = split_lines(read_file(dir_ / "points.csv"));
+  const std::vector<std::string> head = csv_split(rows.at(0));
+  const auto col = [&](const std::string& name) {
+    const auto it = std::find(head.begin(), head.end(), name);
+    if (it == head.end()) throw ContractError("points.csv has no column " + name);
+    return static_cast<std::size_t>(it - head.begin());
+  };
+  const std::size_t c_point = col("point"), c_ref = col("reference_mbps"), c_rt = col("rt_name"),
+                    c_iso = col("rt_isolation_us");
+  double iso_us = 0.0;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const auto cells = csv_split(rows[i]);
+    if (!points.count(cells.at(c_point))) continue;
+    t.reference_mbps = std::stod(cells.at(c_ref));
+    if (cells.at(c_rt) == sc.nodes.rt.front().name && !cells.at(c_iso).empty())
+      iso_us = std::max(iso_us, std::stod(cells.at(c_iso)));
+  }
+  if (iso_us > 0) t.rt_isolation_us = std::llround(iso_us);
+  std::ostringstream d;
+  d << "From `" << opt_.command_line << "`: " << setting_label(best.setting)
+    << ", predicted on platform " << sc.platform.name << ": RT slowdown " << fmt(best.rt)
+    << " (worst), nRT slowdown " << fmt(best.nrt) << " (mean)";
+  if (t.rt_isolation_us)
+    d << "; rt_window_us is " << sc.nodes.rt.front().name << "'s time alone there";
+  t.description = d.str();
+  const json doc =
+      guard_config(name_, sc.nodes, src_.expanded.value("regulation", json::object()), t);
+  write_file_atomic(opt_.emit_guard, doc.dump(2) + "\n");
+  try {
+    loader_.load_guard(opt_.emit_guard.string(), policies_);
+  } catch (const InputError& e) {
+    throw ContractError("the guard configuration written to " + opt_.emit_guard.string() +
+                        " is not valid: " + e.what());
+  }
+  std::cout << "  guard        " << opt_.emit_guard.string() << " (rosguard guard "
+            << opt_.emit_guard.string() << " --check)\n";
+}
+
 int Tuner::run() {
   load_source();
   build_space();
@@ -1153,6 +1231,7 @@ int Tuner::run() {
     doc["notes"] = notes_;
     write_file_atomic(dir_ / "tune.json", doc.dump(2) + "\n");
   }
+  if (o.best && !opt_.emit_guard.empty()) emit_guard(*o.best);
   if (!notes_.empty()) {
     std::cout << "  notes:\n";
     for (const auto& n : notes_)
@@ -1163,6 +1242,9 @@ int Tuner::run() {
   if (rc != 0) return rc;
   if (!o.best && opt_.confirm == "hw")
     std::cerr << "note: nothing to confirm on hw: no setting meets the bound\n";
+  if (!o.best && !opt_.emit_guard.empty())
+    std::cerr << "note: no guard configuration written (" << opt_.emit_guard.string()
+              << "): no setting meets the bound\n";
   return o.best ? 0 : 1;
 }
 

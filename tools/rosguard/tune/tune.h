@@ -89,6 +89,9 @@ struct TuneOptions {
   int jobs = 0;                              // sim workers per batch; 0: one per online CPU
   bool quiet = false;
   bool overwrite = false;  // replace an earlier tune in --out
+  // "guard": only settings `rosguard guard` runs (guard_config.h); each left out is noted.
+  std::string deployable;
+  std::filesystem::path emit_guard;  // write the best as a guard configuration (implies guard)
   std::string command_line;
 };
 

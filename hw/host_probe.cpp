@@ -47,24 +47,6 @@ std::string read_line(const std::string& path) {
   return s;
 }
 
-// "0-3,8,10-11" -> {0,1,2,3,8,10,11}; malformed parts are skipped.
-std::vector<int> parse_cpu_list(const std::string& text) {
-  std::vector<int> out;
-  std::stringstream ss(text);
-  for (std::string part; std::getline(ss, part, ',');) {
-    if (part.empty()) continue;
-    const auto dash = part.find('-');
-    try {
-      const int a = std::stoi(part.substr(0, dash));
-      const int b = dash == std::string::npos ? a : std::stoi(part.substr(dash + 1));
-      for (int c = a; c <= b && c - a < 65536; ++c)
-        out.push_back(c);
-    } catch (const std::exception&) {
-    }
-  }
-  return out;
-}
-
 // "48K" -> 48, "1M" -> 1024, "32768K" -> 32768.
 double size_kb(const std::string& text) {
   if (text.empty()) return 0.0;

@@ -51,6 +51,23 @@ std::string cpu_list_text(const std::vector<int>& cpus) {
   return s.empty() ? "none" : s;
 }
 
+std::vector<int> parse_cpu_list(const std::string& text) {
+  std::vector<int> out;
+  std::stringstream ss(text);
+  for (std::string part; std::getline(ss, part, ',');) {
+    if (part.empty()) continue;
+    const auto dash = part.find('-');
+    try {
+      const int a = std::stoi(part.substr(0, dash));
+      const int b = dash == std::string::npos ? a : std::stoi(part.substr(dash + 1));
+      for (int c = a; c <= b && c - a < 65536; ++c)
+        out.push_back(c);
+    } catch (const std::exception&) {
+    }
+  }
+  return out;
+}
+
 std::vector<int> usable_cpus() {
   {
     const std::lock_guard lock(g_override_mutex);

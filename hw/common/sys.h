@@ -53,6 +53,8 @@ std::vector<int> usable_cpus();
 void set_usable_cpus_override(std::vector<int> cpus);
 // CPUs as Linux writes a CPU list: "0-3,8", "none" for none (`cpus` ascending).
 std::string cpu_list_text(const std::vector<int>& cpus);
+// A CPU list as Linux writes it: "0-3,8,10-11" -> {0,1,2,3,8,10,11}; malformed parts skipped.
+std::vector<int> parse_cpu_list(const std::string& text);
 
 // One thread of this process as /proc/self/task/<tid>/stat shows it.
 struct ThreadSchedInfo {

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "core/error.h"
 #include "hw/common/clock.h"
@@ -124,6 +125,15 @@ long long thread_cpu_ns_of(pid_t tid) {
   return std::strtoll(buf, nullptr, 10);
 }
 
+// Sets a thread's affinity to a CPU list ("0-3,6"); false when it is gone or refused.
+bool set_affinity(pid_t tid, const std::string& list) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (int c : parse_cpu_list(list))
+    if (c >= 0 && c < CPU_SETSIZE) CPU_SET(c, &set);
+  return ::sched_setaffinity(tid, sizeof set, &set) == 0;
+}
+
 const NamedEvent& task_clock_event() {
   static const NamedEvent e{"task_clock", *software_event("task_clock")};
   return e;
@@ -199,10 +209,12 @@ void CpuTimeGroup::read(std::span<CounterValue> out) {
     out[i] = {};
 }
 
-CoreTasks::CoreTasks(ThrottleKind kind, std::vector<Core> cores, std::string record)
+CoreTasks::CoreTasks(ThrottleKind kind, std::vector<Core> cores, std::string record,
+                     std::vector<std::string> pin)
     : kind_(kind),
       cores_(std::move(cores)),
       record_(std::move(record)),
+      pin_(std::move(pin)),
       cgroup_mount_(cgroup2_mount_point()) {
   save();  // the cgroups exist already
 }
@@ -220,6 +232,8 @@ void CoreTasks::save() const {
           << t.nice << "\n";
   for (const auto& [pid, m] : moved_)
     out << "moved " << pid << " " << m.start_time << " " << m.cgroup << "\n";
+  for (const auto& [tid, p] : pinned_)
+    out << "pinned " << tid << " " << p.start_time << " " << p.cpus << "\n";
   const std::string tmp = record_ + ".tmp";
   {
     std::ofstream f(tmp, std::ios::trunc);
@@ -260,6 +274,7 @@ std::vector<std::string> CoreTasks::repair(const std::string& path) {
   };
   std::vector<Idle> idle;
   std::vector<std::pair<pid_t, std::pair<unsigned long long, std::string>>> moved;
+  std::vector<std::pair<pid_t, Pinned>> pinned;
   while (std::getline(in, line)) {
     std::istringstream l(line);
     std::string kind;
@@ -271,6 +286,10 @@ std::vector<std::string> CoreTasks::repair(const std::string& path) {
     } else if (kind == "idle") {
       Idle i{};
       if (l >> i.tid >> i.start >> i.policy >> i.priority >> i.nice) idle.push_back(i);
+    } else if (kind == "pinned") {
+      pid_t tid = 0;
+      Pinned pin;
+      if (l >> tid >> pin.start_time >> pin.cpus) pinned.emplace_back(tid, pin);
     } else if (kind == "moved") {
       pid_t pid = 0;
       unsigned long long start = 0;
@@ -301,6 +320,11 @@ std::vector<std::string> CoreTasks::repair(const std::string& path) {
                      " (nice " + std::to_string(i.nice) + ") from SCHED_IDLE");
     }
   }
+  for (const auto& [tid, p] : pinned) {
+    if (start_time_of(tid) != p.start_time) continue;
+    if (set_affinity(tid, p.cpus))
+      done.push_back("thread " + std::to_string(tid) + " back to CPUs " + p.cpus);
+  }
   // The cgroups go; what is still in one (a process this record did not name) goes to its parent.
   for (const auto& cg : cgroups) {
     std::ifstream procs(cg + "/cgroup.procs");
@@ -328,11 +352,49 @@ std::size_t CoreTasks::count(int core) const {
       tasks_.begin(), tasks_.end(), [&](const auto& t) { return t.second.core == core; }));
 }
 
+std::vector<std::string> CoreTasks::take_unregulated() {
+  // Forget the processes that ended (their pids may come back as others).
+  for (auto it = unregulated_.begin(); it != unregulated_.end();)
+    it = ::kill(*it, 0) != 0 && errno == ESRCH ? unregulated_.erase(it) : std::next(it);
+  return std::exchange(unregulated_new_, {});
+}
+
+int CoreTasks::pin(pid_t pid, pid_t tid, const cpu_set_t& set, std::string& why) {
+  if (pin_.empty()) return -1;
+  std::string name;
+  std::getline(std::ifstream("/proc/" + std::to_string(pid) + "/comm"), name);
+  if (std::find(pin_.begin(), pin_.end(), name) == pin_.end()) return -1;
+  std::vector<int> allowed;
+  for (const auto& c : cores_)
+    if (CPU_ISSET(c.core, &set)) allowed.push_back(c.core);
+  std::vector<int> cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &set)) cpus.push_back(c);
+  if (allowed.empty()) {
+    if (not_pinned_.insert(pid).second)
+      why = "pin_processes: left alone, its CPUs (" + cpu_list_text(cpus) + ") include no nRT core";
+    return -1;
+  }
+  const int core = allowed[next_core_[pid]++ % allowed.size()];
+  pinned_[tid] = {start_time_of(tid), cpu_list_text(cpus)};
+  save();  // recorded before it is changed
+  if (!set_affinity(tid, std::to_string(core))) {
+    why = "pin_processes: cannot pin it to CPU " + std::to_string(core) + " (" + errno_text(errno) +
+          "): left alone";
+    pinned_.erase(tid);
+    return -1;
+  }
+  why = "pinned to CPU " + std::to_string(core) + " (pin_processes; its CPUs were " +
+        cpu_list_text(cpus) + ", given back when the guard stops)";
+  return core;
+}
+
 std::vector<CoreTasks::Change> CoreTasks::rescan() {
   std::vector<Change> changes;
   const pid_t self = ::getpid();
   std::set<pid_t> seen;
   std::map<int, std::vector<pid_t>> per_core;
+  std::set<pid_t> glimpsed_now;
   std::error_code ec;
   for (const auto& p : fs::directory_iterator("/proc", ec)) {
     const std::string pname = p.path().filename().string();
@@ -346,12 +408,34 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
       const pid_t tid = static_cast<pid_t>(std::stol(tname));
       cpu_set_t set;
       CPU_ZERO(&set);
-      if (::sched_getaffinity(tid, sizeof set, &set) != 0 || CPU_COUNT(&set) != 1) continue;
+      if (::sched_getaffinity(tid, sizeof set, &set) != 0) continue;
+      std::string comm;
+      unsigned long flags = 0;
+      std::string pin_note;
+      if (CPU_COUNT(&set) != 1) {
+        if (!std::any_of(cores_.begin(), cores_.end(),
+                         [&](const Core& c) { return CPU_ISSET(c.core, &set); }) ||
+            !read_stat((t.path() / "stat").string(), comm, flags) || (flags & kPfKthread))
+          continue;
+        const int to = pin(pid, tid, set, pin_note);
+        if (to < 0) {
+          if (!pin_note.empty()) changes.push_back({-1, pid, tid, comm, false, pin_note});
+          // May run on an nRT core, not regulated: said once per process, at the first rescan
+          // or once it was seen by two (a short-lived command is not worth a line).
+          if (pin_note.empty() && !not_pinned_.count(pid) && !unregulated_.count(pid) &&
+              (scans_ == 0 || glimpsed_.count(pid))) {
+            unregulated_.insert(pid);
+            unregulated_new_.push_back(comm + " " + std::to_string(pid));
+          }
+          glimpsed_now.insert(pid);
+          continue;
+        }
+        CPU_ZERO(&set);
+        CPU_SET(to, &set);
+      }
       const auto core = std::find_if(cores_.begin(), cores_.end(),
                                      [&](const Core& c) { return CPU_ISSET(c.core, &set); });
       if (core == cores_.end()) continue;
-      std::string comm;
-      unsigned long flags = 0;
       if (!read_stat((t.path() / "stat").string(), comm, flags) || (flags & kPfKthread)) continue;
       seen.insert(tid);
       auto known = tasks_.find(tid);
@@ -370,9 +454,12 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
       errno = 0;
       task.nice = ::getpriority(PRIO_PROCESS, static_cast<id_t>(tid));
       task.start_time = start_time_of(tid);
-      Change ch{core->core, pid, tid, comm, true, ""};
+      Change ch{core->core, pid, tid, comm, true, pin_note};
+      const auto with = [&](const std::string& note) {
+        return pin_note.empty() ? note : pin_note + "; " + note;
+      };
       if (task.policy == SCHED_FIFO || task.policy == SCHED_RR) {
-        ch.note = "runs under a real-time policy: left alone, not counted";
+        ch.note = with("runs under a real-time policy: left alone, not counted");
       } else {
         per_core[core->core].push_back(tid);
         if (kind_ == ThrottleKind::Idle && task.policy != SCHED_IDLE) {
@@ -382,9 +469,10 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
           save();
           const sched_param zero{};
           if (::sched_setscheduler(tid, SCHED_IDLE, &zero) == 0) {
-            ch.note = "moved to SCHED_IDLE";
+            ch.note = with("moved to SCHED_IDLE");
           } else {
-            ch.note = "SCHED_IDLE refused (" + errno_text(errno) + "): the throttle cannot hold it";
+            ch.note =
+                with("SCHED_IDLE refused (" + errno_text(errno) + "): the throttle cannot hold it");
             tasks_[tid].idle_applied = false;
           }
         } else if (kind_ == ThrottleKind::Freezer && core->cgroup && !moved_.count(pid)) {
@@ -393,10 +481,10 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
           save();
           try {
             core->cgroup->add(pid);
-            ch.note = "process moved into " + core->cgroup->path();
+            ch.note = with("process moved into " + core->cgroup->path());
           } catch (const RunError& e) {
             moved_.erase(pid);
-            ch.note = std::string("not frozen: ") + e.what();
+            ch.note = with(std::string("not frozen: ") + e.what());
           }
         }
       }
@@ -404,11 +492,14 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
       changes.push_back(std::move(ch));
     }
   }
+  glimpsed_ = std::move(glimpsed_now);
+  ++scans_;
   for (auto it = tasks_.begin(); it != tasks_.end();) {
     if (seen.count(it->first)) {
       ++it;
       continue;
     }
+    pinned_.erase(it->first);
     // Ended, or no longer pinned to an nRT core: give it back its scheduling.
     Change ch{it->second.core, it->second.pid, it->first, "", false, ""};
     if (it->second.idle_applied) {
@@ -435,6 +526,9 @@ void CoreTasks::restore() {
         ::setpriority(PRIO_PROCESS, static_cast<id_t>(tid), t.nice);
     }
   tasks_.clear();
+  for (const auto& [tid, p] : pinned_)
+    if (start_time_of(tid) == p.start_time) set_affinity(tid, p.cpus);
+  pinned_.clear();
   if (!cgroup_mount_.empty())
     for (const auto& [pid, m] : moved_) {
       // Never back into a guard's cgroup (one a killed guard left): the cgroup root instead.

@@ -22,12 +22,15 @@
 //   their policy; only threads with the recorded start time, so a reused pid is left alone).
 #pragma once
 
+#include <sched.h>
 #include <sys/types.h>
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -71,8 +74,11 @@ class CoreTasks {
     FreezerCgroup* cgroup = nullptr;  // freezer: where its processes go
     CpuTimeGroup* cputime = nullptr;  // cputime source: fed by rescan()
   };
-  // record: the crash-safety file ("" for none).
-  CoreTasks(ThrottleKind kind, std::vector<Core> cores, std::string record = "");
+  // record: the crash-safety file ("" for none). pin: process names (/proc/<pid>/comm) whose
+  // threads not pinned to one CPU are pinned to one nRT core each (round robin over the nRT cores
+  // their affinity allows) and so regulated; their affinity is given back by restore().
+  CoreTasks(ThrottleKind kind, std::vector<Core> cores, std::string record = "",
+            std::vector<std::string> pin = {});
   ~CoreTasks();
   CoreTasks(const CoreTasks&) = delete;
   CoreTasks& operator=(const CoreTasks&) = delete;
@@ -84,8 +90,12 @@ class CoreTasks {
     bool added = true;  // false: ended
     std::string note;   // what was applied, or why not
   };
-  // Returns what changed since the last rescan.
+  // Returns what changed since the last rescan. A Change with core -1 is a thread of a process in
+  // `pin` that the guard left alone (note: why).
   std::vector<Change> rescan();
+  // Processes ("comm pid") found by the rescans since the last call whose threads may run on an
+  // nRT core but are not pinned to one (and not in `pin`): not regulated.
+  std::vector<std::string> take_unregulated();
   void restore();
   std::size_t count(int core) const;
 
@@ -104,11 +114,26 @@ class CoreTasks {
     unsigned long long start_time = 0;  // /proc/<tid>/stat field 22: tells a reused tid apart
     bool idle_applied = false;
   };
+  struct Pinned {
+    unsigned long long start_time = 0;
+    std::string cpus;  // its affinity before, as a CPU list ("0-3")
+  };
   void save() const;
+  // A thread of a process named in pin_ whose affinity is not one CPU: pinned to an nRT core it
+  // allows (recorded first), returned; -1 when none (`why` says so where it is worth a line).
+  int pin(pid_t pid, pid_t tid, const cpu_set_t& set, std::string& why);
 
   ThrottleKind kind_;
   std::vector<Core> cores_;
   std::string record_;
+  std::vector<std::string> pin_;
+  std::map<pid_t, Pinned> pinned_;          // by tid: threads the guard pinned
+  std::map<pid_t, std::size_t> next_core_;  // by pid: round robin over its allowed nRT cores
+  std::set<pid_t> not_pinned_;              // processes of pin_ already said to have no nRT core
+  std::set<pid_t> unregulated_;  // processes that may run on an nRT core, unpinned, not in pin_
+  std::vector<std::string> unregulated_new_;
+  std::set<pid_t> glimpsed_;  // such processes the last rescan saw
+  std::uint64_t scans_ = 0;
   std::map<pid_t, Task> tasks_;  // by tid
   struct Moved {
     std::string cgroup;  // the process's cgroup before it was moved

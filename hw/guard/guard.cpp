@@ -221,7 +221,7 @@ void Guard::wire(const RtThread::ErrorHandler& on_error, const std::string& reco
       std::make_unique<Controller>(cc, s_.regulation.make_regulator(), rt_topic_, samples_,
                                    control_ptrs, nullptr, engine_waker_, on_error, now_ns());
   controller_->set_groups(groups);
-  tasks_ = std::make_unique<CoreTasks>(throttle_.kind, task_cores, record);
+  tasks_ = std::make_unique<CoreTasks>(throttle_.kind, task_cores, record, s_.pin_processes);
 }
 
 Guard::~Guard() {
@@ -375,6 +375,11 @@ std::vector<SchedOutcome> Guard::outcomes() const {
 
 void Guard::rescan() {
   for (const auto& c : tasks_->rescan()) {
+    if (c.core < 0) {  // a process of pin_processes the guard could not pin
+      logln("left alone: pid " + std::to_string(c.pid) + " tid " + std::to_string(c.tid) + " (" +
+            c.comm + "): " + c.note);
+      continue;
+    }
     const std::string& core =
         s_.nrt[static_cast<std::size_t>(std::distance(
                    s_.nrt.begin(), std::find_if(s_.nrt.begin(), s_.nrt.end(),
@@ -383,6 +388,17 @@ void Guard::rescan() {
     logln(core + ": " + (c.added ? "regulating" : "released") + " pid " + std::to_string(c.pid) +
           " tid " + std::to_string(c.tid) + (c.comm.empty() ? "" : " (" + c.comm + ")") +
           (c.note.empty() ? "" : ": " + c.note));
+  }
+  if (const auto left = tasks_->take_unregulated(); !left.empty()) {
+    std::string names;
+    for (std::size_t i = 0; i < left.size() && i < 10; ++i)
+      names += (i ? ", " : "") + left[i];
+    log_limited(
+        "not regulated",
+        "not regulated: " + std::to_string(left.size()) +
+            " process(es) whose threads may run on an nRT core but are not pinned to one (" +
+            names + (left.size() > 10 ? ", ..." : "") +
+            "): pin them to one nRT core (taskset -c) or name them in pin_processes");
   }
   next_rescan_ = now_ns() + s_.rescan_ns;
 }
@@ -414,7 +430,12 @@ void Guard::drain() {
         const NodeState next = n.command == Command::Thr   ? NodeState::Thr
                                : n.command == Command::Off ? NodeState::Off
                                                            : NodeState::On;
-        if (n.command == Command::Thr) ++stats_.throttles;
+        if (n.command == Command::Thr) {
+          ++stats_.throttles;
+          if (stats_.core_throttles.size() < s_.nrt.size())
+            stats_.core_throttles.resize(s_.nrt.size());
+          ++stats_.core_throttles[e];
+        }
         if (next != shown_state_[e]) {
           const std::string change = s_.nrt[e].name + ": " +
                                      std::string(to_string(shown_state_[e])) + " -> " +
@@ -546,8 +567,13 @@ void Guard::shutdown() {
           std::to_string(realtime_threads().size()) + " thread(s) left under SCHED_FIFO");
   if (started_) {
     const GuardStats t = stats();
+    std::string per_core;
+    for (std::size_t i = 0; i < s_.nrt.size(); ++i)
+      per_core += (i ? ", " : "") + s_.nrt[i].name + " (CPU " + std::to_string(s_.nrt[i].core) +
+                  ") " + std::to_string(i < t.core_throttles.size() ? t.core_throttles[i] : 0);
     logln("totals: " + std::to_string(t.activations) + " activation(s), " +
-          std::to_string(t.throttles) + " THR command(s), " + std::to_string(t.samples) +
+          std::to_string(t.throttles) + " THR command(s) (" + per_core + "), " +
+          std::to_string(t.samples) +
           " sample(s); activity: " + std::to_string(t.activity_ignored) + " message(s) ignored, " +
           std::to_string(t.activity_expired) + " activation(s) ended by activity.max_active_ms, " +
           std::to_string(t.activity_gone) +

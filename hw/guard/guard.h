@@ -79,6 +79,9 @@ struct GuardSettings {
   // Where the guard records what it changes in other processes (<state_dir>/<name>.record), so
   // that the next guard of this name repairs what a killed one left; "" for no record.
   std::string state_dir = "/run/rosguard";
+  // Processes (by /proc/<pid>/comm) whose threads not pinned to one CPU the guard pins to the nRT
+  // cores they allow (pin_processes), so that they are regulated; given back at stop.
+  std::vector<std::string> pin_processes;
 };
 
 // What an activity source heard: `publisher` said RT node `rt` is (in)active, or (gone) the
@@ -167,7 +170,8 @@ class NullPublisher : public GuardPublisher {
 struct GuardStats {
   std::uint64_t activations = 0;
   std::uint64_t samples = 0;
-  std::uint64_t throttles = 0;  // THR commands sent
+  std::uint64_t throttles = 0;                // THR commands sent
+  std::vector<std::uint64_t> core_throttles;  // THR commands per nRT core (settings order)
   std::uint64_t policy_swaps = 0;
   std::uint64_t notes_dropped = 0;
   std::uint64_t activity_ignored = 0;  // duplicate `true`s and unmatched `false`s

@@ -94,4 +94,37 @@ JSON
   for _ in $(seq 100); do pgrep -g "$stress_pid" >/dev/null || break; sleep 0.05; done
   stress_pid=""
 done
-echo "OK: after SIGKILL and a new guard, nothing is left held (idle and freezer)"
+
+# pin_processes: a killed guard leaves an unpinned process pinned to the nRT core; the next guard
+# of the name gives its threads their CPUs back (logged), and so does its own clean stop.
+cat >"$tmp/guard-pin.json" <<JSON
+{ "name": "crash_pin", "controller": { "core": 0 }, "rt": [ { "name": "planner" } ],
+  "nrt": [ { "name": "be", "core": 1 } ], "pin_processes": [ "stress-ng-cpu" ],
+  "regulation": { "threshold_pct": 10, "reference_mbps": 1000, "regulation_period_us": 10000 },
+  "hw": { "rescan_ms": 50 }, "state_dir": "$tmp/state",
+  "activity": { "source": "fifo", "path": "$tmp/activity-pin" },
+  "publish": { "transport": "none" } }
+JSON
+setsid stress-ng --cpu 2 --cpu-method int64 --timeout 120s --quiet &
+stress_pid=$!
+for _ in $(seq 50); do [[ $(pgrep -P "$stress_pid" | wc -l) -ge 2 ]] && break; sleep 0.05; done
+affinity() { for p in $(pgrep -P "$stress_pid"); do taskset -pc "$p" | sed 's/.*: //'; done | sort -u | tr '\n' ' '; }
+aff0=$(affinity)
+start_guard pin log-pin-1
+for _ in $(seq 100); do [[ $(grep -c "pinned to CPU 1" "$tmp/log-pin-1") -ge 2 ]] && break; sleep 0.05; done
+kill -9 "$guard_pid"
+wait "$guard_pid" 2>/dev/null || true
+guard_pid=""
+held=$(affinity)
+echo "pin: before the guard: CPUs $aff0; after its SIGKILL: $held"
+[[ $held == "1 " ]] || fail "pin: the killed guard did not leave the workers pinned to CPU 1 ($held)"
+start_guard pin log-pin-2
+grep "repaired after.*back to CPUs" "$tmp/log-pin-2" || fail "pin: the new guard logged no repair of the affinity"
+sleep 0.3
+kill -TERM "$guard_pid"
+wait "$guard_pid" || fail "pin: the second guard exited $?"
+guard_pid=""
+aff1=$(affinity)
+echo "pin: after the second guard's SIGTERM: CPUs $aff1"
+[[ $aff1 == "$aff0" ]] || fail "pin: CPUs $aff1, were $aff0"
+echo "OK: after SIGKILL and a new guard, nothing is left held (idle, freezer, pinned)"

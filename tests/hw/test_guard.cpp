@@ -49,7 +49,8 @@ bool have_stress_ng() {
 // `taskset -c CORE stress-ng --cpu 1` in its own process group; killed with the group.
 class Stress {
  public:
-  explicit Stress(int core) {
+  // Pinned to `core`, or (core -1) not pinned, with `workers` workers.
+  explicit Stress(int core, int workers = 1) {
     pid_ = ::fork();
     REQUIRE(pid_ >= 0);
     if (pid_ == 0) {
@@ -57,9 +58,14 @@ class Stress {
       const int null = ::open("/dev/null", O_WRONLY);
       ::dup2(null, 1);
       ::dup2(null, 2);
-      const std::string c = std::to_string(core);
-      ::execl("/usr/bin/taskset", "taskset", "-c", c.c_str(), "/usr/bin/stress-ng", "--cpu", "1",
-              "--cpu-method", "int64", "--timeout", "120s", static_cast<char*>(nullptr));
+      const std::string c = std::to_string(core), w = std::to_string(workers);
+      if (core < 0)
+        ::execl("/usr/bin/stress-ng", "stress-ng", "--cpu", w.c_str(), "--cpu-method", "int64",
+                "--timeout", "120s", static_cast<char*>(nullptr));
+      else
+        ::execl("/usr/bin/taskset", "taskset", "-c", c.c_str(), "/usr/bin/stress-ng", "--cpu",
+                w.c_str(), "--cpu-method", "int64", "--timeout", "120s",
+                static_cast<char*>(nullptr));
       ::_exit(127);
     }
     ::setpgid(pid_, pid_);
@@ -492,6 +498,59 @@ TEST_CASE("rosguard guard --check: monolithic needs rt_window_us, and no other p
   CHECK(other == 2);
   CHECK_THAT(refused, Catch::Contains("only policy \"monolithic\" uses rt_window_us"));
   fs::remove_all(dir);
+}
+
+TEST_CASE(
+    "guard pin_processes: an unpinned 4-worker stress-ng is pinned to the nRT core, regulated "
+    "there (THR per core in the log) and given its affinity back",
+    "[hw][guard]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng and two CPUs");
+    return;
+  }
+  const int core = cpus.back(), ctl = cpus.front();
+  Stress st(-1, 4);
+  InprocActivity activity;
+  Recorder rec;
+  std::ostringstream log;
+  {
+    GuardSettings s = settings_for(ctl, core, 10.0);
+    s.source = GuardSource::Cputime;
+    s.pin_processes = {"stress-ng", "stress-ng-cpu"};
+    Guard g(s, activity, rec, log);
+    g.start();
+    serve_for(g, std::chrono::milliseconds(300));  // the workers are up and found
+    activity.signal(0, true);
+    serve_for(g, std::chrono::milliseconds(500));
+    activity.signal(0, false);
+    serve_for(g, std::chrono::milliseconds(50));
+    g.shutdown();
+    INFO(log.str());
+    std::size_t pinned = 0;
+    for (std::size_t at = 0;
+         (at = log.str().find("(stress-ng-cpu): pinned to CPU " + std::to_string(core), at)) !=
+         std::string::npos;
+         ++at)
+      ++pinned;
+    CHECK(pinned == 4);
+    CHECK(g.stats().throttles > 10);
+    REQUIRE(g.stats().core_throttles.size() == 1);
+    CHECK(g.stats().core_throttles[0] == g.stats().throttles);
+    CHECK_THAT(log.str(), Catch::Contains("THR command(s) (be (CPU " + std::to_string(core) + ") " +
+                                          std::to_string(g.stats().throttles) + ")"));
+  }
+  // Every thread has its affinity back: all of this host's CPUs, as stress-ng started.
+  std::size_t threads = 0;
+  for (const auto& f : st.schedstats()) {
+    const pid_t tid = static_cast<pid_t>(std::stol(f.parent_path().filename().string()));
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (::sched_getaffinity(tid, sizeof set, &set) != 0) continue;
+    ++threads;
+    CHECK(CPU_COUNT(&set) == static_cast<int>(cpus.size()));
+  }
+  CHECK(threads >= 5);
 }
 
 TEST_CASE("guard reload: a new threshold from the next window, regulation never pauses",

@@ -27,7 +27,7 @@ guard_pid=""
 sleep 0.5
 kill -INT "$extra_pids"
 wait "$extra_pids" || true
-grep -v -- "-> THR\|-> ON\|-> REPLENISH" "$tmp/log" | head -30
+grep -v -- "-> THR\|-> ON\|-> REPLENISH" "$tmp/log" | head -30 || true
 [[ $rc -eq 0 ]] || fail "guard exited $rc"
 
 sent=$(count_json "$tmp/sent.jsonl" 'm.get("event") == "sent"')

@@ -79,6 +79,7 @@ hw::GuardSettings load_guard(const std::string& file, Loader& loader,
   s.publish_every = doc.at("publish").at("every_n_samples").get<std::size_t>();
   s.max_active_ns = doc.at("activity").at("max_active_ms").get<std::int64_t>() * kNsPerMs;
   s.state_dir = doc.at("state_dir").get<std::string>();
+  s.pin_processes = doc.value("pin_processes", std::vector<std::string>{});
   if (out_doc) *out_doc = doc;
   return s;
 }

@@ -468,6 +468,24 @@ class RowWriter {
 // from it).
 using OnRow = std::function<void(const Task& task, const std::string& row)>;
 
+// An nRT node that did none of its work in a run has no slowdown (an empty nrt_slowdown): said,
+// with the likely cause where the node samples itself.
+std::vector<std::string> idle_nrt_warnings(const PointOutcome& o, const LoadedPoint& p, int rep) {
+  std::vector<std::string> out;
+  const RegulationSpec& r = p.scenario.regulation;
+  for (const auto& n : o.nrt) {
+    if (n.runs > 0.0) continue;
+    std::string w = "point " + p.sweep.id + " repetition " + std::to_string(rep) + ": nRT node '" +
+                    n.name + "' did none of its work (nrt_runs 0), so its slowdown is not measured";
+    if (r.sampling == Sampling::Self)
+      w += "; it samples itself every " + std::to_string(r.sampling_period_us) +
+           " us, which may leave it no time for its work (a longer sampling_period_us, or "
+           "external sampling)";
+    out.push_back(std::move(w));
+  }
+  return out;
+}
+
 bool run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
                const ResultsStore& store, TaskRunner& runner, InvocationReport& report,
                json& trace_events, const OnRow& on_row = {}) {
@@ -507,6 +525,10 @@ bool run_tasks(const TaskPlan& plan, const CorunPlan& corun_plan, RunState& st,
         corun_measured = true;
       } else {
         const LoadedPoint& lp = st.loaded->points[t.point];
+        for (const auto& w : idle_nrt_warnings(r.outcome, lp, t.rep)) {
+          std::cerr << "warning: " << w << "\n";
+          report.warnings.push_back(w);
+        }
         auto rows = run_rows(r, lp, t.rep, st);
         if (on_row) on_row(t, rows.second);
         held.emplace(position, std::move(rows));

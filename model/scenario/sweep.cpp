@@ -114,6 +114,9 @@ SweepPlan::SweepPlan(const nlohmann::json& doc, const std::vector<std::string>& 
   base_.erase("sweep");
   if (key_order.size() != sweep.size())
     throw ContractError("sweep key order does not match the sweep object");
+  // Each swept path's JSON pointer and the key that sweeps it: a path set by two keys (or by one
+  // key and a key setting a part of it) would take one key's value and drop the other's.
+  std::vector<std::pair<std::string, std::string>> swept;
   for (const auto& key : key_order) {
     const std::string where = "/sweep" + to_json_pointer({{key, {}}});
     Key k{key, split_sweep_key(key), {}, &sweep.at(key)};
@@ -123,6 +126,19 @@ SweepPlan::SweepPlan(const nlohmann::json& doc, const std::vector<std::string>& 
       } catch (const InputError& e) {
         throw InputError("", where, e.message());
       }
+      const std::string ptr = to_json_pointer(k.paths.back());
+      for (const auto& [other, by] : swept) {
+        const auto within = [](const std::string& a, const std::string& b) {
+          return a == b ||
+                 (b.size() > a.size() && b.compare(0, a.size(), a) == 0 && b[a.size()] == '/');
+        };
+        if (within(ptr, other) || within(other, ptr))
+          throw InputError("", where,
+                           "'" + name + "' is swept by two keys ('" + by + "' and '" + key +
+                               "'): each point would take one key's value and drop the "
+                               "other's; sweep each path in one key");
+      }
+      swept.emplace_back(ptr, key);
     }
     if (!k.values->is_array() || k.values->empty())
       throw InputError("", where, "sweep '" + key + "' must be a non-empty list");

@@ -34,7 +34,7 @@ from functools import partial
 
 from analysis import style
 from analysis.configs import (as_config, column_words, describe, finite, group_by, held_fixed,
-                              keys_in_order, title, varying)
+                              key_of, keys_in_order, title, varying)
 from analysis.figures import reference
 from analysis.figures.base import FigurePlan
 from analysis.nodes import nodes_of
@@ -181,9 +181,19 @@ def _label_front(ax, front, label_cols, y, min_dx=60, min_dy=11) -> None:
     written is left out."""
     ax.get_xlim(), ax.get_ylim()   # settle the autoscaled limits before using transData
     placed: list = []
+    # Where the front mixes mechanisms, each label names its own (25 % of interval and 25 % of
+    # monolithic are two settings).
+    mixed = len({key_of(p, list(MECHANISM)) for p in front}) > 1
+
+    def words_of(p) -> str:
+        w = _setting_words(p, label_cols)
+        if not mixed:
+            return w
+        return ": ".join(x for x in (describe(as_config(MECHANISM, key_of(p, list(MECHANISM))),
+                                              short=True), w) if x)
+
     for cluster in _clusters(front, y):
-        words = " / ".join(dict.fromkeys(w for w in (_setting_words(p, label_cols)
-                                                     for p in cluster) if w))
+        words = " / ".join(dict.fromkeys(w for w in (words_of(p) for p in cluster) if w))
         xy = (cluster[0].mean("rt_slowdown"), cluster[0].mean(y))
         px, py = ax.transData.transform(xy)
         if not words or any(abs(px - qx) < min_dx and abs(py - qy) < min_dy
@@ -277,7 +287,8 @@ def _note(results, points, label_cols) -> str:
             "(no other setting is better on both)")
     if label_cols:
         note += ("; front labels (where they fit): "
-                 + ", ".join(column_words(c) for c in label_cols))
+                 + ", ".join(column_words(c) for c in label_cols)
+                 + ", after the mechanism where the front has several")
     if any(p.stat("rt_unregulated_slowdown") for p in points):
         note += "; red star: the unregulated co-run (policy none)"
     if results.rt_slowdown_max is not None:

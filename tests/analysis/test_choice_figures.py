@@ -324,3 +324,15 @@ def test_policy_none_points_stand_in_as_one_line_only_without_a_measured_corun(t
     assert len(lines) == 1
     assert lines[0].get_ydata()[0] == pytest.approx(
         np.mean([p.mean("rt_slowdown") for p in results.points]))
+
+
+def test_tradeoff_front_labels_name_their_mechanism_where_the_front_mixes_them(loaded, drawn):
+    # The quickstart's figure labelled "25 %" twice: interval's and monolithic's 25 %.
+    results = loaded("tune")
+    front = [p for p in results.points if not _dominated(p, results.points)]
+    assert len({(p.config["policy"], p.config["sampling"]) for p in front}) > 1
+    ax = drawn(_plans(results)["tradeoff"]).axes[0]
+    labels = [t.get_text() for t in ax.texts]
+    assert labels
+    for label in labels:
+        assert label.split(" / ")[0].startswith(("interval, self: ", "monolithic, self: ")), label

@@ -30,7 +30,8 @@ bool all_digits(const std::string& s) {
   return !s.empty() && s.find_first_not_of("0123456789") == std::string::npos;
 }
 
-// comm and flags of a thread from /proc/<pid>/task/<tid>/stat; false when it is gone.
+// comm and flags of a thread from /proc/<pid>/task/<tid>/stat; false when it is gone, or
+// exiting (a zombie that no parent has reaped yet is nothing to regulate).
 bool read_stat(const std::string& path, std::string& comm, unsigned long& flags) {
   std::ifstream in(path);
   std::string text;
@@ -41,8 +42,10 @@ bool read_stat(const std::string& path, std::string& comm, unsigned long& flags)
   std::istringstream rest(text.substr(close + 2));
   std::string field;
   // state ppid pgrp session tty_nr tpgid flags
-  for (int i = 0; i < 7 && rest >> field; ++i)
+  for (int i = 0; i < 7 && rest >> field; ++i) {
+    if (i == 0 && (field == "Z" || field == "X")) return false;
     if (i == 6) flags = std::stoul(field);
+  }
   return true;
 }
 
@@ -413,6 +416,9 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
       unsigned long flags = 0;
       std::string pin_note;
       if (CPU_COUNT(&set) != 1) {
+        // Known already (said not regulated, or a process of pin_ with no nRT core): no more
+        // file reads for it at every rescan.
+        if (unregulated_.count(pid) || not_pinned_.count(pid)) continue;
         if (!std::any_of(cores_.begin(), cores_.end(),
                          [&](const Core& c) { return CPU_ISSET(c.core, &set); }) ||
             !read_stat((t.path() / "stat").string(), comm, flags) || (flags & kPfKthread))
@@ -422,8 +428,7 @@ std::vector<CoreTasks::Change> CoreTasks::rescan() {
           if (!pin_note.empty()) changes.push_back({-1, pid, tid, comm, false, pin_note});
           // May run on an nRT core, not regulated: said once per process, at the first rescan
           // or once it was seen by two (a short-lived command is not worth a line).
-          if (pin_note.empty() && !not_pinned_.count(pid) && !unregulated_.count(pid) &&
-              (scans_ == 0 || glimpsed_.count(pid))) {
+          if (pin_note.empty() && (scans_ == 0 || glimpsed_.count(pid))) {
             unregulated_.insert(pid);
             unregulated_new_.push_back(comm + " " + std::to_string(pid));
           }

@@ -817,7 +817,8 @@ TEST_CASE("rosguard guard --help gives the guard's own examples, not the quickst
     out.append(buf, n);
   CHECK(::pclose(p) == 0);
   INFO(out);
-  CHECK_THAT(out, Catch::Contains("rosguard guard /etc/rosguard/guard.json --check") &&
+  CHECK_THAT(out, Catch::Contains("rosguard guard docs/guard/example.json --check") &&
+                      Catch::Contains("rosguard guard /etc/rosguard/guard.json") &&
                       Catch::Contains("kill -HUP") && Catch::Contains("docs/guard.md") &&
                       !Catch::Contains("Start here") && !Catch::Contains("quickstart"));
 }

@@ -54,6 +54,9 @@ Start here:
   rosguard plot results/quickstart            draw its figures
   rosguard tune scenarios/examples/tune.json --rt-slowdown-max 1.2
                                               the setting that keeps RT within 1.2x
+These run from any folder: a scenario or guard configuration that the working folder does not
+hold is read from rosguard's data (ROSGUARD_HOME below), and results/ is written in the working
+folder. The docs are in that data folder too: README.md and docs/ (also man rosguard).
 Run 'rosguard <command> --help' for the options of a command.
 Environment:
   ROSGUARD_HOME=DIR      the data (scenarios/, analysis/): an install's share/rosguard or a

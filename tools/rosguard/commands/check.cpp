@@ -157,7 +157,7 @@ CommandHandler setup_check(CLI::App& sub) {
                "point_list with --points); an invalid scenario prints nothing on stdout");
   return [args](const CommandContext& c) {
     return check_scenario(
-        c.loader, c.backends, args->file,
+        c.loader, c.backends, data_argument(c, args->file),
         args->backend.empty() ? std::nullopt : std::optional<std::string>(args->backend),
         args->points, args->json);
   };

@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <iostream>
 #include <memory>
 #include <string>
 
@@ -21,6 +22,17 @@ struct CommandContext {
   const BackendRegistry& backends;
   const std::string& command_line;  // argv joined by spaces, as the manifests record it
 };
+
+// A file argument (a scenario, a guard configuration) as the command reads it: a relative path
+// that is not in the working folder but is in rosguard's data (Home::data_file) becomes that
+// file, with a note on stderr; so `rosguard check scenarios/quickstart.json` runs anywhere.
+inline std::string data_argument(const CommandContext& c, const std::string& given) {
+  std::string file = c.loader.home().data_file(given);
+  if (file != given)
+    std::cerr << "note: " << given << " is not in this folder; reading rosguard's own: " << file
+              << "\n";
+  return file;
+}
 
 // Runs the parsed subcommand and returns the process exit code; throws InputError (exit 2),
 // ShardBusyError (4) or RunError (1), which the app reports.

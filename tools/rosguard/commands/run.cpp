@@ -117,6 +117,7 @@ CommandHandler setup_run(CLI::App& sub) {
   auto args = std::make_shared<RunArgs>();
   add_run_arguments(sub, *args);
   return [args](const CommandContext& c) {
+    args->options.scenario_file = data_argument(c, args->options.scenario_file);
     return run_command(*args, c.command_line, c.loader, c.backends);
   };
 }

@@ -57,6 +57,7 @@ CommandHandler setup_tune(CLI::App& sub) {
       "configuration is written); 2: invalid input.");
   return [options](const CommandContext& c) {
     options->command_line = c.command_line;
+    options->scenario_file = data_argument(c, options->scenario_file);
     return tune_scenario(*options, c.loader, c.backends, c.policies);
   };
 }

@@ -332,6 +332,15 @@ Home Home::locate() {
                  "; set ROSGUARD_HOME to an install's share/rosguard or a source tree");
 }
 
+std::string Home::data_file(const std::string& given) const {
+  const fs::path path(given);
+  std::error_code ec;
+  if (given.empty() || path.is_absolute() || fs::exists(path, ec)) return given;
+  const fs::path in_data = (root / path).lexically_normal();
+  if (!fs::is_regular_file(in_data, ec)) return given;
+  return fs::absolute(in_data, ec).string();
+}
+
 std::string display_path(const fs::path& path) {
   std::error_code ec;
   const fs::path rel = fs::proximate(path, ec);

@@ -31,6 +31,11 @@ struct Home {
   std::filesystem::path schemas() const { return root / "scenarios" / "schema"; }
   std::filesystem::path platforms() const { return root / "scenarios" / "platforms"; }
   std::filesystem::path workloads() const { return root / "scenarios" / "workloads"; }
+  // The file a command's argument names: `given` itself when it exists (or is absolute); else,
+  // for a relative path that names a file in rosguard's data (root / given, e.g.
+  // scenarios/quickstart.json or docs/guard/example.json), that file, so that the examples of
+  // the help texts and the docs run from any folder; else `given`, whose error then names it.
+  std::string data_file(const std::string& given) const;
 };
 
 struct LoadedPoint {

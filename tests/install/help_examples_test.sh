@@ -27,7 +27,7 @@ for f in README.md docs/guard.md docs/running.md docs/scenario-reference.md \
          docs/guard/example.json docs/guard/rosguard-guard.service \
          docs/guard/security/make_certs.sh sim/README.md hw/README.md \
          rosguard_msgs/package.xml rosguard_msgs/CMakeLists.txt \
-         rosguard_msgs/msg/PmcSample.msg rosguard_msgs/msg/Command.msg; do
+         rosguard_msgs/msg/PmcSample.msg rosguard_msgs/msg/Command.msg analysis/goals.json; do
   [[ -s "$data/$f" ]] || fail "share/rosguard/$f is not installed"
 done
 [[ -x "$data/docs/guard/security/make_certs.sh" ]] || fail "docs' scripts lost their x bit"

@@ -1,11 +1,13 @@
 #include "host/calibrate.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <utility>
 
@@ -230,6 +232,91 @@ void install_model(const json& platform, const Band& band) {
             << "\n";
 }
 
+// The validation goals (analysis/goals.json, the file make validate's report reads) against the
+// slowdowns the fitted model reproduces on this host's co-runs: each co-run's time over the
+// same kernel's time alone (same working set), measured and predicted, as make validate
+// compares a node's slowdown in sim with hw. One "verdict:" line; the goals on regulated runs
+// of held-out scenarios stay make validate's to measure.
+std::string verdict(const calibration::Measurements& m, const calibration::FitReport& report,
+                    const Home& home) {
+  json goals;
+  const fs::path goals_file = home.root / "analysis" / "goals.json";
+  try {
+    goals = read_json_file(goals_file, goals_file.string());
+  } catch (const InputError&) {
+    return "verdict: none: the validation goals (" + goals_file.string() + ") cannot be read";
+  }
+  const double excess_min = goals.at("excess_min").get<double>();
+  double mape_bound[2] = {0.0, 0.0};  // RT, nRT
+  double excess_bound = 0.0;
+  for (const auto& [key, goal] : goals.at("goals").items()) {
+    const bool rt = goal.at("node") == "rt";
+    const double bound = goal.at("bound_pct").get<double>();
+    if (goal.at("metric") == "mape_pct") mape_bound[rt ? 0 : 1] = bound;
+    if (goal.at("metric") == "excess_error_pct") excess_bound = std::max(excess_bound, bound);
+  }
+  // The isolation run of each kernel and working set the fit used.
+  std::map<std::pair<std::string, double>, const calibration::FittedRun*> alone;
+  for (const auto& r : report.runs) {
+    const auto& run = m.runs.at(r.index);
+    if (r.used && run.corunners.empty()) alone[{run.kernel, run.working_set_kb}] = &r;
+  }
+  double error_sum = 0.0, excess_sum = 0.0;
+  std::size_t n = 0, excess_n = 0;
+  for (const auto& r : report.runs) {
+    const auto& run = m.runs.at(r.index);
+    if (!r.used || run.corunners.empty()) continue;
+    const auto it = alone.find({run.kernel, run.working_set_kb});
+    if (it == alone.end() || it->second->measured_ns <= 0 || it->second->predicted_ns <= 0)
+      continue;
+    const double measured = r.measured_ns / it->second->measured_ns;
+    const double predicted = r.predicted_ns / it->second->predicted_ns;
+    error_sum += std::abs(predicted - measured) / measured;
+    ++n;
+    if (measured - 1.0 >= excess_min) {
+      excess_sum += std::abs((predicted - 1.0) - (measured - 1.0)) / (measured - 1.0);
+      ++excess_n;
+    }
+  }
+  const std::string goals_text = "the validation goals: slowdown MAPE <= " + fmt(mape_bound[0]) +
+                                 " % (RT), <= " + fmt(mape_bound[1]) +
+                                 " % (nRT), excess error <= " + fmt(excess_bound) + " %";
+  if (n == 0)
+    return "verdict: none: no co-run beside a run alone of its kernel to judge against " +
+           goals_text;
+  const double mape = 100.0 * error_sum / static_cast<double>(n);
+  const double excess = excess_n ? 100.0 * excess_sum / static_cast<double>(excess_n) : 0.0;
+  std::string missed;
+  const auto miss = [&missed](const std::string& goal) {
+    missed += (missed.empty() ? "" : ", ") + goal;
+  };
+  if (mape > mape_bound[0]) miss("the RT MAPE goal");
+  if (mape > mape_bound[1]) miss("the nRT MAPE goal");
+  if (excess_n && excess > excess_bound) miss("the excess goal");
+  const std::string met = missed.empty() ? "within every goal" : "outside " + missed;
+  return "verdict: " + met + " on the measured co-runs: the model's co-run slowdowns (" +
+         std::to_string(n) + " co-runs, each over its kernel alone) are off by a MAPE of " +
+         fmt(mape, 2) + " %" +
+         (excess_n ? ", an excess error of " + fmt(excess, 3) + " % over " +
+                         std::to_string(excess_n) + " with an excess >= " + fmt(excess_min)
+                   : std::string(", none with an excess >= ") + fmt(excess_min)) +
+         " (" + goals_text + "); make validate measures them on held-out regulated scenarios";
+}
+
+// What to run next with what was written.
+std::string next_command(const CalibrateOptions& opt, const fs::path& dir) {
+  std::error_code ec;
+  const fs::path abs = fs::absolute(dir, ec);
+  if (opt.install)
+    return "next: rosguard run scenarios/examples/host.json --backend sim   (a scenario with "
+           "\"platform\": \"host\" runs on this model in sim)";
+  return "next: rosguard calibrate --from " + (abs / "calibration.json").string() + " --out " +
+         abs.string() +
+         " --install   (this fit as the host model, measuring nothing; or name it in a scenario: "
+         "\"platform\": \"" +
+         (abs / "platform.json").string() + "\")";
+}
+
 }  // namespace
 #endif
 
@@ -293,6 +380,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
                           " platforms: the uncertainty band)")
             << "\n";
   if (opt.install) install_model(platform, band);
+  std::cout << verdict(m, report, loader.home()) << "\n" << next_command(opt, dir) << "\n";
   return 0;
 #endif
 }

@@ -447,10 +447,29 @@ void Guard::drain() {
         break;
       }
       case ControllerNote::Kind::Activation:
-        if (n.active) ++stats_.activations;
-        log_limited(n.active ? "regulation active" : "regulation inactive",
-                    n.active ? "regulation active (an RT node started)"
-                             : "regulation inactive (every RT node finished)");
+        stats_.core_throttles.resize(s_.nrt.size());
+        if (n.active) {
+          ++stats_.activations;
+          activation_since_ = n.t;
+          activation_throttles_ = stats_.core_throttles;
+          log_limited("regulation active", "regulation active (an RT node started)");
+        } else {
+          // Every activation's end, never folded: what each job's regulation did can be read
+          // back (one line per RT job at most).
+          std::uint64_t total = 0;
+          std::string cores;
+          for (std::size_t i = 0; i < s_.nrt.size(); ++i) {
+            const std::uint64_t k =
+                stats_.core_throttles[i] -
+                (i < activation_throttles_.size() ? activation_throttles_[i] : 0);
+            total += k;
+            cores += (i ? ", " : "") + s_.nrt[i].name + " " + std::to_string(k);
+          }
+          logln("regulation inactive (every RT node finished): activation " +
+                std::to_string(stats_.activations) + " lasted " +
+                fmt(static_cast<double>(n.t - activation_since_) / 1e6) + " ms, " +
+                std::to_string(total) + " THR (" + cores + ")");
+        }
         publisher_.active(n.t, n.active);
         break;
       case ControllerNote::Kind::Policy:

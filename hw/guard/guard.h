@@ -257,6 +257,10 @@ class Guard {
   std::vector<TimeNs> last_sample_t_;
   std::vector<std::size_t> sample_count_;
   std::vector<NodeState> shown_state_;
+  // The activation in progress: when it began and the THR count per core then (its end line
+  // gives what it cost each core).
+  TimeNs activation_since_ = 0;
+  std::vector<std::uint64_t> activation_throttles_;
   GuardStats stats_;
   std::vector<std::string> start_log_;  // the crash repair's lines, logged by start()
   bool started_ = false, shut_ = false;

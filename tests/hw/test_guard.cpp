@@ -558,6 +558,51 @@ TEST_CASE(
   CHECK(threads >= 5);
 }
 
+TEST_CASE("guard log: every activation's end is a line of its own, with its THR per core",
+          "[hw][guard]") {
+  const auto cpus = usable_cpus();
+  if (!have_stress_ng() || cpus.size() < 2) {
+    WARN("SKIPPED: needs stress-ng, taskset and two CPUs");
+    return;
+  }
+  const int core = cpus.back(), ctl = cpus.front();
+  Stress st(core);
+  InprocActivity activity;
+  Recorder rec;
+  std::ostringstream log;
+  Guard g(settings_for(ctl, core, 10.0), activity, rec, log);
+  g.start();
+  serve_for(g, std::chrono::milliseconds(300));  // a rescan finds stress-ng
+  // Five jobs of 100 ms within a second: far inside the 10 s in which repeated lines fold.
+  for (int job = 0; job < 5; ++job) {
+    activity.signal(0, true);
+    serve_for(g, std::chrono::milliseconds(100));
+    activity.signal(0, false);
+    serve_for(g, std::chrono::milliseconds(50));
+  }
+  g.shutdown();
+  INFO(log.str());
+  CHECK(g.stats().activations == 5);
+  std::istringstream lines(log.str());
+  std::uint64_t thr = 0;
+  int ends = 0;
+  for (std::string line; std::getline(lines, line);) {
+    const auto at = line.find("regulation inactive (every RT node finished): activation ");
+    if (at == std::string::npos) continue;
+    ++ends;
+    CHECK_THAT(line, Catch::Contains("activation " + std::to_string(ends) + " lasted "));
+    // "... ms, N THR (nrt0 N)": the one core's count is the total.
+    const auto total = line.find(" THR (");
+    REQUIRE(total != std::string::npos);
+    const std::uint64_t n = std::stoull(line.substr(line.rfind(' ', total - 1) + 1));
+    CHECK_THAT(line, Catch::EndsWith(" " + std::to_string(n) + ")"));
+    thr += n;
+  }
+  CHECK(ends == 5);
+  CHECK(thr == g.stats().throttles);
+  CHECK_THAT(log.str(), !Catch::Contains("more of 'regulation inactive'"));
+}
+
 TEST_CASE("guard reload: a new threshold from the next window, regulation never pauses",
           "[hw][guard][reload]") {
   const auto cpus = usable_cpus();

@@ -37,7 +37,7 @@ from analysis.configs import (as_config, column_words, describe, finite, group_b
                               key_of, keys_in_order, title, varying)
 from analysis.figures import reference
 from analysis.figures.base import FigurePlan
-from analysis.nodes import nodes_of
+from analysis.nodes import cell_column, nodes_of
 
 KIND = "RT vs nRT trade-off"
 STEM = "tradeoff"
@@ -160,8 +160,7 @@ def _draw_panel(ax, results, points, mechanisms, label_cols, single, node) -> No
             label="Pareto front", **FRONT_STYLE)
     ax.scatter([p.mean("rt_slowdown") for p in front], [p.mean(y) for p in front],
                s=110, facecolors="none", edgecolors="0.2", linewidths=1.0, zorder=2.5)
-    if node.index == 0:   # points.csv has the unregulated co-run of the first nRT node only
-        _draw_unregulated(ax, results, points, single)
+    _draw_unregulated(ax, results, points, single, node)
     _draw_tune(ax, results, points, single, y)
     _label_front(ax, front, label_cols, y)
     reference.draw_target(ax, results.rt_slowdown_max, vertical=True)
@@ -230,15 +229,19 @@ def _setting_words(point, columns) -> str:
     return ", ".join(words)
 
 
-def _draw_unregulated(ax, results, points, single) -> None:
+def _draw_unregulated(ax, results, points, single, node) -> None:
+    """The unregulated co-run of the panel's nRT node (older folders have it for the first nRT
+    node only: the other panels then have none)."""
+    column = cell_column(results, node, "unregulated_slowdown")
     pairs = []
     for p in points:
-        rt, nrt = p.stat("rt_unregulated_slowdown"), p.stat("nrt_unregulated_slowdown")
+        rt = p.stat("rt_unregulated_slowdown")
+        nrt = p.stat(column) if column else None
         if rt and nrt and not any(math.isclose(rt.mean, a) and math.isclose(nrt.mean, b)
                                   for a, b in pairs):
             pairs.append((rt.mean, nrt.mean))
     given = results.tune.get("unregulated") or {}
-    if not pairs and single and all(finite(given.get(k)) for k in ("rt_slowdown",
+    if not pairs and single and node.index == 0 and all(finite(given.get(k)) for k in ("rt_slowdown",
                                                                      "nrt_slowdown")):
         pairs.append((float(given["rt_slowdown"]), float(given["nrt_slowdown"])))
     for rt, nrt in pairs:

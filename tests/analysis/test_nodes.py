@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt
 import pytest
 
 import resultgen
-from analysis import compare, nodes, plot
+from analysis import compare, nodes, plot, style
 from analysis.figures import plan_figures
 from analysis.results import load_results
 
@@ -183,6 +183,13 @@ def test_figures_of_nrt_results_have_a_panel_per_node_titled_with_its_name(folde
     fig = drawn["tradeoff"].draw()
     titles = [t for t, _ in _axes_texts(fig)]
     assert titles == ["nRT0 reader", "nRT1 stereo", "nRT2 tracker"]
+    # Each panel marks its own node's unregulated co-run, inside its axes.
+    for ax, key in zip(fig.axes, ("nrt", "nrt1", "nrt2")):
+        stars = [c.get_offsets()[0] for c in ax.collections
+                 if c.get_label() == style.UNREGULATED_LABEL]
+        assert [tuple(s) for s in stars] == [(unregulated("rt"), unregulated(key))]
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        assert x0 <= stars[0][0] <= x1 and y0 <= stars[0][1] <= y1
     plt.close(fig)
 
     fig = drawn["mechanisms"].draw()

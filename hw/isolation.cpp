@@ -131,7 +131,8 @@ IsolationResult measure_alone(const Scenario& s, const MetricPlan& plan,
           std::vector<std::string> argv;
           for (const auto& a : w.doc.at("command"))
             argv.push_back(a.get<std::string>());
-          CommandProcess proc(argv, ThreadSpec{"isolation-cmd", core, sched_of(s), prio::kNct});
+          CommandProcess proc(argv, ThreadSpec{"isolation-cmd", core, sched_of(s), prio::kNct},
+                              w.doc.value("cwd", ""));
           PmcTarget target;
           target.kind = PmcTarget::Kind::Process;
           target.pid = proc.pid();

@@ -316,7 +316,7 @@ void NrtRunner::nct_command() {
     argv.push_back(a.get<std::string>());
   const ThreadSpec spec{cfg_.name + "-cmd", cfg_.core, sched_.work, prio::kNct};
   while (!nct_stop_.load(std::memory_order_acquire)) {
-    CommandProcess proc(argv, spec);
+    CommandProcess proc(argv, spec, workload_.doc.value("cwd", ""));
     // Before exec: everything it starts is born in the cgroup (a frozen one while throttled).
     if (cgroup_) cgroup_->add(proc.pid());
     PmcTarget target;

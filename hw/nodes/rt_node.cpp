@@ -86,7 +86,8 @@ void RtRunner::main() {
     if (builtin_) {
       builtin_->run(stop_, work_);
     } else {
-      CommandProcess proc(argv, ThreadSpec{spec_.name + "-cmd", spec_.core, sched_, prio::kRt});
+      CommandProcess proc(argv, ThreadSpec{spec_.name + "-cmd", spec_.core, sched_, prio::kRt},
+                          spec_.workload.doc.value("cwd", ""));
       proc.start();
       if (proc.wait(stop_fd_.get()) &&
           !(WIFEXITED(proc.status()) && WEXITSTATUS(proc.status()) == 0))

@@ -39,8 +39,9 @@ std::string describe_status(int status) {
   return "status " + std::to_string(status);
 }
 
-CommandProcess::CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec)
-    : argv_(argv) {
+CommandProcess::CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec,
+                               std::string cwd)
+    : argv_(argv), cwd_(std::move(cwd)) {
   if (argv_.empty()) throw RunError("empty command");
   int go[2], rep[2];
   if (::pipe2(go, O_CLOEXEC) != 0) throw RunError("pipe: " + errno_text(errno));
@@ -64,6 +65,7 @@ CommandProcess::CommandProcess(const std::vector<std::string>& argv, const Threa
     CPU_SET(c, &home);
   SupervisorSetup setup;
   setup.argv = cargv.data();
+  setup.cwd = cwd_.empty() ? nullptr : cwd_.c_str();
   setup.cpus = spec.core >= 0 ? &set : nullptr;
   setup.home = home_cpus.empty() ? nullptr : &home;
   setup.nice = prio::nice_for(spec.priority);
@@ -118,6 +120,9 @@ void CommandProcess::start() {
   report_.reset();
   if (failed) {
     kill();
+    if (r.kind == SupervisorReport::kChdirFailed)
+      throw RunError("cannot run command '" + argv_[0] + "' in '" + cwd_ +
+                     "' (the workload's cwd): " + errno_text(r.value));
     throw RunError("cannot run command '" + argv_[0] + "': " + errno_text(r.value));
   }
 }

@@ -215,6 +215,10 @@ void close_all_fds() {
     n = ::read(s.go_fd, &c, 1);
   } while (n < 0 && errno == EINTR);
   if (n != 1) ::_exit(126);  // rosguard gave up
+  if (s.cwd && ::chdir(s.cwd) != 0) {
+    report(s.report_fd, SupervisorReport::kChdirFailed, errno);
+    ::_exit(127);
+  }
   ::execvp(s.argv[0], s.argv);
   report(s.report_fd, SupervisorReport::kExecFailed, errno);
   ::_exit(127);

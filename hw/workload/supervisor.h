@@ -33,6 +33,7 @@ struct SupervisorReport {
     kSubreaperFailed = 2,  // value: errno of prctl(PR_SET_CHILD_SUBREAPER)
     kForkFailed = 3,       // value: errno of fork()
     kExecFailed = 4,       // value: errno of execvp() (written by the command's child)
+    kChdirFailed = 5,      // value: errno of chdir() into the command's directory (ditto)
   };
   std::int32_t kind = 0;
   std::int32_t value = 0;
@@ -41,6 +42,7 @@ struct SupervisorReport {
 // Everything the supervisor needs, prepared before fork().
 struct SupervisorSetup {
   char* const* argv = nullptr;      // the command, null-terminated
+  const char* cwd = nullptr;        // the directory the command starts in; null: inherited
   const cpu_set_t* cpus = nullptr;  // affinity of the supervisor and the command; null: inherit
   // Where the supervisor moves itself once the command is forked (rosguard's housekeeping CPUs,
   // hw/housekeeping.h: off the measured core); null: it stays with the command.

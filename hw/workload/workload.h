@@ -62,7 +62,9 @@ class CommandProcess {
   // can spin under a real-time policy; under SCHED_IDLE when spec.sched is Idle (the idle
   // throttle). The command waits for start(). Throws RunError when the
   // supervisor cannot be set up (fork, prctl).
-  CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec);
+  // `cwd`: the directory it starts in (empty: rosguard's).
+  CommandProcess(const std::vector<std::string>& argv, const ThreadSpec& spec,
+                 std::string cwd = {});
   ~CommandProcess();
   CommandProcess(const CommandProcess&) = delete;
   CommandProcess& operator=(const CommandProcess&) = delete;
@@ -83,6 +85,7 @@ class CommandProcess {
   void reap();
 
   std::vector<std::string> argv_;
+  std::string cwd_;
   pid_t pid_ = -1;         // the command
   pid_t supervisor_ = -1;  // our child; its wait status mirrors the command's
   Fd go_;                  // write end: one byte lets the command exec

@@ -150,11 +150,32 @@ std::vector<Phase> merge_once(const std::vector<SliceCounts>& slices, double rel
 
 std::vector<Phase> merge_phases(const std::vector<SliceCounts>& slices, double relative,
                                 double absolute_pki, std::size_t max_phases) {
-  std::vector<Phase> phases = merge_once(slices, relative, absolute_pki);
-  while (phases.size() > std::max<std::size_t>(max_phases, 1)) {
-    relative *= 2;
-    absolute_pki *= 2;
-    phases = merge_once(slices, relative, absolute_pki);
+  const std::size_t most = std::max<std::size_t>(max_phases, 1);
+  // A long run (thousands of slices) alternates between rates at slice scale: pairs of slices
+  // are joined first, while there are more than 16 per phase allowed, so that its stages stay
+  // apart; only then do the tolerances grow.
+  std::vector<SliceCounts> coarse = slices;
+  std::size_t factor = 1;
+  std::vector<Phase> phases = merge_once(coarse, relative, absolute_pki);
+  while (phases.size() > most) {
+    if (coarse.size() > 16 * most) {
+      std::vector<SliceCounts> joined((coarse.size() + 1) / 2);
+      for (std::size_t i = 0; i < coarse.size(); ++i)
+        if (i % 2 == 0)
+          joined[i / 2] = coarse[i];
+        else
+          joined[i / 2].add(coarse[i]);
+      coarse = std::move(joined);
+      factor *= 2;
+    } else {
+      relative *= 2;
+      absolute_pki *= 2;
+    }
+    phases = merge_once(coarse, relative, absolute_pki);
+  }
+  for (Phase& p : phases) {
+    p.first_slice *= factor;
+    p.slice_count = std::min(p.slice_count * factor, slices.size() - p.first_slice);
   }
   return phases;
 }

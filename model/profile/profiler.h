@@ -94,8 +94,10 @@ struct Phase {
 
 // Merges adjacent slices into phases: a slice joins the current phase when its L2 refill and
 // write-back rates are each within `relative` of the phase's so far (or within `absolute_pki`,
-// so that near-zero rates do not split). When that leaves more than `max_phases`, the
-// tolerances double until it does not.
+// so that near-zero rates do not split). When that leaves more than `max_phases`, adjacent
+// slices are joined in pairs while there are more than 16 x `max_phases` of them (a long run
+// that alternates at slice scale keeps its stages apart), and then the tolerances double, until
+// it does not.
 std::vector<Phase> merge_phases(const std::vector<SliceCounts>& slices, double relative = 0.25,
                                 double absolute_pki = 0.5, std::size_t max_phases = 32);
 

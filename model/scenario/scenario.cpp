@@ -238,9 +238,10 @@ void check_workload_runs_on(const std::string& backend, const std::string& base,
                             const WorkloadInfo& w, const PlatformInfo& plat,
                             const std::string& file) {
   const std::string at = base + "/workload";
-  if (w.is_command() && backend == "sim")
+  if (w.is_command() && backend == "sim" && !w.doc.contains("sim"))
     throw InputError(file, at,
-                     "an external command runs only on the hw backend (run with --backend hw)");
+                     "an external command without a \"sim\" profile runs only on the hw backend "
+                     "(run with --backend hw, or give it a profile: rosguard profile)");
   if (!w.is_command() && backend == "sim" && !w.doc.contains("sim") && !kernel_modelled(w, plat))
     throw InputError(file, at,
                      "workload '" + w.name + "' (" + w.origin +

@@ -11,8 +11,7 @@
 // and the bandwidth follows from them. --write stores the fitted numbers (4 significant digits)
 // back into the workload files. tools/fit_table1.py drives it for the seven Table 1 workloads.
 //
-// The steady state ignores the quantum (a phase's first quantum runs at the latencies of the one
-// before); the calibration test (tests/sim) checks the simulated figures within 3 %.
+// The steady state and the fit: sim/calibration/isolation.h (as `rosguard profile --fit-ipc`).
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -21,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "calibration/isolation.h"
 #include "core/error.h"
 #include "metric/metric.h"
 #include "platform/contention.h"
@@ -32,29 +32,6 @@ namespace {
 using namespace rosguard;
 using namespace rosguard::sim;
 using ojson = nlohmann::ordered_json;
-
-struct Figures {
-  double ipc = 0.0;
-  double mbps = 0.0;
-  double time_ms = 0.0;
-};
-
-// Isolation of a profile on core 0: each phase at its own fixed point, aggregated.
-Figures steady_state(const SimPlatform& p, const WorkloadProfile& w) {
-  const ContentionModel model(p);
-  double cycles = 0.0, l3 = 0.0, ns = 0.0;
-  for (const Phase& ph : w.phases) {
-    CoreDemand d{0, &ph, &w, true, &ph};
-    const MemoryState st = model.solve({&d, 1});
-    const CoreRates r = model.rates(ph, st.l3_hit[0], 0, st, st.slc_hit[0]);
-    const double inst = w.instructions * ph.fraction;
-    const double t = inst / r.inst_per_ns;
-    ns += t;
-    cycles += t * p.freq_ghz();
-    l3 += t * (r.refill_per_ns + r.wb_per_ns);
-  }
-  return {w.instructions / cycles, eq1_mbps(p.line_bytes, p.freq_mhz * 1e6, l3, cycles), ns / 1e6};
-}
 
 double round4(double v) {
   if (v == 0.0) return 0.0;
@@ -102,17 +79,7 @@ int main(int argc, char** argv) {
       WorkloadInfo info{doc.value("name", ""), files[f], nlohmann::json::parse(doc.dump())};
       WorkloadProfile w = parse_profile(info, plat, files[f], "/sim");
       if (fit && ref_ipc > 0) {
-        // Fixed-point iteration on two scale factors; the rates are monotone in each.
-        for (int it = 0; it < 200; ++it) {
-          const Figures fig = steady_state(plat, w);
-          const double a = !ipc_only && fig.mbps > 0 && ref_mbps > 0 ? ref_mbps / fig.mbps : 1.0;
-          const double b = ref_ipc / fig.ipc;
-          for (Phase& ph : w.phases) {
-            ph.refill_pki *= std::pow(a, 0.7);
-            ph.wb_pki *= std::pow(a, 0.7);
-            ph.base_ipc *= std::pow(b, 0.7);
-          }
-        }
+        fit_isolation(plat, w, ref_ipc, ipc_only ? 0.0 : ref_mbps);
         auto& phases = doc["sim"]["phases"];
         for (std::size_t i = 0; i < w.phases.size(); ++i) {
           w.phases[i].base_ipc = round4(w.phases[i].base_ipc);
@@ -127,7 +94,7 @@ int main(int argc, char** argv) {
           out << doc.dump(2) << "\n";
         }
       }
-      const Figures fig = steady_state(plat, w);
+      const IsolationFigures fig = isolation_steady_state(plat, w);
       std::printf("%-16s %8.4f %8.4f %+7.3f %10.2f %10.2f %+7.3f %9.2f\n", w.name.c_str(), fig.ipc,
                   ref_ipc, ref_ipc > 0 ? 100.0 * (fig.ipc / ref_ipc - 1) : 0.0, fig.mbps, ref_mbps,
                   ref_mbps > 0 ? 100.0 * (fig.mbps / ref_mbps - 1) : 0.0, fig.time_ms);

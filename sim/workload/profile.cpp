@@ -26,7 +26,7 @@ cache::MissRatioCurve derived_mrc(double kernel_working_set_kb, double footprint
 
 WorkloadProfile parse_profile(const WorkloadInfo& w, const SimPlatform& platform,
                               const std::string& file, const std::string& base) {
-  if (w.is_command() || !w.doc.contains("sim"))
+  if (!w.doc.contains("sim"))
     throw InputError(file, base.substr(0, base.rfind('/')),
                      "workload '" + w.name +
                          "' has no \"sim\" profile, so the sim backend "

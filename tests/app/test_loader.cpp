@@ -646,3 +646,35 @@ TEST_CASE("loader: a policy's defaults fill only the keys a point does not set, 
   CHECK(ls.policy_defaults[0] ==
         std::pair<std::string, std::size_t>{"sampling = overflow (memguard's default)", 1});
 }
+
+TEST_CASE(
+    "loader: a profile's placeholders are warnings in sim, once per workload and number, "
+    "and a workload with a command runs its program on hw and its profile in sim",
+    "[loader]") {
+  TempDir dir;
+  const std::string profile = R"("sim": {"instructions": 1e6, "footprint_kb": 64, "l3_hit": 0.5,
+      "phases": [{"fraction": 1, "base_ipc": 1, "l2_refill_pki": 2, "l2_wb_pki": 1}],
+      "placeholder": ["base_ipc", "mlp"], "source": "test"})";
+  dir.write("wl/mine.json",
+            R"({"name": "mine", "command": ["/bin/true"], "cwd": "/tmp", )" + profile + "}");
+  const auto file = dir.write("s.json", scenario("", "\"wl/mine.json\"", "\"wl/mine.json\""));
+  Loader loader = make_loader();
+  const auto ls = loader.load(file, std::string("sim"));
+  // Both nodes run it: each number said once.
+  REQUIRE(ls.warnings.size() == 2);
+  CHECK_THAT(ls.warnings[0], StartsWith("workload 'mine' ("));
+  CHECK_THAT(ls.warnings[0], Contains("base_ipc is a placeholder (1.0)"));
+  CHECK_THAT(ls.warnings[1], Contains("mlp was not measured"));
+  // On hw the program runs (its command and folder as written), and nothing is said.
+  const auto hw = loader.load(file, std::string("hw"));
+  CHECK(hw.warnings.empty());
+  const WorkloadInfo& w = hw.points.at(0).scenario.nodes.rt[0].workload;
+  CHECK(w.is_command());
+  CHECK(w.doc["cwd"] == "/tmp");
+  // A fitted profile says nothing.
+  dir.write("wl/fitted.json",
+            R"({"name": "fitted", "sim": {"instructions": 1e6, "footprint_kb": 64, "l3_hit": 0.5,
+      "phases": [{"fraction": 1, "base_ipc": 1.3, "l2_refill_pki": 2, "l2_wb_pki": 1}]}})");
+  const auto fitted = dir.write("f.json", scenario("", "\"wl/fitted.json\"", "\"wl/fitted.json\""));
+  CHECK(loader.load(fitted, std::string("sim")).warnings.empty());
+}

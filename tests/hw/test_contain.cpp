@@ -186,6 +186,26 @@ TEST_CASE("a command's wait status is its own, through the supervisor", "[hw][co
                     Catch::Contains("rosguard-no-such-command") && Catch::Contains("ENOENT"));
 }
 
+TEST_CASE("a command starts in its workload's cwd, or fails naming it", "[hw][command]") {
+  const ThreadSpec spec{"t", -1, SchedClass::Other, prio::kNct};
+  const fs::path dir = fs::temp_directory_path() / ("rosguard-cwd-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  // The status says where it ran: 0 in the folder given, 1 elsewhere.
+  const std::string there = "test \"$(pwd -P)\" = \"" + fs::canonical(dir).string() + "\"";
+  CommandProcess in_dir({"sh", "-c", there}, spec, dir.string());
+  in_dir.start();
+  REQUIRE(in_dir.wait(-1));
+  CHECK(describe_status(in_dir.status()) == "exit 0");
+  CommandProcess inherited({"sh", "-c", there}, spec);
+  inherited.start();
+  REQUIRE(inherited.wait(-1));
+  CHECK(describe_status(inherited.status()) == "exit 1");
+  CommandProcess missing({"true"}, spec, (dir / "gone").string());
+  CHECK_THROWS_WITH(missing.start(), Catch::Contains((dir / "gone").string()) &&
+                                         Catch::Contains("cwd") && Catch::Contains("ENOENT"));
+  fs::remove_all(dir);
+}
+
 // The issue's case: rosguard SIGKILLed while an nRT command runs, at several moments (during the
 // command's isolation runs, then during the regulated points): within 2 s no process of the
 // command may be left, the supervisor included.

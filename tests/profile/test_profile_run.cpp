@@ -4,9 +4,11 @@
 #include <sys/wait.h>
 
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -183,3 +185,122 @@ TEST_CASE(
   CHECK(read_file(dir / "err").find("valgrind is not installed") != std::string::npos);
   fs::remove_all(dir);
 }
+
+TEST_CASE(
+    "rosguard profile --tracer callgrind: the stream's refills and MRC, the whole run as hw "
+    "command, the same counts as lackey") {
+  if (!have_valgrind()) {
+    WARN("SKIPPED: valgrind is not installed (Debian package valgrind)");
+    return;
+  }
+  const fs::path dir =
+      fs::temp_directory_path() / ("rosguard-profile-cg-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string bin = ROSGUARD_BINARY;
+  // 1 MB read 8 times, one 8-byte load per element: past the 256 KB L2, inside a 2 MB L3.
+  const auto profile = [&](const std::string& tracer) {
+    const fs::path out = dir / (tracer + ".json");
+    REQUIRE(run("cd " + dir.string() + " && " + bin + " profile --quiet --tracer " + tracer +
+                " --out " + out.string() + " -- " STREAM_READ " 1024 8 2>" +
+                (dir / "err").string()) == 0);
+    return nlohmann::json::parse(read_file(out));
+  };
+  const auto cg = profile("callgrind");
+  SchemaSet schemas(fs::path(ROSGUARD_TEST_SOURCE_DIR) / "scenarios" / "schema");
+  schemas.validate(cg, SchemaKind::Workload, "callgrind.json");
+  const auto& sim = cg["sim"];
+  // The loop's loads: 8 x 1 MB / 8 bytes = 1 M loads, an L2 refill per 8 (125 pki of loads).
+  double refill_pki = 0, instructions = sim["instructions"].get<double>();
+  for (const auto& ph : sim["phases"]) {
+    refill_pki += ph["fraction"].get<double>() * ph["l2_refill_pki"].get<double>();
+    CHECK_FALSE(ph.contains("mlp"));  // not measured: the sim's default
+  }
+  const double refills = refill_pki * instructions / 1000;
+  CHECK(refills == Approx(8.0 * 1024 * 1024 / 64).epsilon(0.05));
+  // The 1 MB cycle misses a 512 KB L3 and hits one of 2 MB: the share of refills that miss.
+  for (const auto& point : sim["phases"][0]["mrc"]) {
+    INFO("capacity " << point["capacity_kb"] << " KB");
+    if (point["capacity_kb"] <= 512) CHECK(point["miss_ratio"].get<double>() > 0.95);
+    if (point["capacity_kb"] >= 2048) CHECK(point["miss_ratio"].get<double>() < 0.2);
+  }
+  CHECK(sim["footprint_kb"].get<double>() >= 1024);
+  CHECK(sim["footprint_kb"].get<double>() < 1024 + 512);
+  CHECK(sim["placeholder"] == nlohmann::json::array({"base_ipc", "mlp"}));
+  // A whole run: the program and the folder it ran in, for the hw backend.
+  CHECK(cg["command"] == nlohmann::json::array({STREAM_READ, "1024", "8"}));
+  CHECK(cg["cwd"] == dir.string());
+
+  // lackey on the same run: the same instructions and refills within a few percent.
+  const auto lk = profile("lackey");
+  CHECK(lk["sim"]["instructions"].get<double>() == Approx(instructions).epsilon(0.02));
+  double lk_refill_pki = 0;
+  for (const auto& ph : lk["sim"]["phases"])
+    lk_refill_pki += ph["fraction"].get<double>() * ph["l2_refill_pki"].get<double>();
+  CHECK(lk_refill_pki == Approx(refill_pki).epsilon(0.05));
+  CHECK(lk["sim"]["placeholder"] == nlohmann::json::array({"base_ipc"}));
+  fs::remove_all(dir);
+}
+
+#ifdef SIM_CALIBRATE
+TEST_CASE(
+    "rosguard profile --fit-ipc / --measure-ipc: base_ipc fitted on the platform, the "
+    "placeholder gone, the reference written, and its refusals") {
+  if (!have_valgrind()) {
+    WARN("SKIPPED: valgrind is not installed (Debian package valgrind)");
+    return;
+  }
+  const fs::path dir =
+      fs::temp_directory_path() / ("rosguard-profile-fit-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string bin = ROSGUARD_BINARY;
+  const fs::path out = dir / "fit.json";
+  REQUIRE(run(bin + " profile --quiet --platform orin-agx --fit-ipc 0.2 --out " + out.string() +
+              " -- " STREAM_READ " 512 2 2>" + (dir / "err").string()) == 0);
+  const auto doc = nlohmann::json::parse(read_file(out));
+  CHECK(doc["reference"]["ipc"] == 0.2);
+  CHECK_FALSE(doc["sim"].contains("placeholder"));
+  CHECK(doc["sim"]["phases"][0]["base_ipc"].get<double>() != 1.0);
+  CHECK(doc["sim"]["source"].get<std::string>().find("fitted") != std::string::npos);
+  // rosguard-sim-calibrate, the same steady state, finds the fitted IPC.
+  const std::string calibrate = std::string(SIM_CALIBRATE) + " " + ROSGUARD_TEST_SOURCE_DIR +
+                                "/scenarios/platforms/orin-agx.json " + out.string() + " > " +
+                                (dir / "cal").string();
+  REQUIRE(run(calibrate) == 0);
+  // Its line: workload, ipc, reference ipc, error in % (the header line first).
+  std::istringstream cal(read_file(dir / "cal"));
+  std::string header, name;
+  double ipc = 0, ref = 0, err = 100;
+  std::getline(cal, header);
+  cal >> name >> ipc >> ref >> err;
+  CHECK(ref == 0.2);
+  CHECK(std::abs(err) < 0.5);
+
+  // --measure-ipc: the program's own runs, on a named platform.
+  const fs::path measured = dir / "measured.json";
+  REQUIRE(run(bin + " profile --quiet --platform vm-2core --measure-ipc --repeat 2 --out " +
+              measured.string() + " -- " STREAM_READ " 512 2 2>/dev/null") == 0);
+  const auto m = nlohmann::json::parse(read_file(measured));
+  CHECK(m["reference"]["source"].get<std::string>().find("median of 2 native runs") !=
+        std::string::npos);
+  CHECK(m["reference"]["ipc"].get<double>() > 0.01);
+
+  // Refused before anything runs: exit 2, nothing written.
+  const fs::path other = dir / "other.json";
+  CHECK(run(bin + " profile --fit-ipc 1 --platform no-such-platform --out " + other.string() +
+            " -- " STREAM_READ " 64 1 2>" + (dir / "err").string()) == 2);
+  CHECK(read_file(dir / "err").find("--platform 'no-such-platform'") != std::string::npos);
+  CHECK(run(bin + " profile --measure-ipc --max-instructions 100000 --out " + other.string() +
+            " -- " STREAM_READ " 64 1 2>" + (dir / "err").string()) == 2);
+  CHECK(read_file(dir / "err").find("cannot fit a window") != std::string::npos);
+  // An IPC the stream's memory stalls on the Orin forbid: refused, with the most it could be.
+  CHECK(run(bin + " profile --quiet --platform orin-agx --fit-ipc 1.5 --out " + other.string() +
+            " -- " STREAM_READ " 512 2 2>" + (dir / "err").string()) == 2);
+  CHECK(read_file(dir / "err").find("cannot fit base_ipc to IPC 1.5") != std::string::npos);
+  CHECK(run(bin + " profile --measure-ipc --fit-ipc 1 --out " + other.string() +
+            " -- " STREAM_READ " 64 1 2>/dev/null") == 2);
+  CHECK(run(bin + " profile --tracer perf --out " + other.string() +
+            " -- " STREAM_READ " 64 1 2>/dev/null") == 2);
+  CHECK_FALSE(fs::exists(other));
+  fs::remove_all(dir);
+}
+#endif

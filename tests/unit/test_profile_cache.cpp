@@ -245,3 +245,21 @@ TEST_CASE("Profiler: reset_counts starts counting afresh with the caches kept wa
   CHECK(p.total().l1_refills == 0);  // warm from before the reset
   CHECK(p.total().loads == 512);
 }
+
+TEST_CASE("phases of a long run: slices that alternate are joined before the tolerances grow") {
+  // 4000 slices: a first stage alternating between 30 and 5 refills pki slice by slice, then a
+  // flat second stage at 1 pki. Widening the tolerances alone made one phase of both stages.
+  std::vector<SliceCounts> slices(4000);
+  for (std::size_t i = 0; i < slices.size(); ++i) {
+    slices[i].instructions = 1000000;
+    slices[i].l2_refills = i < 2000 ? (i % 2 ? 5000 : 30000) : 1000;
+  }
+  const auto phases = merge_phases(slices);
+  REQUIRE(phases.size() == 2);
+  CHECK(phases[0].first_slice == 0);
+  CHECK(phases[0].slice_count == 2000);
+  CHECK(phases[0].counts.pki(phases[0].counts.l2_refills) == Approx(17.5));
+  CHECK(phases[1].first_slice == 2000);
+  CHECK(phases[1].slice_count == 2000);
+  CHECK(phases[1].counts.pki(phases[1].counts.l2_refills) == Approx(1.0));
+}

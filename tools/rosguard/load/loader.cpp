@@ -210,6 +210,39 @@ std::vector<std::string> prior_dominated_warnings(const std::vector<LoadedPoint>
   return warnings;
 }
 
+// A sim point's workload profile with numbers that were never measured (rosguard profile writes
+// "placeholder": base_ipc until fitted, mlp from callgrind): said once per workload and number.
+std::vector<std::string> placeholder_warnings(const std::vector<LoadedPoint>& points) {
+  std::vector<std::string> warnings;
+  std::set<std::string> said;
+  for (const auto& lp : points) {
+    if (lp.scenario.backend != "sim") continue;
+    std::vector<const WorkloadInfo*> workloads;
+    for (const auto& n : lp.scenario.nodes.rt)
+      workloads.push_back(&n.workload);
+    for (const auto& n : lp.scenario.nodes.nrt)
+      workloads.push_back(&n.workload);
+    for (const WorkloadInfo* w : workloads) {
+      const nlohmann::json& sim = w->doc.value("sim", nlohmann::json::object());
+      for (const auto& field : sim.value("placeholder", nlohmann::json::array())) {
+        const std::string f = field.get<std::string>();
+        const std::string key = w->origin + "\n" + f;
+        if (!said.insert(key).second) continue;
+        warnings.push_back(
+            "workload '" + w->name + "' (" + w->origin + "): " +
+            (f == "base_ipc"
+                 ? "base_ipc is a placeholder (1.0), not fitted to a measured IPC, so the sim's "
+                   "times for it mean nothing: fit it with rosguard profile --platform P "
+                   "--fit-ipc IPC (or --measure-ipc on this machine's model)"
+                 : "mlp was not measured (rosguard profile --tracer callgrind): the sim takes 1, "
+                   "so its memory stalls under contention are an upper bound; a lackey profile "
+                   "(--tracer lackey, a window with --max-instructions) measures it"));
+      }
+    }
+  }
+  return warnings;
+}
+
 std::vector<std::string> controller_sharing_warnings(const std::vector<LoadedPoint>& points) {
   std::vector<std::string> warnings;
   std::set<std::string> said;
@@ -804,6 +837,8 @@ void Loader::load_points(LoadedScenario& out, PointSelection selection, unsigned
   for (auto& w : ineffective_budget_warnings(out.points))
     out.warnings.push_back(std::move(w));
   for (auto& w : prior_dominated_warnings(out.points))
+    out.warnings.push_back(std::move(w));
+  for (auto& w : placeholder_warnings(out.points))
     out.warnings.push_back(std::move(w));
   out.host_platform = host_used_;
   // "platform": "host" with a model of another machine: in the manifest (the warnings) and

@@ -446,6 +446,12 @@ struct SchemaSet::Impl {
       }
       return {pointer + "/" + escape_token(key), msg};
     }
+    // A top-level key the schema's if/then forbids ("not": {}) says why in its description.
+    if (d.find("'not' constraint") != std::string::npos && tokens.size() == 1) {
+      const json& root = docs.at(file_of(kind));
+      const json::json_pointer why("/then/properties/" + escape_token(tokens[0]) + "/description");
+      if (root.contains(why)) return {pointer, root.at(why).get<std::string>()};
+    }
     if (d.rfind("Missing required property", 0) == 0)
       return {pointer, "missing required key '" + quoted_name(d) + "'"};
     if (d.find("'type' constraint") != std::string::npos && s && inst) {

@@ -696,3 +696,14 @@ TEST_CASE(
   const auto fitted = dir.write("f.json", scenario("", "\"wl/fitted.json\"", "\"wl/fitted.json\""));
   CHECK(loader.load(fitted, std::string("sim")).warnings.empty());
 }
+
+TEST_CASE("display_path: relative where shorter, absolute from /", "[loader]") {
+  const fs::path here = fs::current_path();
+  const fs::path file = here / "sub" / "x.json";
+  CHECK(display_path(file) == "sub/x.json");
+  CHECK(display_path("/usr/share/x.json") == "/usr/share/x.json");
+  fs::current_path("/");
+  const std::string from_root = display_path("/root/x.json");
+  fs::current_path(here);
+  CHECK(from_root == "/root/x.json");
+}

@@ -394,6 +394,8 @@ std::string Home::data_file(const std::string& given) const {
 
 std::string display_path(const fs::path& path) {
   std::error_code ec;
+  // From / a relative path ("root/x.json" for /root/x.json) reads as a mistake: absolute.
+  if (path.is_absolute() && fs::current_path(ec) == "/") return path.string();
   const fs::path rel = fs::proximate(path, ec);
   if (ec) return path.string();
   const std::string r = rel.string();

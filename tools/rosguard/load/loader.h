@@ -185,7 +185,8 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& displ
 // read_text_file + parse_json_text.
 nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& display);
 
-// How a path is shown in messages: relative to the working directory when that is shorter.
+// How a path is shown in messages: relative to the working directory when that is shorter
+// (an absolute path stays absolute when the working directory is /).
 std::string display_path(const std::filesystem::path& path);
 
 }  // namespace rosguard

@@ -92,6 +92,19 @@ kill9)
   cmp "$tmp/ref/points.csv" "$tmp/k/points.csv" || fail "resumed points.csv differs"
   cmp "$tmp/ref/samples.csv" "$tmp/k/samples.csv" || fail "resumed samples.csv differs"
   [[ $(status "$tmp/k") == complete ]] || fail "manifest after resume should say complete"
+  # samples.csv under another header (another rosguard's columns): --resume refuses, exit 2,
+  # both files as they were (it kept the rows under the new header before).
+  cp -r "$tmp/k" "$tmp/h"
+  head -n 4 "$tmp/ref/points.csv" > "$tmp/h/points.csv"
+  sed -i '1s/^/old_/' "$tmp/h/samples.csv"
+  cp "$tmp/h/samples.csv" "$tmp/h/samples.before"
+  "$bin" run $scenario --out "$tmp/h" --resume --quiet 2> "$tmp/err" >/dev/null
+  rc=$?
+  [[ $rc -eq 2 ]] || fail "resume over a foreign samples.csv exited $rc: $(cat "$tmp/err")"
+  grep -q "samples.csv has other columns than this rosguard writes" "$tmp/err" ||
+    fail "no error naming samples.csv: $(cat "$tmp/err")"
+  cmp "$tmp/h/samples.csv" "$tmp/h/samples.before" || fail "samples.csv changed"
+  [[ $(rows "$tmp/h") -eq 3 ]] || fail "points.csv changed: $(rows "$tmp/h") rows"
   ;;
 containment)
   # Sim tasks run in workers forked by a task host (tools/rosguard/run/task_pool.h). A worker that

@@ -92,6 +92,13 @@ void tidy_samples(const fs::path& path, const std::map<std::string, std::size_t>
   }
   truncate_torn_tail(path);
   const std::string text = read_file(path);
+  // Rows kept under another header would be read as columns they are not.
+  if (const std::size_t nl = text.find('\n');
+      nl != std::string::npos && text.compare(0, nl + 1, header) != 0)
+    throw InputError("", "",
+                     path.string() + " has other columns than this rosguard writes (its header: " +
+                         text.substr(0, std::min<std::size_t>(nl, 120)) +
+                         "); resume only a folder this rosguard wrote, or choose another --out");
   struct Block {
     std::size_t order;
     int rep;

@@ -893,7 +893,7 @@ void fit_document(nlohmann::json& doc, const ProfileOptions& o, const std::strin
   doc["reference"] = {{"ipc", std::stod(sig4(ipc))},
                       {"source", "IPC " + how + " (rosguard profile, " + utc_now() + ")"}};
 #else
-  (void)doc, (void)how, (void)ipc, (void)schemas;
+  (void)doc, (void)o, (void)how, (void)ipc, (void)schemas;
   throw InputError("", "",
                    "--fit-ipc and --measure-ipc need the sim backend, which this "
                    "rosguard is built without");
@@ -919,7 +919,7 @@ int profile_command(const ProfileOptions& given, const SchemaSet& schemas) {
   if (o.out.empty()) throw InputError("", "", "--out is required: the workload JSON to write");
   if (o.tracer != "lackey" && o.tracer != "callgrind")
     throw InputError("", "", "--tracer must be lackey or callgrind, not '" + o.tracer + "'");
-  const bool fit = o.fit_ipc > 0 || o.measure_ipc;
+  [[maybe_unused]] const bool fit = o.fit_ipc > 0 || o.measure_ipc;
   if (o.fit_ipc > 0 && o.measure_ipc)
     throw InputError("", "", "--fit-ipc and --measure-ipc: give one of them");
   if (o.measure_ipc && (o.max_instructions || o.skip_instructions))

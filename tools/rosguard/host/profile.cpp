@@ -170,6 +170,26 @@ profile::ProfilerConfig profile_config(const ProfileOptions& o) {
 
 namespace {
 
+// The program and valgrind, both found, and the run's record begun (InputError for a program
+// that is not there, RunError without valgrind).
+ProfileRun begin_run(const ProfileOptions& o, const std::string& tool, std::string& valgrind) {
+  ProfileRun run;
+  run.program = find_executable(o.command[0]);
+  if (run.program.empty())
+    throw InputError("", "", "program '" + o.command[0] + "' not found or not executable");
+  valgrind = find_executable("valgrind");
+  if (valgrind.empty())
+    throw RunError(
+        "valgrind is not installed (not found on PATH): rosguard profile runs the program under "
+        "valgrind --tool=" +
+        tool +
+        "; install it with 'apt-get install valgrind' (or "
+        "tools/install-deps.sh)");
+  run.valgrind_version = command_output("'" + valgrind + "' --version 2>/dev/null");
+  run.date_utc = utc_now();
+  return run;
+}
+
 // Starts valgrind's lackey on the command, its trace on a pipe (fd 3 in the child).
 Child start_lackey(const std::string& valgrind, const std::vector<std::string>& command) {
   int fds[2];
@@ -364,18 +384,8 @@ void check_trace_end(const ProfileOptions& o, const profile::Profiler& profiler,
 ProfileRun trace_program(const ProfileOptions& o, profile::Profiler& profiler,
                          std::ostream* progress) {
   if (o.command.empty()) throw InputError("", "", "no program given: rosguard profile -- PROGRAM");
-  ProfileRun run;
-  run.program = find_executable(o.command[0]);
-  if (run.program.empty())
-    throw InputError("", "", "program '" + o.command[0] + "' not found or not executable");
-  const std::string valgrind = find_executable("valgrind");
-  if (valgrind.empty())
-    throw RunError(
-        "valgrind is not installed (not found on PATH): rosguard profile runs the program under "
-        "valgrind --tool=lackey; install it with 'apt-get install valgrind' (or "
-        "tools/install-deps.sh)");
-  run.valgrind_version = command_output("'" + valgrind + "' --version 2>/dev/null");
-  run.date_utc = utc_now();
+  std::string valgrind;
+  ProfileRun run = begin_run(o, "lackey", valgrind);
 
   const auto start = std::chrono::steady_clock::now();
   Child child = start_lackey(valgrind, o.command);
@@ -465,27 +475,25 @@ pid_t start_callgrind(const std::string& valgrind, const ProfileOptions& o,
   return pid;
 }
 
+std::string file_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 // A run's dumps, in part order (every file out_file*).
 std::vector<profile::CallgrindDump> read_dumps(const CallgrindRun& r) {
   std::vector<profile::CallgrindDump> dumps;
   for (const auto& entry : fs::directory_iterator(r.out_file.parent_path())) {
     const std::string name = entry.path().filename().string();
     if (name.rfind(r.out_file.filename().string(), 0) != 0) continue;
-    std::ifstream in(entry.path());
-    std::stringstream text;
-    text << in.rdbuf();
-    if (auto d = profile::parse_callgrind_dump(text.str())) dumps.push_back(std::move(*d));
+    if (auto d = profile::parse_callgrind_dump(file_text(entry.path())))
+      dumps.push_back(std::move(*d));
   }
   std::sort(dumps.begin(), dumps.end(),
             [](const auto& a, const auto& b) { return a.part < b.part; });
   return dumps;
-}
-
-std::string file_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
 }
 
 }  // namespace
@@ -494,18 +502,8 @@ ProfileRun callgrind_program(const ProfileOptions& o, ProfileData& data, std::os
   if (o.command.empty()) throw InputError("", "", "no program given: rosguard profile -- PROGRAM");
   const profile::Profiler shape(profile_config(o));  // the capacities, checked geometry
   const profile::ProfilerConfig& c = shape.config();
-  ProfileRun run;
-  run.program = find_executable(o.command[0]);
-  if (run.program.empty())
-    throw InputError("", "", "program '" + o.command[0] + "' not found or not executable");
-  const std::string valgrind = find_executable("valgrind");
-  if (valgrind.empty())
-    throw RunError(
-        "valgrind is not installed (not found on PATH): rosguard profile runs the program under "
-        "valgrind --tool=callgrind; install it with 'apt-get install valgrind' (or "
-        "tools/install-deps.sh)");
-  run.valgrind_version = command_output("'" + valgrind + "' --version 2>/dev/null");
-  run.date_utc = utc_now();
+  std::string valgrind;
+  ProfileRun run = begin_run(o, "callgrind", valgrind);
 
   // Run 0: LL = the L2. Then one per MRC capacity other than the L2's, and one with an LL far
   // beyond any footprint here, whose misses are the lines first touched (the footprint).

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The ROS 2 side of rosguard's tests: finds a ROS 2 Humble, then builds with colcon against it
-# the project's ROS 2 packages (hw/topic/dds/rosguard_msgs, tests/ros2/peer) into BUILD/ros2/.
+# the project's ROS 2 packages (hw/topic/dds/rosguard_msgs, ros2/rosguard_rclcpp, tests/ros2/peer)
+# into BUILD/ros2/. rosguard_rclcpp links the regulation engine of this build, installed first
+# into BUILD/ros2/rosguard/ (cmake --install: rosguard's CMake package).
 # Called by `make test` (make ros2); the tests of `ctest -L ros2` read what it leaves:
 #   BUILD/ros2/env.sh    sources the Humble and the packages built here (ROS 2 found)
 #   BUILD/ros2/skipped   why there is no ROS 2 for the tests (then the tests say so and skip)
@@ -57,20 +59,26 @@ fi
 # only inside the colcon call.
 export PATH=/usr/bin:/bin:$PATH
 start=$(date +%s)
+if ! cmake --install "$build" --prefix "$out/rosguard" >"$out/install.log" 2>&1; then
+  cat "$out/install.log" >&2
+  echo "ros2: cmake --install of $build into $out/rosguard failed (log: $out/install.log)" >&2
+  exit 1
+fi
 rc=0
 (
   set +u  # ROS 2's setup files read unset variables
   # shellcheck source=/dev/null
   source "$humble_setup"
   cd "$out"
+  export CMAKE_PREFIX_PATH=$out/rosguard${CMAKE_PREFIX_PATH:+:$CMAKE_PREFIX_PATH}
   colcon --log-base "$out/log" build --merge-install --build-base build --install-base install \
-    --base-paths "$repo/hw/topic/dds/rosguard_msgs" "$repo/tests/ros2/peer" \
+    --base-paths "$repo/hw/topic/dds/rosguard_msgs" "$repo/ros2/rosguard_rclcpp" "$repo/tests/ros2/peer" \
     --event-handlers console_direct- console_start_end+ \
     --cmake-args -DCMAKE_BUILD_TYPE=Release -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=/usr/bin/python3
 ) >"$out/build.log" 2>&1 || rc=$?
 if ((rc != 0)); then
   cat "$out/build.log" >&2
-  echo "ros2: colcon could not build rosguard_msgs and the test peer against $humble_setup (log: $out/build.log)" >&2
+  echo "ros2: colcon could not build rosguard_msgs, rosguard_rclcpp and the test peer against $humble_setup (log: $out/build.log)" >&2
   exit 1
 fi
 cat >"$out/env.sh" <<EOF
@@ -84,4 +92,4 @@ source "$humble_setup"
 source "$out/install/setup.sh"
 export RMW_IMPLEMENTATION=rmw_cyclonedds_cpp
 EOF
-echo "ros2: rosguard_msgs and the rclcpp test peer built in $(($(date +%s) - start)) s against $humble_setup"
+echo "ros2: rosguard_msgs, rosguard_rclcpp and the rclcpp test peer built in $(($(date +%s) - start)) s against $humble_setup"

@@ -13,6 +13,7 @@
 #   make validate     runs scenarios/validation/ on hw and in sim, writes results/validation/report.md
 #   make fit-table1   refits the seven Table 1 workloads (base_ipc; measured profiles' rates scaled)
 #   make bench-middleware  the paper's experiments 1-3 on hw, transport inproc vs dds, as a table
+#   make bench-middleware-ros2  the same on rclcpp (rosguard_rclcpp's middleware_bench; make ros2 first)
 #   make docs         regenerates every command transcript in README.md and docs/ (tools/docs.py)
 BUILD ?= build
 JOBS ?= $(shell nproc)
@@ -27,7 +28,7 @@ PYTHON := /usr/bin/python3
 ROSGUARD := $(BUILD)/rosguard
 
 .PHONY: all deps configure build rosguard ros2 test test-nosim test-aarch64 run install reproduce sensitivity audit-hw validate \
-        validate-readme docs bench-parallel bench-large bench-soak bench-middleware bench format clean fit-table1
+        validate-readme docs bench-parallel bench-large bench-soak bench-middleware bench-middleware-ros2 bench format clean fit-table1
 
 all: build
 
@@ -140,6 +141,12 @@ bench-large: rosguard
 bench-middleware: rosguard
 	$(ROSGUARD) run scenarios/bench/hw-middleware.json --backend hw --out results/hw-middleware --overwrite
 	$(PYTHON) tools/middleware_table.py results/hw-middleware
+
+# The paper's experiments 1-3 on rclcpp (rosguard_rclcpp's middleware_bench, one process), self
+# and external sampling at 100 .. 5000 us, as the table of docs/middleware-costs.md (printed).
+# Needs the ROS 2 workspace: make ros2 first.
+bench-middleware-ros2:
+	tools/ros2/middleware_bench.sh $(BUILD)
 
 # rosguard guard under regulation for SOAK_S seconds (default 30 min): its memory and log growth.
 SOAK_S ?= 1800

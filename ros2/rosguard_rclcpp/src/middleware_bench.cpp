@@ -2,7 +2,8 @@
 // rclcpp, in one process: an nRT node streaming bandwidth_read over 64 MB under an NrtGuard on
 // the last usable CPU, a Controller on the first, and an RT node's RtJob. Prints one JSON object.
 //
-//   middleware_bench --sampling self|external --period-us N --seconds S --mode regulate|monitor|none
+//   middleware_bench --sampling self|external --period-us N --seconds S
+//                    --mode regulate|monitor|none
 //
 // regulate: policy interval, threshold 20 % of the node's own rate measured alone just before
 //           (its reference), regulation period max(5 ms, 5 sampling periods); RT jobs of 100 ms
@@ -14,6 +15,8 @@
 // The PMC thread's CPU time is read from /proc/self/task/<tid>/schedstat (the thread NrtGuard
 // names "<name>-pmc"); NrtGuard does not expose it.
 #include <dirent.h>
+#include <rosguard/hw/common/clock.h>
+#include <rosguard/hw/common/sys.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -27,9 +30,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <rosguard/hw/common/clock.h>
-#include <rosguard/hw/common/sys.h>
 
 #include "rosguard_rclcpp/controller.hpp"
 #include "rosguard_rclcpp/nrt_guard.hpp"
@@ -111,11 +111,16 @@ Args parse(int argc, char** argv) {
     if (i + 1 >= argc) usage("missing value of " + k);
     const std::string v = argv[++i];
     try {
-      if (k == "--sampling") a.sampling = v;
-      else if (k == "--mode") a.mode = v;
-      else if (k == "--period-us") a.period_us = std::stoll(v);
-      else if (k == "--seconds") a.seconds = std::stod(v);
-      else usage("unknown option " + k);
+      if (k == "--sampling")
+        a.sampling = v;
+      else if (k == "--mode")
+        a.mode = v;
+      else if (k == "--period-us")
+        a.period_us = std::stoll(v);
+      else if (k == "--seconds")
+        a.seconds = std::stod(v);
+      else
+        usage("unknown option " + k);
     } catch (const std::logic_error&) {
       usage("bad value of " + k + ": " + v);
     }
@@ -168,10 +173,12 @@ int run(const Args& a) {
     return 2;
   }
   const int control = cpus.front(), nrt = cpus.back();
-  const auto sampling = a.sampling == "self" ? rosguard::Sampling::Self : rosguard::Sampling::External;
+  const auto sampling =
+      a.sampling == "self" ? rosguard::Sampling::Self : rosguard::Sampling::External;
   const std::string ns = "/rgbench_" + std::to_string(::getpid());
   // none: no sampling at all (external: NrtGuard starts no PMC timer).
-  StreamNode stream(ns, nrt, a.mode == "none" ? rosguard::Sampling::External : sampling, a.period_us);
+  StreamNode stream(ns, nrt, a.mode == "none" ? rosguard::Sampling::External : sampling,
+                    a.period_us);
   if (!wait_for([&] { return stream.lines() > 0; }, std::chrono::seconds(10))) {
     std::cerr << "middleware_bench: the nRT node did not start\n";
     return 1;
@@ -183,13 +190,15 @@ int run(const Args& a) {
     std::this_thread::sleep_for(d);
     return (stream.lines() - l0) / static_cast<double>(hw::now_ns() - t0);  // lines per ns
   };
-  const auto mbps = [](double lines_per_ns) { return lines_per_ns * 64.0 * 1e9 / rosguard::kBytesPerMb; };
+  const auto mbps = [](double lines_per_ns) {
+    return lines_per_ns * 64.0 * 1e9 / rosguard::kBytesPerMb;
+  };
   const auto window = std::chrono::milliseconds(static_cast<long long>(a.seconds * 1000.0));
 
   std::ostringstream out;
   out << "{\"sampling\": \"" << a.sampling << "\", \"period_us\": " << a.period_us
-      << ", \"mode\": \"" << a.mode << "\", \"seconds\": " << a.seconds
-      << ", \"pmc_source\": \"" << stream.guard->pmc_source() << "\"";
+      << ", \"mode\": \"" << a.mode << "\", \"seconds\": " << a.seconds << ", \"pmc_source\": \""
+      << stream.guard->pmc_source() << "\"";
 
   if (a.mode == "none") {
     const double rate = rate_of(window);
@@ -213,13 +222,16 @@ int run(const Args& a) {
   co.reference_mbps = mbps(alone);
   auto cnode = std::make_shared<rclcpp::Node>("rosguard_controller", ns.substr(1));
   Controller controller(cnode, co);
-  if (sampling == rosguard::Sampling::External) controller.set_counters(0, stream.guard->counters());
+  if (sampling == rosguard::Sampling::External)
+    controller.set_counters(0, stream.guard->counters());
   controller.start();
   auto rnode = std::make_shared<rclcpp::Node>("rt", ns.substr(1));
   RtJob job(*rnode, "rt", ns);
-  if (!wait_for([&] { return rnode->count_subscribers(job.topic()) > 0; }, std::chrono::seconds(10)) ||
-      !wait_for([&] { return cnode->count_subscribers(rosguard_topic(ns, "stream", "command")) > 0; },
-                std::chrono::seconds(10))) {
+  if (!wait_for([&] { return rnode->count_subscribers(job.topic()) > 0; },
+                std::chrono::seconds(10)) ||
+      !wait_for(
+          [&] { return cnode->count_subscribers(rosguard_topic(ns, "stream", "command")) > 0; },
+          std::chrono::seconds(10))) {
     std::cerr << "middleware_bench: the topics did not match\n";
     return 1;
   }
@@ -231,7 +243,8 @@ int run(const Args& a) {
   if (a.mode == "monitor") {
     job.start();
     ++jobs;
-    if (!wait_for([&] { return stream.guard->state() == rosguard::NodeState::On; }, std::chrono::seconds(5))) {
+    if (!wait_for([&] { return stream.guard->state() == rosguard::NodeState::On; },
+                  std::chrono::seconds(5))) {
       std::cerr << "middleware_bench: the nRT node did not turn ON\n";
       return 1;
     }
@@ -279,14 +292,17 @@ int run(const Args& a) {
       << ", \"activation_delay_us\": " << stats_json(s.activation_delays_us)
       << ", \"sample_transit_us\": " << stats_json(controller.sample_latencies_us());
   if (pmc_cpu_ns >= 0 && sampling == rosguard::Sampling::Self)
-    out << ", \"pmc_thread_cpu_us_per_period\": " << static_cast<double>(pmc_cpu_ns) / 1e3 / periods;
+    out << ", \"pmc_thread_cpu_us_per_period\": "
+        << static_cast<double>(pmc_cpu_ns) / 1e3 / periods;
   else
     out << ", \"pmc_thread_cpu_us_per_period\": null";
   out << ", \"jobs\": " << jobs << ", \"thr\": " << c.thr << ", \"throttles\": " << s.throttles
       << ", \"samples\": " << c.samples;
   std::string fb;
-  for (const auto& f : stream.guard->fallbacks()) fb += (fb.empty() ? "" : "; ") + f;
-  for (const auto& f : controller.fallbacks()) fb += (fb.empty() ? "" : "; ") + f;
+  for (const auto& f : stream.guard->fallbacks())
+    fb += (fb.empty() ? "" : "; ") + f;
+  for (const auto& f : controller.fallbacks())
+    fb += (fb.empty() ? "" : "; ") + f;
   std::string esc;
   for (char ch : fb) {
     if (ch == '"' || ch == '\\') esc += '\\';

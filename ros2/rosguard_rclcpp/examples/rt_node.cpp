@@ -2,8 +2,9 @@
 // over a working set (a rosguard kernel: bandwidth_read by default), announced to the controller
 // with rosguard_rclcpp::RtJob, pinned to its core (rosguard.core) under SCHED_FIFO where allowed.
 // Every 2 s it logs its jobs' median time; after `jobs` jobs (0: until stopped) it exits.
-#include <algorithm>
 #include <rosguard/hw/executor/executor.h>
+
+#include <algorithm>
 #include <vector>
 
 #include "rosguard_rclcpp/rt_job.hpp"
@@ -29,10 +30,11 @@ int main(int argc, char** argv) {
   const auto ws_kb = node->declare_parameter<std::int64_t>("working_set_kb", 8192);
   const auto passes = node->declare_parameter<std::int64_t>("passes", 4);
 
-  rosguard_rclcpp::Workload work(kernel, static_cast<std::uint32_t>(ws_kb), static_cast<int>(passes));
+  rosguard_rclcpp::Workload work(kernel, static_cast<std::uint32_t>(ws_kb),
+                                 static_cast<int>(passes));
   rosguard_rclcpp::RtJob job(*node);
-  rosguard::hw::ScopedSched sched(
-      rosguard::hw::ThreadSpec{"rt-node", core, rosguard::hw::SchedClass::Fifo, rosguard::hw::prio::kRt});
+  rosguard::hw::ScopedSched sched(rosguard::hw::ThreadSpec{
+      "rt-node", core, rosguard::hw::SchedClass::Fifo, rosguard::hw::prio::kRt});
   if (!sched.outcome().detail.empty())
     RCLCPP_WARN(node->get_logger(), "fallback: %s", sched.outcome().detail.c_str());
 

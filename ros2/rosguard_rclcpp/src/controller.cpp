@@ -1,13 +1,13 @@
 #include "rosguard_rclcpp/controller.hpp"
 
-#include <algorithm>
-#include <array>
-#include <stdexcept>
-
 #include <rosguard/core/error.h>
 #include <rosguard/hw/common/clock.h>
 #include <rosguard/hw/nodes/messages.h>
 #include <rosguard/policy/builtin_registry.h>
+
+#include <algorithm>
+#include <array>
+#include <stdexcept>
 
 #include "rosguard_rclcpp/rt_job.hpp"
 
@@ -74,10 +74,15 @@ Controller::Controller(rclcpp::Node::SharedPtr node, ControllerOptions options)
     throw std::invalid_argument("parameter rosguard.budget_mbps: one value, or one per nRT node (" +
                                 std::to_string(nrt) + ")");
   try {
-    setup_ = rosguard::regulation_setup(r, {opt_.rt_nodes.size(), nrt}, rosguard::builtin_registry(),
-                                        "the ROS 2 parameters rosguard.*");
+    setup_ = rosguard::regulation_setup(r, {opt_.rt_nodes.size(), nrt},
+                                        rosguard::builtin_registry(), "rosguard-parameters");
   } catch (const rosguard::InputError& e) {
-    throw std::invalid_argument(e.what());
+    // rosguard names a scenario's JSON path; here it is the parameter of the same name.
+    std::string what = e.what();
+    const std::string from = "rosguard-parameters: /regulation/";
+    if (auto at = what.find(from); at != std::string::npos)
+      what.replace(at, from.size(), "parameter rosguard.");
+    throw std::invalid_argument(what);
   }
   if (opt_.policy == "monolithic") {
     if (opt_.rt_isolation_us <= 0)
@@ -117,7 +122,8 @@ Controller::Controller(rclcpp::Node::SharedPtr node, ControllerOptions options)
   cfg.sampling_period_ns = setup_.sampling_period_ns;
   cfg.keepalive_ns = opt_.keepalive_ms * rosguard::kNsPerMs;
   cfg.record_windows = true;
-  driver_ = std::make_unique<rosguard::ControllerDriver>(cfg, setup_.make_regulator(), meter_.get());
+  driver_ =
+      std::make_unique<rosguard::ControllerDriver>(cfg, setup_.make_regulator(), meter_.get());
 
   group_ = node_->create_callback_group(rclcpp::CallbackGroupType::MutuallyExclusive, false);
   rclcpp::SubscriptionOptions so;
@@ -180,8 +186,8 @@ void Controller::start() {
         try {
           std::rethrow_exception(err);
         } catch (const std::exception& x) {
-          RCLCPP_ERROR(node_->get_logger(), "rosguard controller: thread %s failed: %s",
-                       t.c_str(), x.what());
+          RCLCPP_ERROR(node_->get_logger(), "rosguard controller: thread %s failed: %s", t.c_str(),
+                       x.what());
         }
       });
   const auto& o = thread_->outcome();
@@ -209,8 +215,8 @@ void Controller::run() {
   while (!stopping_.load(std::memory_order_acquire) && context->is_valid()) {
     auto wait = std::chrono::nanoseconds(kIdleWait);
     if (auto next = driver_->next_wakeup())
-      wait = std::clamp(std::chrono::nanoseconds(*next - hw::now_ns()),
-                        std::chrono::nanoseconds(0), wait);
+      wait = std::clamp(std::chrono::nanoseconds(*next - hw::now_ns()), std::chrono::nanoseconds(0),
+                        wait);
     exec_->spin_once(wait);
     const auto now = hw::now_ns();
     if (auto next = driver_->next_wakeup(); next && *next <= now) {
@@ -233,7 +239,8 @@ void Controller::on_active(std::size_t rt, bool active) {
 }
 
 double Controller::lines_of(std::size_t e, std::span<const rosguard::CounterValue> v) {
-  const bool software = v.size() == hw::software_group_events().size() && opt_.events.size() != v.size();
+  const bool software =
+      v.size() == hw::software_group_events().size() && opt_.events.size() != v.size();
   if (software != static_cast<bool>(time_based_[e]) || !announced_[e]) {
     time_based_[e] = software;
     announced_[e] = 1;
@@ -327,7 +334,8 @@ void Controller::handle() {
       std::lock_guard lock(mutex_);
       ++counts_.activations;
     } else if (ev.kind == rosguard::EngineEvent::Kind::ActivationEnd) {
-      RCLCPP_INFO(node_->get_logger(), "rosguard controller: activation ended after %.1f ms, THR %lu",
+      RCLCPP_INFO(node_->get_logger(),
+                  "rosguard controller: activation ended after %.1f ms, THR %lu",
                   static_cast<double>(ev.t - active_since_) / 1e6,
                   static_cast<unsigned long>(thr_in_activation_));
     }

@@ -10,7 +10,8 @@ int main(int argc, char** argv) {
   auto node = std::make_shared<rclcpp::Node>("rosguard_controller");
   int rc = 0;
   try {
-    rosguard_rclcpp::Controller controller(node, rosguard_rclcpp::declare_controller_options(*node));
+    rosguard_rclcpp::Controller controller(node,
+                                           rosguard_rclcpp::declare_controller_options(*node));
     controller.start();
     rclcpp::spin(node);
     controller.stop();

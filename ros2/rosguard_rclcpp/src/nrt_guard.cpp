@@ -1,12 +1,12 @@
 #include "rosguard_rclcpp/nrt_guard.hpp"
 
-#include <algorithm>
-#include <array>
-#include <stdexcept>
-
 #include <rosguard/hw/common/clock.h>
 #include <rosguard/hw/common/sys.h>
 #include <rosguard/hw/nodes/messages.h>
+
+#include <algorithm>
+#include <array>
+#include <stdexcept>
 
 #include "rosguard_rclcpp/rt_job.hpp"
 
@@ -136,15 +136,15 @@ NrtGuard::NrtGuard(rclcpp::Node::SharedPtr node, NrtGuardOptions options,
   sample_pub_ = node_->create_publisher<rosguard_msgs::msg::PmcSample>(
       rosguard_topic(opt_.ns, opt_.name, "pmc"), rclcpp::QoS(100).reliable());
   // Zero-time timers, started (reset) by CFB: THR's idle loop, and the self-sampling baseline.
-  thr_timer_ = node_->create_wall_timer(std::chrono::nanoseconds(0), [this] { on_thr(); },
-                                        thr_group_);
+  thr_timer_ = node_->create_wall_timer(
+      std::chrono::nanoseconds(0), [this] { on_thr(); }, thr_group_);
   thr_timer_->cancel();
-  baseline_timer_ = node_->create_wall_timer(std::chrono::nanoseconds(0),
-                                             [this] { on_pmc(true); }, pmc_group_);
+  baseline_timer_ = node_->create_wall_timer(
+      std::chrono::nanoseconds(0), [this] { on_pmc(true); }, pmc_group_);
   baseline_timer_->cancel();
   if (opt_.sampling == rosguard::Sampling::Self)
-    pmc_timer_ = node_->create_wall_timer(std::chrono::microseconds(opt_.sampling_period_us),
-                                          [this] { on_pmc(false); }, pmc_group_);
+    pmc_timer_ = node_->create_wall_timer(
+        std::chrono::microseconds(opt_.sampling_period_us), [this] { on_pmc(false); }, pmc_group_);
   watchdog_timer_ = node_->create_wall_timer(
       std::chrono::milliseconds(std::max<std::int64_t>(1, opt_.watchdog_ms / 4)),
       [this] {
@@ -174,8 +174,7 @@ NrtGuard::NrtGuard(rclcpp::Node::SharedPtr node, NrtGuardOptions options,
                                                      : "SCHED_OTHER by nice, work SCHED_IDLE",
               std::string(rosguard::to_string(opt_.sampling)).c_str(),
               static_cast<long>(opt_.sampling_period_us), source_name_.c_str(),
-              std::string(hw::to_string(throttle_kind_)).c_str(),
-              command_sub_->get_topic_name());
+              std::string(hw::to_string(throttle_kind_)).c_str(), command_sub_->get_topic_name());
 }
 
 NrtGuard::~NrtGuard() {
@@ -213,8 +212,7 @@ void NrtGuard::start_thread(const char* suffix, int priority,
         try {
           std::rethrow_exception(err);
         } catch (const std::exception& x) {
-          RCLCPP_ERROR(node_->get_logger(), "rosguard: thread %s failed: %s", t.c_str(),
-                       x.what());
+          RCLCPP_ERROR(node_->get_logger(), "rosguard: thread %s failed: %s", t.c_str(), x.what());
         }
       });
   const auto& o = thread->outcome();

@@ -80,8 +80,9 @@ ControllerOptions declare_controller_options(rclcpp::Node& node) {
   o.budget_mbps = declare<std::vector<double>>(node, "budget_mbps", {});
   if (o.reference_mbps <= 0.0 && o.budget_mbps.empty())
     bad("reference_mbps", std::to_string(o.reference_mbps),
-        "give the bandwidth threshold_pct is a percentage of (MB/s, e.g. the platform's "
-        "reference_mbps from `rosguard status`), or budget_mbps");
+        "give the bandwidth threshold_pct is a percentage of (MB/s: what bandwidth_read "
+        "reaches alone on the nRT core, the reference.mbps of the host model rosguard calibrate "
+        "writes), or budget_mbps");
   o.pmc_source = declare<std::string>(node, "pmc_source", "auto");
   one_of("pmc_source", o.pmc_source, {"auto", "perf", "instrumented", "software"});
   o.keepalive_ms = positive("keepalive_ms", declare<std::int64_t>(node, "keepalive_ms", 20));

@@ -1,9 +1,9 @@
 #include "rosguard_rclcpp/workload.hpp"
 
-#include <stdexcept>
-
 #include <rosguard/core/error.h>
 #include <rosguard/hw/common/clock.h>
+
+#include <stdexcept>
 
 namespace rosguard_rclcpp {
 

@@ -74,7 +74,8 @@ TEST_CASE("an RT job's start and end reach the controller") {
   auto rnode = std::make_shared<rclcpp::Node>("rt", ns.substr(1));
   RtJob job(*rnode, "rt", ns);
   REQUIRE(job.topic() == ns + "/rosguard/rt/active");
-  REQUIRE(wait_for([&] { return rnode->count_subscribers(job.topic()) > 0; }, std::chrono::seconds(10)));
+  REQUIRE(wait_for([&] { return rnode->count_subscribers(job.topic()) > 0; },
+                   std::chrono::seconds(10)));
   constexpr int kJobs = 5;
   for (int i = 0; i < kJobs; ++i) {
     auto scope = job.scope();
@@ -122,9 +123,11 @@ TEST_CASE("an over-budget nRT node is held to its budget within the policy's bou
   controller.start();
   auto rnode = std::make_shared<rclcpp::Node>("rt", ns.substr(1));
   RtJob job(*rnode, "rt", ns);
-  REQUIRE(wait_for([&] { return rnode->count_subscribers(job.topic()) > 0; }, std::chrono::seconds(10)));
-  REQUIRE(wait_for([&] { return cnode->count_subscribers(rosguard_topic(ns, "stream", "command")) > 0; },
+  REQUIRE(wait_for([&] { return rnode->count_subscribers(job.topic()) > 0; },
                    std::chrono::seconds(10)));
+  REQUIRE(wait_for(
+      [&] { return cnode->count_subscribers(rosguard_topic(ns, "stream", "command")) > 0; },
+      std::chrono::seconds(10)));
   {
     auto scope = job.scope();
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -153,9 +156,10 @@ TEST_CASE("an over-budget nRT node is held to its budget within the policy's bou
     worst = std::max(worst, w.bytes);
     if (w.bytes > bound) ++over;
   }
-  WARN("nRT node alone " << rate_mbps << " MB/s; budget " << budget / 1e6 << " MB per 5 ms window, bound "
-                         << bound / 1e6 << " MB (sample transit max " << lat << " us, activation max "
-                         << act << " us); " << complete << " windows, mean " << sum / complete / 1e6
+  WARN("nRT node alone " << rate_mbps << " MB/s; budget " << budget / 1e6
+                         << " MB per 5 ms window, bound " << bound / 1e6
+                         << " MB (sample transit max " << lat << " us, activation max " << act
+                         << " us); " << complete << " windows, mean " << sum / complete / 1e6
                          << " MB, worst " << worst / 1e6 << " MB; THR " << c.thr);
   REQUIRE(complete >= 50);
   CHECK(over == 0);

@@ -1,7 +1,8 @@
 // NrtGuard on its own: a THR command preempts the node's nominal callback; without SCHED_FIFO the
 // fallback is said and THR still holds the work back.
-#include <catch2/catch.hpp>
 #include <rosguard/hw/throttle/throttle.h>
+
+#include <catch2/catch.hpp>
 
 #include "common.hpp"
 #include "rosguard_rclcpp/nrt_guard.hpp"
@@ -68,7 +69,8 @@ struct Commander {
 
 }  // namespace
 
-TEST_CASE("a THR command preempts the nRT node's nominal callback within the measured activation delay") {
+TEST_CASE(
+    "a THR command preempts the nRT node's nominal callback within the measured activation delay") {
   const auto cores = test_cores();
   if (!cores.two()) {
     WARN("SKIPPED: needs two usable CPUs");
@@ -111,8 +113,8 @@ TEST_CASE("a THR command preempts the nRT node's nominal callback within the mea
   // The nominal callback's last progress while held came before THR entered: it was preempted
   // within the activation delay (command stamped -> THR entered) measured here.
   for (int i = 0; i < kRounds; ++i) {
-    INFO("round " << i << ": nominal progress stamped "
-                  << (lasts[i] - s.thr_entries_ns[i]) / 1000 << " us after THR entered");
+    INFO("round " << i << ": nominal progress stamped " << (lasts[i] - s.thr_entries_ns[i]) / 1000
+                  << " us after THR entered");
     CHECK(lasts[i] <= s.thr_entries_ns[i]);
   }
   WARN("activation delay (command stamped -> THR entered) p50 "
@@ -121,7 +123,9 @@ TEST_CASE("a THR command preempts the nRT node's nominal callback within the mea
   CHECK(busy.guard->fallbacks().empty());
 }
 
-TEST_CASE("the fallbacks without SCHED_FIFO are visible (warned and listed) and THR still holds the work") {
+TEST_CASE(
+    "the fallbacks without SCHED_FIFO are visible (warned and listed) and THR still holds the "
+    "work") {
   const auto cores = test_cores();
   if (!cores.two()) {
     WARN("SKIPPED: needs two usable CPUs");
@@ -166,8 +170,8 @@ TEST_CASE("the fallbacks without SCHED_FIFO are visible (warned and listed) and 
   REQUIRE(wait_for([&] { return busy.guard->throttles() > 0; }, std::chrono::seconds(5)));
   const double held = rate(std::chrono::milliseconds(100));
   cmd.send(Command::OFF);
-  WARN("without SCHED_FIFO: the nominal callback kept " << 100.0 * held / nominal
-                                                       << " % of its rate while THR held the core");
+  WARN("without SCHED_FIFO: the nominal callback kept "
+       << 100.0 * held / nominal << " % of its rate while THR held the core");
   // SCHED_IDLE against a spinning SCHED_OTHER thread: weight 3 of 1027 (hw/throttle/throttle.h),
   // 0.3 % in theory; a tenth is far from a core the work still has.
   CHECK(held < 0.1 * nominal);

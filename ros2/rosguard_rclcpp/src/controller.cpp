@@ -142,6 +142,7 @@ Controller::Controller(rclcpp::Node::SharedPtr node, ControllerOptions options)
           [this, e](const rosguard_msgs::msg::PmcSample& m) { on_sample(e, m); }, so));
   }
   sample_latency_us_.reserve(1 << 16);
+  sample_callback_us_.reserve(1 << 16);
 }
 
 Controller::~Controller() {
@@ -274,6 +275,8 @@ void Controller::on_sample(std::size_t e, const rosguard_msgs::msg::PmcSample& m
   }
   driver_->sample(now, e, std::span(&lines, 1), m.stamp_ns, out_);
   handle();
+  if (sample_callback_us_.size() < sample_callback_us_.capacity())
+    sample_callback_us_.push_back(hw::ns_to_us(hw::now_ns() - now));
 }
 
 void Controller::read_external(std::size_t e, std::int64_t now) {

@@ -3,7 +3,7 @@
 // the last usable CPU, a Controller on the first, and an RT node's RtJob. Prints one JSON object.
 //
 //   middleware_bench --sampling self|external --period-us N --seconds S
-//                    --mode regulate|monitor|none
+//                    --mode regulate|monitor|none [--costs]
 //
 // regulate: policy interval, threshold 20 % of the node's own rate measured alone just before
 //           (its reference), regulation period max(5 ms, 5 sampling periods); RT jobs of 100 ms
@@ -11,6 +11,13 @@
 // monitor:  policy monitor (sampling, no throttling), one RT job over the whole measurement:
 //           the node's rate while sampled and the PMC thread's CPU time per period (overhead).
 // none:     no controller, no RT job, no sampling timer: the node's baseline rate.
+// --costs (regulate, self-sampling): also "costs_us", every sample of the sim's middleware costs
+//           as rclcpp pays them here, keyed as a platform's "costs" (rosguard calibrate
+//           --transport rclcpp reads them): pmc_callback (the counter read in the PMC callback),
+//           publish (the callback's publish), message_latency (a sample's transit to the
+//           controller's callback, less the median publish), controller_callback (the
+//           controller's sample callback to its commands published), throttle_activation (CFB
+//           took THR -> the THR callback entered, through the zero-time timer).
 //
 // The PMC thread's CPU time is read from /proc/self/task/<tid>/schedstat (the thread NrtGuard
 // names "<name>-pmc"); NrtGuard does not expose it.
@@ -93,6 +100,7 @@ long long thread_cpu_ns(long tid) {
 
 struct Args {
   std::string sampling = "self", mode = "regulate";
+  bool costs = false;
   std::int64_t period_us = 1000;
   double seconds = 5.0;
 };
@@ -100,7 +108,7 @@ struct Args {
 [[noreturn]] void usage(const std::string& why) {
   std::cerr << "middleware_bench: " << why
             << "\nusage: middleware_bench --sampling self|external --period-us N --seconds S "
-               "--mode regulate|monitor|none\n";
+               "--mode regulate|monitor|none [--costs]\n";
   std::exit(2);
 }
 
@@ -108,6 +116,10 @@ Args parse(int argc, char** argv) {
   Args a;
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
+    if (k == "--costs") {
+      a.costs = true;
+      continue;
+    }
     if (i + 1 >= argc) usage("missing value of " + k);
     const std::string v = argv[++i];
     try {
@@ -129,6 +141,8 @@ Args parse(int argc, char** argv) {
   if (a.mode != "regulate" && a.mode != "monitor" && a.mode != "none")
     usage("--mode: regulate, monitor or none");
   if (a.period_us <= 0 || a.seconds <= 0) usage("--period-us and --seconds must be positive");
+  if (a.costs && (a.mode != "regulate" || a.sampling != "self"))
+    usage("--costs: with --mode regulate --sampling self");
   return a;
 }
 
@@ -308,7 +322,29 @@ int run(const Args& a) {
     if (ch == '"' || ch == '\\') esc += '\\';
     esc += ch;
   }
-  out << ", \"fallbacks\": \"" << esc << "\"}";
+  out << ", \"fallbacks\": \"" << esc << "\"";
+  if (a.costs) {
+    const auto array = [](const std::vector<double>& v) {
+      std::ostringstream o;
+      o << "[";
+      for (std::size_t i = 0; i < v.size(); ++i)
+        o << (i ? ", " : "") << v[i];
+      o << "]";
+      return o.str();
+    };
+    std::vector<double> publish;
+    for (std::size_t i = 0; i < s.pmc_callbacks_us.size() && i < s.pmc_reads_us.size(); ++i)
+      publish.push_back(std::max(0.0, s.pmc_callbacks_us[i] - s.pmc_reads_us[i]));
+    const double publish_p50 = quantile(publish, 0.5);
+    std::vector<double> latency;
+    for (double t : controller.sample_latencies_us())
+      latency.push_back(std::max(0.0, t - publish_p50));
+    out << ", \"costs_us\": {\"pmc_callback\": " << array(s.pmc_reads_us)
+        << ", \"publish\": " << array(publish) << ", \"message_latency\": " << array(latency)
+        << ", \"controller_callback\": " << array(controller.sample_callbacks_us())
+        << ", \"throttle_activation\": " << array(s.thr_activations_us) << "}";
+  }
+  out << "}";
   std::cout << out.str() << std::endl;
   return 0;
 }

@@ -160,6 +160,7 @@ NrtGuard::NrtGuard(rclcpp::Node::SharedPtr node, NrtGuardOptions options,
       cfb_group_);
 
   activation_us_.reserve(1 << 14);
+  thr_us_.reserve(1 << 14);
   pmc_us_.reserve(1 << 16);
   read_us_.reserve(1 << 16);
   thr_entries_.reserve(1 << 14);
@@ -234,9 +235,10 @@ void NrtGuard::on_command(const Command& m) {
   apply(driver_.command(now, *c, cause), now, cause);
 }
 
-void NrtGuard::apply(const rosguard::NrtEffects& fx, std::int64_t, std::int64_t cause) {
+void NrtGuard::apply(const rosguard::NrtEffects& fx, std::int64_t now, std::int64_t cause) {
   if (fx.throttle) {
     thr_cause_.store(cause, std::memory_order_release);
+    thr_taken_.store(now, std::memory_order_release);
     state_.store(NodeState::Thr, std::memory_order_release);
     thr_timer_->reset();  // the zero-time timer: THR runs as soon as CFB returns
     thr_group_->trigger_notify_guard_condition();
@@ -257,6 +259,8 @@ void NrtGuard::on_thr() {
   thr_entries_.push_back(t);
   if (const auto cause = thr_cause_.load(std::memory_order_acquire); cause > 0)
     activation_us_.push_back(hw::ns_to_us(t - cause));
+  if (const auto taken = thr_taken_.load(std::memory_order_acquire); taken > 0)
+    thr_us_.push_back(hw::ns_to_us(t - taken));
   throttles_.fetch_add(1, std::memory_order_acq_rel);
   throttler_->hold(
       [this] {
@@ -336,6 +340,7 @@ void NrtGuard::stop() {
 NrtGuardStats NrtGuard::stats() const {
   NrtGuardStats s = stats_;
   s.activation_delays_us = activation_us_;
+  s.thr_activations_us = thr_us_;
   s.pmc_callbacks_us = pmc_us_;
   s.pmc_reads_us = read_us_;
   s.thr_entries_ns = thr_entries_;

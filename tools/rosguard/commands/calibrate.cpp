@@ -21,9 +21,11 @@ CommandHandler setup_calibrate(CLI::App& sub) {
   sub.add_option("--name", options->name, "Name of the fitted platform (default: host)");
   sub.add_flag("--quiet", options->quiet, "No progress");
   sub.add_option("--transport", options->transport,
-                 "Topic transport whose message costs are measured: inproc (default) or dds "
-                 "(Cyclone DDS with ROS 2 names, as hw.transport dds)")
-      ->check(CLI::IsMember({"inproc", "dds"}));
+                 "Topic transport whose message costs are measured: inproc (default), dds "
+                 "(Cyclone DDS with ROS 2 names, as hw.transport dds) or rclcpp (ROS 2 nodes of "
+                 "the package rosguard_rclcpp: source its workspace first, docs/ros2.md; with "
+                 "--from, only these costs are measured)")
+      ->check(CLI::IsMember({"inproc", "dds", "rclcpp"}));
   sub.add_flag("--strict", options->strict,
                "Refuse the fit when a parameter rests mostly on its prior (default: write "
                "the model, name such parameters with their uncertainty)");

@@ -4,11 +4,13 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <map>
 #include <optional>
+#include <sstream>
 #include <utility>
 
 #include "calibration/measurements.h"
@@ -64,7 +66,8 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
   hw::SuiteOptions suite;
   suite.host = hw::host_facts(probe);
   suite.quick = opt.quick;
-  suite.transport = opt.transport;
+  // rclcpp: the suite's own costs over the rings, the message costs replaced afterwards.
+  suite.transport = opt.transport == "rclcpp" ? "inproc" : opt.transport;
   std::atomic<bool> stop{false};
   suite.stop = &stop;
   // The suite calls progress between its timed windows, from this thread: the place to see a
@@ -115,6 +118,83 @@ calibration::Measurements measure(const CalibrateOptions& opt, std::vector<std::
                    "this rosguard was built without the hw backend: it cannot measure the host "
                    "(use --from CALIBRATION.json to refit earlier measurements)");
 #endif
+}
+
+// --transport rclcpp: rosguard_rclcpp's middleware_bench, from $ROSGUARD_RCLCPP_BENCH or the
+// first prefix on AMENT_PREFIX_PATH (a sourced ROS 2 workspace) that has it.
+fs::path find_rclcpp_bench() {
+  if (const char* p = std::getenv("ROSGUARD_RCLCPP_BENCH"); p && *p) {
+    if (!fs::is_regular_file(p))
+      throw InputError("", "",
+                       std::string("ROSGUARD_RCLCPP_BENCH names ") + p + ", which is not a file");
+    return p;
+  }
+  std::stringstream prefixes(std::getenv("AMENT_PREFIX_PATH") ? std::getenv("AMENT_PREFIX_PATH")
+                                                              : "");
+  for (std::string prefix; std::getline(prefixes, prefix, ':');) {
+    const fs::path bench = fs::path(prefix) / "lib" / "rosguard_rclcpp" / "middleware_bench";
+    if (!prefix.empty() && fs::is_regular_file(bench)) return bench;
+  }
+  throw InputError("", "",
+                   "--transport rclcpp measures the middleware costs with the ROS 2 package "
+                   "rosguard_rclcpp, and no sourced workspace has it (AMENT_PREFIX_PATH; "
+                   "docs/ros2.md builds one; or name its middleware_bench in "
+                   "ROSGUARD_RCLCPP_BENCH)");
+}
+
+// The sim's middleware costs as rclcpp nodes pay them on this host: middleware_bench --costs
+// (1 ms self-sampling, interval regulation of a 64 MB stream, ros2/rosguard_rclcpp) replaces
+// pmc_callback, publish, message_latency (with the executor's wake-up up to the subscriber's
+// callback) and throttle_activation (CFB's zero-time timer to THR); local_message_latency, which
+// it does not measure, goes (message_latency then serves every message). The controller's
+// callbacks stay the suite's: the same regulator, and their switch in and out, which the bench's
+// callback time does not hold.
+void measure_rclcpp_costs(calibration::Measurements& m, std::vector<std::string>& notes,
+                          bool quick) {
+  const fs::path bench = find_rclcpp_bench();
+  const int seconds = quick ? 3 : 10;
+  const std::string cmd = "'" + bench.string() +
+                          "' --mode regulate --sampling self --period-us 1000 --seconds " +
+                          std::to_string(seconds) + " --costs";
+  std::cerr << "calibrate: measuring the middleware costs on rclcpp nodes (" << bench.string()
+            << ", " << seconds << " s)\n";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (!pipe) throw RunError("cannot run " + bench.string());
+  std::string text;
+  char buf[1 << 16];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, pipe)) > 0;)
+    text.append(buf, n);
+  const int status = ::pclose(pipe);
+  json doc;
+  const auto line_end = text.find_last_not_of('\n');
+  const auto line_start = text.rfind('\n', line_end == std::string::npos ? 0 : line_end);
+  try {
+    doc = json::parse(text.substr(line_start == std::string::npos ? 0 : line_start + 1));
+  } catch (const json::exception&) {
+  }
+  if (status != 0 || !doc.is_object() || !doc.contains("costs_us"))
+    throw RunError(bench.string() + " did not measure the middleware costs (exit status " +
+                   std::to_string(status) + "); its output: " + text.substr(0, 400));
+  std::string medians;
+  for (const std::string key :
+       {"pmc_callback", "publish", "message_latency", "throttle_activation"}) {
+    if (!doc.at("costs_us").contains(key))
+      throw RunError(bench.string() + " gave no " + key + " samples");
+    auto samples = doc.at("costs_us").at(key).get<std::vector<double>>();
+    if (samples.empty())
+      throw RunError(bench.string() + " measured no " + key + " sample (no THR in " +
+                     std::to_string(seconds) + " s?)");
+    m.costs_us[key] = samples;
+    std::nth_element(samples.begin(), samples.begin() + samples.size() / 2, samples.end());
+    medians += (medians.empty() ? "" : ", ") + key + " " + fmt(samples[samples.size() / 2]);
+  }
+  m.costs_us.erase("local_message_latency");
+  notes.push_back("middleware costs measured on rclcpp nodes (" + bench.string() + ", " +
+                  doc.value("pmc_source", std::string("?")) + " counters, " +
+                  std::to_string(seconds) + " s of 1 ms self-sampling), medians in us: " + medians +
+                  "; local_message_latency left out (not measured on rclcpp), the controller's "
+                  "callbacks the suite's");
+  std::cerr << "calibrate: " << notes.back() << "\n";
 }
 
 json calibration_document(const calibration::Measurements& m, const std::vector<std::string>& notes,
@@ -327,6 +407,7 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   throw InputError("", "",
                    "this rosguard was built without the sim backend: there is no model to fit");
 #else
+  if (opt.transport == "rclcpp") find_rclcpp_bench();  // refused before anything is written
   const fs::path dir = opt.out.empty() ? fs::path("results/calibration") : fs::path(opt.out);
   std::error_code ec;
   fs::create_directories(dir, ec);
@@ -337,8 +418,9 @@ int calibrate_host(const CalibrateOptions& opt, Loader& loader) {
   StopSignalGuard signals;
   std::vector<std::string> notes;
   json probe = nullptr;  // null: refitted from a file, nothing probed
-  const calibration::Measurements m =
+  calibration::Measurements m =
       opt.from.empty() ? measure(opt, notes, probe) : read_measurements(opt.from);
+  if (opt.transport == "rclcpp" && !stop_signal()) measure_rclcpp_costs(m, notes, opt.quick);
   if (const int sig = stop_signal()) {
     std::cerr << "calibrate: interrupted; nothing written\n";
     return 128 + sig;

@@ -14,12 +14,16 @@ struct CalibrateOptions {
   bool quick = false;    // the short suite (a few sizes, fewer repetitions)
   std::string out;       // output folder (default: results/calibration)
   bool install = false;  // also save platform.json as this host's model
-  std::string from;      // refit the measurements of an earlier calibration.json, measure nothing
-  bool quiet = false;    // no progress
+  // refit the measurements of an earlier calibration.json, measure nothing (with transport
+  // rclcpp: nothing but the rclcpp middleware costs)
+  std::string from;
+  bool quiet = false;              // no progress
   std::string name = "host";       // the fitted platform's name
   bool strict = false;             // refuse a fit with a prior-dominated parameter (else: written)
   std::string placement = "best";  // the co-runners' placement: best, probed or apart
-  std::string transport = "inproc";  // message costs over inproc rings or DDS (hw.transport)
+  // The middleware costs: inproc rings or DDS (hw.transport), or rclcpp: the nodes of the ROS 2
+  // package rosguard_rclcpp (docs/ros2.md), its middleware_bench --costs from a sourced workspace
+  std::string transport = "inproc";
 };
 
 // Exit code 0 on success; throws InputError (bad options or --from file) or RunError (the suite

@@ -16,6 +16,11 @@
 // (windows(), signals(), command counts) may be read after stop().
 #pragma once
 
+#include <rosguard/engine/controller_driver.h>
+#include <rosguard/hw/executor/executor.h>
+#include <rosguard/hw/pmc_source/pmc_source.h>
+#include <rosguard/regulator/setup.h>
+
 #include <atomic>
 #include <memory>
 #include <mutex>
@@ -26,11 +31,6 @@
 #include <std_msgs/msg/bool.hpp>
 #include <string>
 #include <vector>
-
-#include <rosguard/engine/controller_driver.h>
-#include <rosguard/hw/executor/executor.h>
-#include <rosguard/hw/pmc_source/pmc_source.h>
-#include <rosguard/regulator/setup.h>
 
 #include "rosguard_rclcpp/options.hpp"
 
@@ -65,6 +65,8 @@ class Controller {
   const rosguard::ActivationTotals& totals() const { return driver_->totals(); }
   // After stop(): the PMC samples' transit (published -> taken here), us.
   const std::vector<double>& sample_latencies_us() const { return sample_latency_us_; }
+  // After stop(): each sample's callback, taken to its commands published, us.
+  const std::vector<double>& sample_callbacks_us() const { return sample_callback_us_; }
 
  private:
   class Meter;
@@ -88,9 +90,9 @@ class Controller {
   std::vector<rclcpp::Publisher<rosguard_msgs::msg::Command>::SharedPtr> command_pubs_;
   std::vector<rosguard::hw::CounterGroup*> external_;
   std::vector<std::unique_ptr<rosguard::hw::CounterGroup>> owned_groups_;
-  std::vector<char> time_based_;           // per nRT node: samples are the software group
-  std::vector<double> last_lines_;         // per nRT node: cumulative lines of the last sample
-  std::vector<std::uint64_t> announced_;   // per nRT node: the sample kind was logged
+  std::vector<char> time_based_;          // per nRT node: samples are the software group
+  std::vector<double> last_lines_;        // per nRT node: cumulative lines of the last sample
+  std::vector<std::uint64_t> announced_;  // per nRT node: the sample kind was logged
   double bytes_per_task_ns_ = 0.0;
   std::unique_ptr<rclcpp::executors::SingleThreadedExecutor> exec_;
   std::unique_ptr<rosguard::hw::RtThread> thread_;
@@ -100,7 +102,7 @@ class Controller {
   mutable std::mutex mutex_;  // counts_ and fallbacks_ (read by other threads while running)
   ControllerCounts counts_;
   std::vector<std::string> fallbacks_;
-  std::vector<double> sample_latency_us_;
+  std::vector<double> sample_latency_us_, sample_callback_us_;
   std::int64_t active_since_ = 0;
   std::uint64_t thr_in_activation_ = 0;
 };

@@ -26,6 +26,13 @@
 // - stats() may be read after stop(); state() and counts at any time.
 #pragma once
 
+#include <rosguard/engine/nrt_driver.h>
+#include <rosguard/hw/executor/executor.h>
+#include <rosguard/hw/pmc_source/pmc_source.h>
+#include <rosguard/hw/throttle/throttle.h>
+#include <rosguard/hw/topic/waker.h>
+#include <rosguard/hw/workload/work_counters.h>
+
 #include <atomic>
 #include <memory>
 #include <mutex>
@@ -37,19 +44,13 @@
 #include <thread>
 #include <vector>
 
-#include <rosguard/engine/nrt_driver.h>
-#include <rosguard/hw/executor/executor.h>
-#include <rosguard/hw/pmc_source/pmc_source.h>
-#include <rosguard/hw/throttle/throttle.h>
-#include <rosguard/hw/topic/waker.h>
-#include <rosguard/hw/workload/work_counters.h>
-
 #include "rosguard_rclcpp/options.hpp"
 
 namespace rosguard_rclcpp {
 
 struct NrtGuardStats {
   std::vector<double> activation_delays_us;  // causing sample's stamp -> THR callback entered
+  std::vector<double> thr_activations_us;    // CFB took the THR command -> THR callback entered
   std::vector<double> pmc_callbacks_us;      // PMC callback: counter read + publish
   std::vector<double> pmc_reads_us;          // the counter read alone
   std::vector<std::int64_t> thr_entries_ns;  // CLOCK_MONOTONIC when THR started spinning
@@ -123,6 +124,7 @@ class NrtGuard {
   std::atomic<rosguard::NodeState> state_{rosguard::NodeState::Off};
   std::atomic<bool> stopping_{false};
   std::atomic<std::int64_t> thr_cause_{-1};
+  std::atomic<std::int64_t> thr_taken_{-1};  // when CFB took the THR command
   std::atomic<std::uint64_t> throttles_{0};
   rosguard::NrtDriver driver_;  // CFB's thread only
 
@@ -130,7 +132,7 @@ class NrtGuard {
   std::vector<std::string> fallbacks_;
   // Each written by one thread (CFB, THR or PMC), read after stop().
   NrtGuardStats stats_;
-  std::vector<double> activation_us_, pmc_us_, read_us_;
+  std::vector<double> activation_us_, thr_us_, pmc_us_, read_us_;
   std::vector<std::int64_t> thr_entries_;
   bool stopped_ = false;
 };

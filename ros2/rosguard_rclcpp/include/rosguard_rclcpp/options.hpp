@@ -5,12 +5,12 @@
 // a value out of range throws std::invalid_argument naming the parameter and the value.
 #pragma once
 
+#include <rosguard/core/types.h>
+
 #include <cstdint>
 #include <rclcpp/rclcpp.hpp>
 #include <string>
 #include <vector>
-
-#include <rosguard/core/types.h>
 
 namespace rosguard_rclcpp {
 
@@ -42,7 +42,7 @@ struct ControllerOptions {
   int core = -1;  // -1: not pinned
   std::vector<std::string> rt_nodes, nrt_nodes;
   std::vector<std::int64_t> nrt_cores;  // external sampling with perf: the cores counted
-  std::string policy = "interval";      // interval | monolithic | memguard | mempol | monitor | none
+  std::string policy = "interval";  // interval | monolithic | memguard | mempol | monitor | none
   rosguard::Sampling sampling = rosguard::Sampling::Self;
   std::int64_t sampling_period_us = 1000;
   std::int64_t regulation_period_us = 5000;

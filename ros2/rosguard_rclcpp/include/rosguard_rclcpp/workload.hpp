@@ -7,13 +7,13 @@
 // may be read from any thread.
 #pragma once
 
+#include <rosguard/hw/workload/work_counters.h>
+#include <rosguard/hw/workload/workload.h>
+
 #include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
-
-#include <rosguard/hw/workload/work_counters.h>
-#include <rosguard/hw/workload/workload.h>
 
 namespace rosguard_rclcpp {
 

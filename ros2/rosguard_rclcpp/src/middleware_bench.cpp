@@ -42,6 +42,7 @@
 #include "rosguard_rclcpp/nrt_guard.hpp"
 #include "rosguard_rclcpp/rt_job.hpp"
 #include "rosguard_rclcpp/workload.hpp"
+#include "stream_node.hpp"
 
 namespace {
 
@@ -146,40 +147,6 @@ Args parse(int argc, char** argv) {
   return a;
 }
 
-// The nRT node: bandwidth_read over 64 MB back to back in its nominal callback.
-struct StreamNode {
-  rclcpp::Node::SharedPtr node;
-  Workload work{"bandwidth_read", 65536};
-  std::unique_ptr<NrtGuard> guard;
-  rclcpp::TimerBase::SharedPtr timer;
-  rclcpp::executors::SingleThreadedExecutor exec;
-  std::thread thread;
-
-  StreamNode(const std::string& ns, int core, rosguard::Sampling sampling, std::int64_t period_us) {
-    node = std::make_shared<rclcpp::Node>("stream", ns.substr(1));
-    NrtGuardOptions o;
-    o.ns = ns;
-    o.core = core;
-    o.sampling = sampling;
-    o.sampling_period_us = period_us;
-    o.pmc_source = "auto";
-    guard = std::make_unique<NrtGuard>(node, o, &work.counters());
-    timer = node->create_wall_timer(std::chrono::microseconds(100), [this] { work.run(); });
-    exec.add_node(node);
-    thread = std::thread([this] { guard->spin_nominal(exec); });
-  }
-  ~StreamNode() { stop(); }
-  void stop() {
-    work.stop();
-    guard->stop();
-    if (thread.joinable()) thread.join();
-  }
-  double lines() const {
-    return static_cast<double>(work.counters().lines_read.load() +
-                               work.counters().lines_written.load());
-  }
-};
-
 int run(const Args& a) {
   const auto cpus = hw::usable_cpus();
   if (cpus.size() < 2) {
@@ -191,7 +158,7 @@ int run(const Args& a) {
       a.sampling == "self" ? rosguard::Sampling::Self : rosguard::Sampling::External;
   const std::string ns = "/rgbench_" + std::to_string(::getpid());
   // none: no sampling at all (external: NrtGuard starts no PMC timer).
-  StreamNode stream(ns, nrt, a.mode == "none" ? rosguard::Sampling::External : sampling,
+  StreamNode stream(ns, nrt, "auto", a.mode == "none" ? rosguard::Sampling::External : sampling,
                     a.period_us);
   if (!wait_for([&] { return stream.lines() > 0; }, std::chrono::seconds(10))) {
     std::cerr << "middleware_bench: the nRT node did not start\n";

@@ -1,6 +1,8 @@
 // Shared by the package's tests: cores, a namespace per test, waiting, medians.
 #pragma once
 
+#include <rosguard/hw/common/clock.h>
+#include <rosguard/hw/common/sys.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,9 +12,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <rosguard/hw/common/clock.h>
-#include <rosguard/hw/common/sys.h>
 
 namespace rosguard_rclcpp::test {
 

@@ -2,6 +2,7 @@
 // rclcpp topics: RT jobs reach the controller; an over-budget nRT node is held to its budget.
 #include <catch2/catch.hpp>
 
+#include "../src/stream_node.hpp"
 #include "common.hpp"
 #include "rosguard_rclcpp/controller.hpp"
 #include "rosguard_rclcpp/nrt_guard.hpp"
@@ -27,37 +28,6 @@ ControllerOptions controller_options(const std::string& ns, const Cores& cores) 
   o.reference_mbps = 10000.0;
   return o;
 }
-
-// An nRT node streaming over 64 MB (bandwidth_read) in its nominal callback, back to back.
-struct StreamNode {
-  rclcpp::Node::SharedPtr node;
-  Workload work{"bandwidth_read", 65536};
-  std::unique_ptr<NrtGuard> guard;
-  rclcpp::TimerBase::SharedPtr timer;
-  rclcpp::executors::SingleThreadedExecutor exec;
-  std::thread thread;
-
-  StreamNode(const std::string& ns, int core) {
-    node = std::make_shared<rclcpp::Node>("stream", ns.substr(1));
-    NrtGuardOptions o;
-    o.ns = ns;
-    o.core = core;
-    o.pmc_source = "instrumented";
-    guard = std::make_unique<NrtGuard>(node, o, &work.counters());
-    timer = node->create_wall_timer(std::chrono::microseconds(100), [this] { work.run(); });
-    exec.add_node(node);
-    thread = std::thread([this] { guard->spin_nominal(exec); });
-  }
-  ~StreamNode() {
-    work.stop();
-    guard->stop();
-    if (thread.joinable()) thread.join();
-  }
-  double lines() const {
-    return static_cast<double>(work.counters().lines_read.load() +
-                               work.counters().lines_written.load());
-  }
-};
 
 }  // namespace
 
@@ -101,7 +71,7 @@ TEST_CASE("an over-budget nRT node is held to its budget within the policy's bou
     return;
   }
   const auto ns = unique_ns("budget");
-  StreamNode stream(ns, cores.nrt);
+  StreamNode stream(ns, cores.nrt, "instrumented");
   // The node's own rate, unregulated, on this host now (lines per ns).
   REQUIRE(wait_for([&] { return stream.lines() > 0; }, std::chrono::seconds(10)));
   const auto rate_of = [&](std::chrono::milliseconds d) {
